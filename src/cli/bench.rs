@@ -1,0 +1,171 @@
+//! `cirrus bench ...`: benchmarks that print a Markdown table with the machine,
+//! date and commit, so every number in the README can be rerun. Medians of
+//! several repeats; never used by tests.
+
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Result;
+use clap::Subcommand;
+use glam::Vec3;
+
+use crate::sampling::Pcg32;
+use crate::volumes::{SparseGrid, VdbFile};
+
+#[derive(Subcommand, Debug)]
+pub enum Bench {
+    /// Sparse grid layout: load time, memory next to OpenVDB's own tree, and
+    /// single-thread trilinear lookups per second (random and coherent).
+    Vdb {
+        /// VDB files to measure.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+        /// Float grid to read from each file.
+        #[arg(long, default_value = "density")]
+        grid: String,
+        /// Timed repeats; the table shows medians.
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Lookups per timed repeat.
+        #[arg(long, default_value_t = 4_000_000)]
+        lookups: usize,
+    },
+}
+
+pub fn run(bench: Bench) -> Result<()> {
+    match bench {
+        Bench::Vdb {
+            files,
+            grid,
+            repeats,
+            lookups,
+        } => vdb(&files, &grid, repeats.max(1), lookups.max(1)),
+    }
+}
+
+fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Result<()> {
+    println!("{}\n", machine_line());
+    println!("| file | load (ms) | layout (MiB) | OpenVDB tree (MiB) | layout / OpenVDB | random trilinear (M/s) | coherent trilinear (M/s) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    for file in files {
+        let mut load_ms = Vec::new();
+        let mut grid = None;
+        for _ in 0..repeats {
+            let start = Instant::now();
+            let g = VdbFile::open(file)?.read_float_grid(grid_name, 0)?;
+            load_ms.push(start.elapsed().as_secs_f64() * 1e3);
+            grid = Some(g);
+        }
+        let grid = grid.expect("at least one repeat");
+        let vdb = VdbFile::open(file)?;
+        let info = &vdb.grids()[vdb.find(grid_name, 0)?];
+        let openvdb_bytes = vdb.openvdb_tree_bytes(grid_name, 0)?;
+        let (lo, hi) = (
+            info.index_min.as_vec3() - 1.0,
+            info.index_max.as_vec3() + 1.0,
+        );
+
+        let random = random_points(lo, hi, lookups);
+        let coherent = coherent_points(lo, hi, lookups);
+        let random_rate = median((0..repeats).map(|_| lookup_rate(&grid, &random)).collect());
+        let coherent_rate = median(
+            (0..repeats)
+                .map(|_| lookup_rate(&grid, &coherent))
+                .collect(),
+        );
+        let mib = |b: f64| b / (1024.0 * 1024.0);
+        println!(
+            "| {} | {:.1} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} |",
+            file.file_name()
+                .map(|n| n.to_string_lossy())
+                .unwrap_or_default(),
+            median(load_ms),
+            mib(grid.memory_bytes() as f64),
+            mib(openvdb_bytes as f64),
+            grid.memory_bytes() as f64 / openvdb_bytes as f64,
+            random_rate / 1e6,
+            coherent_rate / 1e6,
+        );
+    }
+    Ok(())
+}
+
+/// Trilinear lookups per second over `points`, on this thread.
+fn lookup_rate(grid: &SparseGrid, points: &[Vec3]) -> f64 {
+    let start = Instant::now();
+    let mut sum = 0.0f32;
+    for &p in points {
+        sum += grid.trilinear_index(black_box(p));
+    }
+    black_box(sum);
+    points.len() as f64 / start.elapsed().as_secs_f64()
+}
+
+/// Uniform random index-space points in the box [lo, hi].
+fn random_points(lo: Vec3, hi: Vec3, n: usize) -> Vec<Vec3> {
+    let mut rng = Pcg32::new(1, 0);
+    (0..n)
+        .map(|_| lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()))
+        .collect()
+}
+
+/// Points a quarter voxel apart along random straight rays through [lo, hi],
+/// as a ray marcher visits them.
+fn coherent_points(lo: Vec3, hi: Vec3, n: usize) -> Vec<Vec3> {
+    let mut rng = Pcg32::new(2, 0);
+    let mut points = Vec::with_capacity(n);
+    while points.len() < n {
+        let start = lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let dir =
+            (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5).normalize_or(Vec3::X);
+        let mut p = start;
+        for _ in 0..1024 {
+            if points.len() == n || p.cmplt(lo).any() || p.cmpgt(hi).any() {
+                break;
+            }
+            points.push(p);
+            p += dir * 0.25;
+        }
+    }
+    points
+}
+
+fn median(mut xs: Vec<f64>) -> f64 {
+    xs.sort_by(f64::total_cmp);
+    let n = xs.len();
+    if n % 2 == 1 {
+        xs[n / 2]
+    } else {
+        0.5 * (xs[n / 2 - 1] + xs[n / 2])
+    }
+}
+
+/// "Machine: <cpu>, <cores> cores; <date>; commit <hash>" for benchmark headers.
+fn machine_line() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_owned())
+        })
+        .unwrap_or_else(|| "unknown CPU".to_owned());
+    let cores = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
+    let run = |cmd: &str, args: &[&str]| {
+        std::process::Command::new(cmd)
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+            .unwrap_or_else(|| "unknown".to_owned())
+    };
+    format!(
+        "Machine: {cpu}, {cores} cores; date {}; commit {}",
+        run("date", &["-u", "+%Y-%m-%d"]),
+        run("git", &["rev-parse", "--short", "HEAD"])
+    )
+}

@@ -1,0 +1,11 @@
+//! Cirrus: a production path tracer for USD scenes and OpenVDB volumes.
+//!
+//! Data flows one way: scene -> render state -> integrator -> film -> output.
+//! Each folder under `src/` is one concern with its `mod.rs` as the interface;
+//! the C++ libraries (OpenVDB, OpenImageIO) are reached only through `ffi/`,
+//! mounted privately by `volumes::vdb` and `output::exr`.
+
+pub mod cli;
+pub mod output;
+pub mod sampling;
+pub mod volumes;

@@ -1,0 +1,541 @@
+//! `SparseGrid`: the Rust-side copy of a float VDB tree, built once at load and
+//! sampled by the renderer without ever calling back into OpenVDB.
+//!
+//! Layout (two levels over OpenVDB's own 8^3 leaf blocks):
+//! - `top`: a dense array over the occupied bounds in units of 128^3 voxels
+//!   ("super-blocks", the span of an OpenVDB lower internal node). Each entry is
+//!   empty (background), a constant (a tile of 128^3 or 4096^3 voxels), or the
+//!   index of a node.
+//! - `nodes`: 16^3 entries per occupied super-block, one per 8^3 block: empty,
+//!   constant (an 8^3 tile), or the index of a brick.
+//! - `bricks`: 512 voxel values per OpenVDB leaf, in OpenVDB's order
+//!   (offset = x*64 + y*8 + z), inactive voxels included as OpenVDB stores them.
+//!
+//! Values follow OpenVDB's `BoxSampler` convention (CONVENTIONS.md): value
+//! v(i,j,k) sits at the integer index point (i,j,k); between points the value
+//! is trilinear; anything not stored is the background.
+
+use glam::{DAffine3, DVec3, IVec3, Vec3};
+
+/// Entry tag: nothing stored here, the grid's background applies.
+const EMPTY: u32 = u32::MAX;
+/// Entry tag bit: the low 31 bits index `constants` instead of a child.
+const CONSTANT: u32 = 1 << 31;
+/// Voxels per brick edge (OpenVDB leaf), and its log2.
+const BRICK_LOG2: i32 = 3;
+const BRICK_VOXELS: usize = 512;
+/// Bricks per node edge (OpenVDB lower internal node), and the super-block log2 in voxels.
+const NODE_LOG2: i32 = 4;
+const SUPER_LOG2: i32 = BRICK_LOG2 + NODE_LOG2;
+const NODE_ENTRIES: usize = 1 << (3 * NODE_LOG2);
+/// Largest `top` array accepted (entries, 4 bytes each): 256 MiB.
+const MAX_TOP_ENTRIES: u64 = 1 << 26;
+
+/// Index-space <-> world-space affine maps of a grid (OpenVDB's linear transform,
+/// composed with the volume's own placement by the caller when needed).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridTransform {
+    /// World position of an index-space point.
+    pub world_from_index: DAffine3,
+    /// Inverse of `world_from_index`.
+    pub index_from_world: DAffine3,
+}
+
+impl GridTransform {
+    /// Both directions of an invertible affine map; `None` if it is singular.
+    pub fn new(world_from_index: DAffine3) -> Option<Self> {
+        let det = world_from_index.matrix3.determinant();
+        (det.is_finite() && det.abs() > 1e-300).then(|| Self {
+            world_from_index,
+            index_from_world: world_from_index.inverse(),
+        })
+    }
+}
+
+/// Counts describing what a grid holds, for reports and benchmarks.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GridStats {
+    /// OpenVDB leaves copied as 8^3 bricks.
+    pub leaf_count: usize,
+    /// Active tiles kept as constant regions.
+    pub active_tile_count: usize,
+    /// Inactive tiles whose value differs from the background (kept, as OpenVDB samples them).
+    pub inactive_tile_count: usize,
+    /// Smallest and largest finite stored value (leaf voxels and tiles).
+    pub min_value: f32,
+    pub max_value: f32,
+    /// Stored values that are NaN or infinite.
+    pub non_finite_count: usize,
+}
+
+/// One tile of constant value, in index space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tile {
+    /// Min corner, in voxels.
+    pub origin: IVec3,
+    /// Edge length in voxels: 8, 128 or 4096 (OpenVDB's standard float tree).
+    pub edge: u32,
+    pub value: f32,
+    pub active: bool,
+}
+
+/// Why a tree cannot be laid out.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum LayoutError {
+    #[error("leaf origin {0} is not a multiple of 8")]
+    MisalignedLeaf(IVec3),
+    #[error("tile at {origin} has edge {edge}; only 8, 128 and 4096 are supported")]
+    UnsupportedTile { origin: IVec3, edge: u32 },
+    #[error("leaf or tile data overlaps at {0}")]
+    Overlap(IVec3),
+    #[error("{0} leaf values for {1} leaves (expected 512 each)")]
+    LeafValueCount(usize, usize),
+    #[error("the grid spans {0} blocks of 128^3 voxels, more than the {MAX_TOP_ENTRIES} the sparse layout accepts")]
+    TooLarge(u64),
+}
+
+/// A sparse float grid: OpenVDB's leaves and tiles in flat Rust arrays.
+#[derive(Clone, Debug)]
+pub struct SparseGrid {
+    background: f32,
+    /// First super-block coordinate covered by `top`.
+    top_origin: IVec3,
+    /// Super-blocks along each axis of `top` (x slowest, z fastest).
+    top_dims: IVec3,
+    top: Vec<u32>,
+    nodes: Vec<u32>,
+    bricks: Vec<f32>,
+    constants: Vec<f32>,
+    transform: GridTransform,
+    stats: GridStats,
+}
+
+/// What one 8^3 block resolves to.
+enum Block<'a> {
+    Background,
+    Constant(f32),
+    Brick(&'a [f32]),
+}
+
+impl SparseGrid {
+    /// The value at integer index point `ijk` (nearest-neighbour lookup).
+    #[inline]
+    pub fn value(&self, ijk: IVec3) -> f32 {
+        let offset = Self::voxel_offset(ijk);
+        match self.block(ijk) {
+            Block::Background => self.background,
+            Block::Constant(v) => v,
+            Block::Brick(b) => b[offset],
+        }
+    }
+
+    /// Nearest-neighbour value at an index-space point: the closest index point,
+    /// rounding halves up, as OpenVDB's `PointSampler`.
+    #[inline]
+    pub fn nearest_index(&self, p_index: Vec3) -> f32 {
+        self.value((p_index + Vec3::splat(0.5)).floor().as_ivec3())
+    }
+
+    /// Trilinear value at an index-space point, equal to OpenVDB's `BoxSampler`.
+    #[inline]
+    pub fn trilinear_index(&self, p_index: Vec3) -> f32 {
+        let cell = p_index.floor();
+        // Exact in f32: p and floor(p) share an exponent range.
+        self.trilinear_cell(cell.as_ivec3(), p_index - cell)
+    }
+
+    /// Trilinear value at a world-space point; the map to index space runs in
+    /// f64 so large index coordinates keep their fractional precision.
+    #[inline]
+    pub fn trilinear_world(&self, p_world: DVec3) -> f32 {
+        let p = self.transform.index_from_world.transform_point3(p_world);
+        let cell = p.floor();
+        self.trilinear_cell(cell.as_ivec3(), (p - cell).as_vec3())
+    }
+
+    /// Nearest-neighbour value at a world-space point.
+    #[inline]
+    pub fn nearest_world(&self, p_world: DVec3) -> f32 {
+        let p = self.transform.index_from_world.transform_point3(p_world);
+        self.value((p + DVec3::splat(0.5)).floor().as_ivec3())
+    }
+
+    /// Trilinear interpolation inside the cell whose lowest corner is `ijk`, at
+    /// fractional position `t` in [0,1)^3; lerps z, then y, then x, as OpenVDB.
+    #[inline]
+    fn trilinear_cell(&self, ijk: IVec3, t: Vec3) -> f32 {
+        let mut v = [[[0.0f32; 2]; 2]; 2];
+        let local = ijk & IVec3::splat((1 << BRICK_LOG2) - 1);
+        let inside_one_block = local.cmplt(IVec3::splat((1 << BRICK_LOG2) - 1)).all();
+        match (inside_one_block, self.block(ijk)) {
+            (true, Block::Background) => return self.background,
+            (true, Block::Constant(c)) => return c,
+            (true, Block::Brick(b)) => {
+                let o = Self::voxel_offset(ijk);
+                v = [
+                    [[b[o], b[o + 1]], [b[o + 8], b[o + 9]]],
+                    [[b[o + 64], b[o + 65]], [b[o + 72], b[o + 73]]],
+                ];
+            }
+            (false, _) => {
+                for (dx, plane) in v.iter_mut().enumerate() {
+                    for (dy, row) in plane.iter_mut().enumerate() {
+                        for (dz, value) in row.iter_mut().enumerate() {
+                            *value = self.value(ijk + IVec3::new(dx as i32, dy as i32, dz as i32));
+                        }
+                    }
+                }
+            }
+        }
+        let lerp = |a: f32, b: f32, w: f32| a + (b - a) * w;
+        lerp(
+            lerp(
+                lerp(v[0][0][0], v[0][0][1], t.z),
+                lerp(v[0][1][0], v[0][1][1], t.z),
+                t.y,
+            ),
+            lerp(
+                lerp(v[1][0][0], v[1][0][1], t.z),
+                lerp(v[1][1][0], v[1][1][1], t.z),
+                t.y,
+            ),
+            t.x,
+        )
+    }
+
+    #[inline]
+    fn voxel_offset(ijk: IVec3) -> usize {
+        let l = ijk & IVec3::splat((1 << BRICK_LOG2) - 1);
+        ((l.x << (2 * BRICK_LOG2)) | (l.y << BRICK_LOG2) | l.z) as usize
+    }
+
+    #[inline]
+    fn block(&self, ijk: IVec3) -> Block<'_> {
+        let s = (ijk >> SUPER_LOG2) - self.top_origin;
+        if s.cmplt(IVec3::ZERO).any() || s.cmpge(self.top_dims).any() {
+            return Block::Background;
+        }
+        let top = self.top[((s.x * self.top_dims.y + s.y) * self.top_dims.z + s.z) as usize];
+        let entry = match self.resolve(top) {
+            Some(node) => {
+                let b = (ijk >> BRICK_LOG2) & IVec3::splat((1 << NODE_LOG2) - 1);
+                let m = (b.x << (2 * NODE_LOG2)) | (b.y << NODE_LOG2) | b.z;
+                self.nodes[node * NODE_ENTRIES + m as usize]
+            }
+            None => top,
+        };
+        match entry {
+            EMPTY => Block::Background,
+            e if e & CONSTANT != 0 => Block::Constant(self.constants[(e & !CONSTANT) as usize]),
+            e => Block::Brick(&self.bricks[e as usize * BRICK_VOXELS..][..BRICK_VOXELS]),
+        }
+    }
+
+    /// The child index of a non-empty, non-constant entry.
+    #[inline]
+    fn resolve(&self, entry: u32) -> Option<usize> {
+        (entry != EMPTY && entry & CONSTANT == 0).then_some(entry as usize)
+    }
+
+    /// The value outside every stored voxel and tile.
+    pub fn background(&self) -> f32 {
+        self.background
+    }
+
+    /// Index <-> world maps.
+    pub fn transform(&self) -> &GridTransform {
+        &self.transform
+    }
+
+    /// What the grid holds.
+    pub fn stats(&self) -> &GridStats {
+        &self.stats
+    }
+
+    /// Bytes held by the layout's arrays (what the renderer keeps resident).
+    pub fn memory_bytes(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + 4 * (self.top.capacity()
+                + self.nodes.capacity()
+                + self.bricks.capacity()
+                + self.constants.capacity())
+    }
+
+    /// Builds the layout from OpenVDB's flattened tree. `leaf_values` holds 512
+    /// values per leaf origin, in OpenVDB's voxel order.
+    pub fn build(
+        background: f32,
+        leaf_origins: &[IVec3],
+        leaf_values: Vec<f32>,
+        tiles: &[Tile],
+        transform: GridTransform,
+    ) -> Result<Self, LayoutError> {
+        if leaf_values.len() != leaf_origins.len() * BRICK_VOXELS {
+            return Err(LayoutError::LeafValueCount(
+                leaf_values.len(),
+                leaf_origins.len(),
+            ));
+        }
+        let mut lo = IVec3::MAX;
+        let mut hi = IVec3::MIN;
+        for &o in leaf_origins {
+            if o & IVec3::splat((1 << BRICK_LOG2) - 1) != IVec3::ZERO {
+                return Err(LayoutError::MisalignedLeaf(o));
+            }
+            lo = lo.min(o >> SUPER_LOG2);
+            hi = hi.max(o >> SUPER_LOG2);
+        }
+        for t in tiles {
+            if ![8, 128, 4096].contains(&t.edge) || t.origin % t.edge as i32 != IVec3::ZERO {
+                return Err(LayoutError::UnsupportedTile {
+                    origin: t.origin,
+                    edge: t.edge,
+                });
+            }
+            lo = lo.min(t.origin >> SUPER_LOG2);
+            hi = hi.max((t.origin + IVec3::splat(t.edge as i32 - 1)) >> SUPER_LOG2);
+        }
+        if leaf_origins.is_empty() && tiles.is_empty() {
+            lo = IVec3::ZERO;
+            hi = IVec3::splat(-1);
+        }
+        let top_dims = hi - lo + IVec3::ONE;
+        let entries = top_dims.as_i64vec3().element_product().max(0) as u64;
+        if entries > MAX_TOP_ENTRIES {
+            return Err(LayoutError::TooLarge(entries));
+        }
+
+        let mut grid = SparseGrid {
+            background,
+            top_origin: lo,
+            top_dims,
+            top: vec![EMPTY; entries as usize],
+            nodes: Vec::new(),
+            bricks: leaf_values,
+            constants: Vec::new(),
+            transform,
+            stats: GridStats {
+                leaf_count: leaf_origins.len(),
+                min_value: f32::INFINITY,
+                max_value: f32::NEG_INFINITY,
+                ..GridStats::default()
+            },
+        };
+        for &v in &grid.bricks {
+            grid.stats.note_value(v);
+        }
+        // Large tiles first: they own whole super-blocks.
+        for t in tiles.iter().filter(|t| t.edge > 8) {
+            grid.stats.note_tile(t);
+            let c = grid.push_constant(t.value);
+            let first = t.origin >> SUPER_LOG2;
+            let span = t.edge as i32 >> SUPER_LOG2;
+            for x in 0..span {
+                for y in 0..span {
+                    for z in 0..span {
+                        let s = first + IVec3::new(x, y, z);
+                        let slot = grid.top_slot(s);
+                        if grid.top[slot] != EMPTY {
+                            return Err(LayoutError::Overlap(s << SUPER_LOG2));
+                        }
+                        grid.top[slot] = c;
+                    }
+                }
+            }
+        }
+        for (i, &o) in leaf_origins.iter().enumerate() {
+            grid.set_block(o, i as u32)?;
+        }
+        for t in tiles.iter().filter(|t| t.edge == 8) {
+            grid.stats.note_tile(t);
+            let c = grid.push_constant(t.value);
+            grid.set_block(t.origin, c)?;
+        }
+        if grid.stats.min_value > grid.stats.max_value {
+            grid.stats.min_value = background;
+            grid.stats.max_value = background;
+        }
+        grid.nodes.shrink_to_fit();
+        grid.constants.shrink_to_fit();
+        Ok(grid)
+    }
+
+    fn top_slot(&self, s: IVec3) -> usize {
+        let s = s - self.top_origin;
+        ((s.x * self.top_dims.y + s.y) * self.top_dims.z + s.z) as usize
+    }
+
+    fn push_constant(&mut self, value: f32) -> u32 {
+        self.constants.push(value);
+        (self.constants.len() - 1) as u32 | CONSTANT
+    }
+
+    /// Points the node entry of the 8^3 block at `origin` to `entry`, creating the node.
+    fn set_block(&mut self, origin: IVec3, entry: u32) -> Result<(), LayoutError> {
+        let slot = self.top_slot(origin >> SUPER_LOG2);
+        let node = match self.top[slot] {
+            EMPTY => {
+                let node = self.nodes.len() / NODE_ENTRIES;
+                self.nodes.resize(self.nodes.len() + NODE_ENTRIES, EMPTY);
+                self.top[slot] = node as u32;
+                node
+            }
+            e if e & CONSTANT != 0 => return Err(LayoutError::Overlap(origin)),
+            e => e as usize,
+        };
+        let b = (origin >> BRICK_LOG2) & IVec3::splat((1 << NODE_LOG2) - 1);
+        let m = ((b.x << (2 * NODE_LOG2)) | (b.y << NODE_LOG2) | b.z) as usize;
+        let cell = &mut self.nodes[node * NODE_ENTRIES + m];
+        if *cell != EMPTY {
+            return Err(LayoutError::Overlap(origin));
+        }
+        *cell = entry;
+        Ok(())
+    }
+}
+
+impl GridStats {
+    fn note_value(&mut self, v: f32) {
+        if v.is_finite() {
+            self.min_value = self.min_value.min(v);
+            self.max_value = self.max_value.max(v);
+        } else {
+            self.non_finite_count += 1;
+        }
+    }
+
+    fn note_tile(&mut self, t: &Tile) {
+        if t.active {
+            self.active_tile_count += 1;
+        } else {
+            self.inactive_tile_count += 1;
+        }
+        self.note_value(t.value);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Pcg32;
+
+    fn identity() -> GridTransform {
+        GridTransform::new(DAffine3::IDENTITY).unwrap()
+    }
+
+    /// A grid with one leaf at `origin` whose voxel (x,y,z) holds x + 10y + 100z
+    /// (a linear function, so trilinear interpolation inside it is exact).
+    fn linear_leaf(origin: IVec3) -> SparseGrid {
+        let mut values = vec![0.0; BRICK_VOXELS];
+        for x in 0..8 {
+            for y in 0..8 {
+                for z in 0..8 {
+                    let p = origin + IVec3::new(x, y, z);
+                    values[(x * 64 + y * 8 + z) as usize] = (p.x + 10 * p.y + 100 * p.z) as f32;
+                }
+            }
+        }
+        SparseGrid::build(0.0, &[origin], values, &[], identity()).unwrap()
+    }
+
+    #[test]
+    fn trilinear_is_exact_on_a_linear_field_inside_a_leaf() {
+        let origin = IVec3::new(-8, 16, 128);
+        let grid = linear_leaf(origin);
+        let mut rng = Pcg32::new(1, 0);
+        for _ in 0..1000 {
+            let p =
+                origin.as_vec3() + Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 7.0;
+            let expected = p.x + 10.0 * p.y + 100.0 * p.z;
+            let got = grid.trilinear_index(p);
+            assert!(
+                (got - expected).abs() <= 1e-4 * expected.abs().max(1.0),
+                "{p}: {got} vs {expected}"
+            );
+        }
+    }
+
+    #[test]
+    fn values_fall_to_background_one_voxel_past_the_data() {
+        let grid = SparseGrid::build(
+            0.0,
+            &[],
+            vec![],
+            &[Tile {
+                origin: IVec3::ZERO,
+                edge: 8,
+                value: 2.0,
+                active: true,
+            }],
+            identity(),
+        )
+        .unwrap();
+        assert_eq!(grid.trilinear_index(Vec3::new(3.3, 4.0, 5.5)), 2.0);
+        // Halfway between the last stored voxel (x = 7) and the first empty one (x = 8).
+        assert!((grid.trilinear_index(Vec3::new(7.5, 4.0, 4.0)) - 1.0).abs() < 1e-6);
+        assert_eq!(grid.trilinear_index(Vec3::new(8.0, 4.0, 4.0)), 0.0);
+        assert_eq!(grid.trilinear_index(Vec3::new(-1.0, 4.0, 4.0)), 0.0);
+        assert_eq!(grid.stats().active_tile_count, 1);
+    }
+
+    #[test]
+    fn large_tiles_cover_whole_super_blocks() {
+        let grid = SparseGrid::build(
+            0.5,
+            &[],
+            vec![],
+            &[Tile {
+                origin: IVec3::new(-4096, 0, 0),
+                edge: 4096,
+                value: 3.0,
+                active: true,
+            }],
+            identity(),
+        )
+        .unwrap();
+        assert_eq!(grid.value(IVec3::new(-1, 4095, 17)), 3.0);
+        assert_eq!(grid.value(IVec3::new(0, 0, 0)), 0.5);
+        assert_eq!(grid.value(IVec3::new(-4097, 0, 0)), 0.5);
+        assert_eq!(grid.top.len(), 32 * 32 * 32);
+        assert!(grid.nodes.is_empty());
+    }
+
+    #[test]
+    fn bad_trees_are_rejected() {
+        let t = identity();
+        assert_eq!(
+            SparseGrid::build(0.0, &[IVec3::new(1, 0, 0)], vec![0.0; 512], &[], t).unwrap_err(),
+            LayoutError::MisalignedLeaf(IVec3::new(1, 0, 0))
+        );
+        assert!(matches!(
+            SparseGrid::build(0.0, &[IVec3::ZERO; 2], vec![0.0; 1024], &[], t),
+            Err(LayoutError::Overlap(_))
+        ));
+        assert!(matches!(
+            SparseGrid::build(0.0, &[IVec3::ZERO], vec![0.0; 5], &[], t),
+            Err(LayoutError::LeafValueCount(5, 1))
+        ));
+        let far = [IVec3::splat(-1 << 20), IVec3::splat(1 << 20)];
+        assert!(matches!(
+            SparseGrid::build(0.0, &far, vec![0.0; 1024], &[], t),
+            Err(LayoutError::TooLarge(_))
+        ));
+    }
+
+    #[test]
+    fn world_sampling_applies_the_inverse_transform() {
+        let origin = IVec3::ZERO;
+        let mut grid = linear_leaf(origin);
+        let world_from_index = DAffine3::from_scale_rotation_translation(
+            DVec3::new(0.5, -2.0, 0.25),
+            glam::DQuat::from_rotation_y(0.3),
+            DVec3::new(1.0, 2.0, 3.0),
+        );
+        grid.transform = GridTransform::new(world_from_index).unwrap();
+        let p_index = DVec3::new(2.25, 3.5, 4.75);
+        let p_world = world_from_index.transform_point3(p_index);
+        let expected = grid.trilinear_index(p_index.as_vec3());
+        assert!((grid.trilinear_world(p_world) - expected).abs() < 1e-4);
+        assert_eq!(grid.nearest_world(p_world), grid.value(IVec3::new(2, 4, 5)));
+    }
+}

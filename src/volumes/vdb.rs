@@ -1,0 +1,280 @@
+//! Reading `.vdb` files through the OpenVDB bridge (`ffi/openvdb/`): the grid
+//! table, and float grids copied once into a [`SparseGrid`]. This is the only
+//! module that talks to OpenVDB; C++ exceptions arrive here as `cxx::Exception`
+//! and leave as [`VolumeError`] naming the file and grid.
+
+#[path = "../../ffi/openvdb/bridge.rs"]
+mod bridge;
+
+use std::path::{Path, PathBuf};
+
+use glam::{DAffine3, DMat4, DVec3, IVec3, U64Vec3};
+
+use super::grid::{GridTransform, SparseGrid, Tile};
+use bridge::ffi;
+
+/// Why a VDB file or grid could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum VolumeError {
+    #[error("{path}: {message}", path = path.display())]
+    Io { path: PathBuf, message: String },
+    #[error("{path}: OpenVDB: {message}", path = path.display())]
+    OpenVdb { path: PathBuf, message: String },
+    #[error("{path}: no grid named '{grid}'{which}; the file has: {available}",
+        path = path.display(),
+        which = if *index > 0 { format!(" (occurrence {index})") } else { String::new() })]
+    NoSuchGrid {
+        path: PathBuf,
+        grid: String,
+        index: usize,
+        available: String,
+    },
+    #[error("{path}: grid '{grid}' holds '{value_type}' values; Cirrus needs a float grid here", path = path.display())]
+    NotFloat {
+        path: PathBuf,
+        grid: String,
+        value_type: String,
+    },
+    #[error("{path}: grid '{grid}' is empty (no active voxels or tiles)", path = path.display())]
+    EmptyGrid { path: PathBuf, grid: String },
+    #[error("{path}: grid '{grid}' has a non-affine (frustum) transform, which Cirrus does not support", path = path.display())]
+    NonLinearTransform { path: PathBuf, grid: String },
+    #[error("{path}: grid '{grid}': {source}", path = path.display())]
+    Layout {
+        path: PathBuf,
+        grid: String,
+        source: super::grid::LayoutError,
+    },
+}
+
+/// One grid's metadata as the file describes it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridInfo {
+    pub name: String,
+    /// OpenVDB's value type name ("float", "vec3s", "int32", ...).
+    pub value_type: String,
+    /// OpenVDB's grid class ("fog volume", "level set", ...).
+    pub grid_class: String,
+    /// World units per voxel along each index axis.
+    pub voxel_size: DVec3,
+    /// Inclusive index bounds of active voxels and tiles (min > max when empty).
+    pub index_min: IVec3,
+    pub index_max: IVec3,
+    /// Active voxels, tiles counted voxel by voxel.
+    pub active_voxel_count: u64,
+    /// Index-to-world affine map; `None` for non-affine (frustum) maps.
+    pub world_from_index: Option<DAffine3>,
+}
+
+impl GridInfo {
+    /// Voxels along each axis of the active bounds (zero when empty).
+    pub fn dims(&self) -> U64Vec3 {
+        (self.index_max - self.index_min + IVec3::ONE)
+            .max(IVec3::ZERO)
+            .as_u64vec3()
+    }
+}
+
+/// An open `.vdb` file and its grid table.
+pub struct VdbFile {
+    path: PathBuf,
+    handle: cxx::UniquePtr<ffi::VdbFile>,
+    grids: Vec<GridInfo>,
+}
+
+impl VdbFile {
+    /// Opens `path` and reads its grid table (metadata only, no trees).
+    pub fn open(path: impl AsRef<Path>) -> Result<Self, VolumeError> {
+        let path = path.as_ref().to_path_buf();
+        if let Err(e) = std::fs::metadata(&path) {
+            return Err(VolumeError::Io {
+                path,
+                message: e.to_string(),
+            });
+        }
+        let path_str = path.to_string_lossy();
+        let ovdb = |e: cxx::Exception| VolumeError::OpenVdb {
+            path: path.clone(),
+            message: e.what().to_owned(),
+        };
+        let handle = ffi::open_vdb(&path_str).map_err(ovdb)?;
+        let grids = handle
+            .grids()
+            .map_err(ovdb)?
+            .into_iter()
+            .map(GridInfo::from)
+            .collect();
+        Ok(Self {
+            path,
+            handle,
+            grids,
+        })
+    }
+
+    /// The file this was opened from.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Every grid in file order, duplicates of a name included.
+    pub fn grids(&self) -> &[GridInfo] {
+        &self.grids
+    }
+
+    /// Position in [`Self::grids`] of the `index`-th (from 0) grid called `name`.
+    pub fn find(&self, name: &str, index: usize) -> Result<usize, VolumeError> {
+        self.grids
+            .iter()
+            .enumerate()
+            .filter(|(_, g)| g.name == name)
+            .nth(index)
+            .map(|(i, _)| i)
+            .ok_or_else(|| VolumeError::NoSuchGrid {
+                path: self.path.clone(),
+                grid: name.to_owned(),
+                index,
+                available: self.describe_grids(),
+            })
+    }
+
+    /// Reads the `index`-th float grid called `name` into a [`SparseGrid`]:
+    /// one call across the FFI, then the C++ tree is dropped.
+    pub fn read_float_grid(&self, name: &str, index: usize) -> Result<SparseGrid, VolumeError> {
+        let at = self.find(name, index)?;
+        let info = &self.grids[at];
+        let grid = name.to_owned();
+        if info.value_type != "float" {
+            return Err(VolumeError::NotFloat {
+                path: self.path.clone(),
+                grid,
+                value_type: info.value_type.clone(),
+            });
+        }
+        let Some(world_from_index) = info.world_from_index else {
+            return Err(VolumeError::NonLinearTransform {
+                path: self.path.clone(),
+                grid,
+            });
+        };
+        let data = self
+            .handle
+            .read_float_grid(at as u32)
+            .map_err(|e| self.openvdb_error(name, e))?;
+        if data.leaf_origins.is_empty() && !data.tile_active.contains(&true) {
+            return Err(VolumeError::EmptyGrid {
+                path: self.path.clone(),
+                grid,
+            });
+        }
+        let leaf_origins: Vec<IVec3> = data
+            .leaf_origins
+            .chunks_exact(3)
+            .map(IVec3::from_slice)
+            .collect();
+        let tiles: Vec<Tile> = (0..data.tile_values.len())
+            .map(|t| Tile {
+                origin: IVec3::from_slice(&data.tile_origins[3 * t..3 * t + 3]),
+                edge: data.tile_dims[t],
+                value: data.tile_values[t],
+                active: data.tile_active[t],
+            })
+            .collect();
+        let transform = GridTransform::new(world_from_index).ok_or_else(|| {
+            VolumeError::NonLinearTransform {
+                path: self.path.clone(),
+                grid: grid.clone(),
+            }
+        })?;
+        SparseGrid::build(
+            data.background,
+            &leaf_origins,
+            data.leaf_values,
+            &tiles,
+            transform,
+        )
+        .map_err(|source| VolumeError::Layout {
+            path: self.path.clone(),
+            grid,
+            source,
+        })
+    }
+
+    /// OpenVDB's own `memUsage()` for a float grid's tree, in bytes (benchmarks).
+    pub fn openvdb_tree_bytes(&self, name: &str, index: usize) -> Result<u64, VolumeError> {
+        let at = self.find(name, index)?;
+        let data = self
+            .handle
+            .read_float_grid(at as u32)
+            .map_err(|e| self.openvdb_error(name, e))?;
+        Ok(data.tree_mem_bytes)
+    }
+
+    /// OpenVDB's `BoxSampler` at index-space points: the reference the Rust
+    /// sampler is tested against. Reads the grid on every call; not for rendering.
+    pub fn openvdb_trilinear_index(
+        &self,
+        name: &str,
+        index: usize,
+        points: &[DVec3],
+    ) -> Result<Vec<f32>, VolumeError> {
+        let at = self.find(name, index)?;
+        self.handle
+            .box_sample_index(at as u32, &flatten(points))
+            .map_err(|e| self.openvdb_error(name, e))
+    }
+
+    /// OpenVDB's `GridSampler<BoxSampler>::wsSample` at world-space points (tests only).
+    pub fn openvdb_trilinear_world(
+        &self,
+        name: &str,
+        index: usize,
+        points: &[DVec3],
+    ) -> Result<Vec<f32>, VolumeError> {
+        let at = self.find(name, index)?;
+        self.handle
+            .box_sample_world(at as u32, &flatten(points))
+            .map_err(|e| self.openvdb_error(name, e))
+    }
+
+    fn openvdb_error(&self, grid: &str, e: cxx::Exception) -> VolumeError {
+        VolumeError::OpenVdb {
+            path: self.path.clone(),
+            message: format!("grid '{grid}': {}", e.what()),
+        }
+    }
+
+    fn describe_grids(&self) -> String {
+        if self.grids.is_empty() {
+            return "no grids".to_owned();
+        }
+        let names: Vec<String> = self
+            .grids
+            .iter()
+            .map(|g| format!("'{}' ({})", g.name, g.value_type))
+            .collect();
+        names.join(", ")
+    }
+}
+
+fn flatten(points: &[DVec3]) -> Vec<f64> {
+    points.iter().flat_map(|p| p.to_array()).collect()
+}
+
+impl From<ffi::GridInfo> for GridInfo {
+    fn from(g: ffi::GridInfo) -> Self {
+        // The bridge hands the matrix row-major; glam stores columns.
+        let world_from_index = g
+            .is_linear
+            .then(|| DAffine3::from_mat4(DMat4::from_cols_array(&g.world_from_index).transpose()));
+        GridInfo {
+            name: g.name,
+            value_type: g.value_type,
+            grid_class: g.grid_class,
+            voxel_size: DVec3::from_array(g.voxel_size),
+            index_min: IVec3::from_array(g.index_bbox_min),
+            index_max: IVec3::from_array(g.index_bbox_max),
+            active_voxel_count: g.active_voxel_count,
+            world_from_index,
+        }
+    }
+}

@@ -1,0 +1,59 @@
+//! Shared helpers for the integration tests: where the real assets and the
+//! project's Python live, and scratch folders.
+#![allow(dead_code)] // each test binary uses its own subset
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A file under `../shared/assets`, checked to exist.
+pub fn asset(rel: &str) -> PathBuf {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/assets")
+        .join(rel);
+    assert!(p.exists(), "missing shared asset {}", p.display());
+    p
+}
+
+/// A fresh scratch folder for one test, under cargo's per-target tmp dir.
+pub fn scratch(test: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(test);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The project's venv Python (usd-core, OpenEXR, numpy), made by `.ci/setup`.
+pub fn venv_python() -> PathBuf {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python");
+    assert!(
+        p.exists(),
+        "{} is missing: run .ci/setup first",
+        p.display()
+    );
+    p
+}
+
+/// Runs a Python script with arguments and returns its stdout; panics with
+/// stderr on failure.
+pub fn run_python(python: &Path, script: &Path, args: &[&str]) -> String {
+    let out = Command::new(python)
+        .arg(script)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{} {} failed:\n{}",
+        python.display(),
+        script.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// A script under `tests/python/`.
+pub fn python_script(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/python")
+        .join(name)
+}
