@@ -11,7 +11,7 @@ use clap::Subcommand;
 use glam::Vec3;
 
 use crate::sampling::Pcg32;
-use crate::volumes::{SparseGrid, VdbFile};
+use crate::volumes::VdbFile;
 
 #[derive(Subcommand, Debug)]
 pub enum Bench {
@@ -46,8 +46,8 @@ pub fn run(bench: Bench) -> Result<()> {
 
 fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Result<()> {
     println!("{}\n", machine_line());
-    println!("| file | load (ms) | layout (MiB) | OpenVDB tree (MiB) | layout / OpenVDB | random trilinear (M/s) | coherent trilinear (M/s) |");
-    println!("|---|---:|---:|---:|---:|---:|---:|");
+    println!("| file | load (ms) | layout (MiB) | OpenVDB tree (MiB) | layout / OpenVDB | random trilinear (M/s) | coherent trilinear (M/s) | coherent, accessor (M/s) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
     for file in files {
         let mut load_ms = Vec::new();
         let mut grid = None;
@@ -68,15 +68,20 @@ fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Re
 
         let random = random_points(lo, hi, lookups);
         let coherent = coherent_points(lo, hi, lookups);
-        let random_rate = median((0..repeats).map(|_| lookup_rate(&grid, &random)).collect());
-        let coherent_rate = median(
+        // Each closure is monomorphised into `lookup_rate`: no dynamic call per lookup.
+        let random_rate = median((0..repeats).map(|_| lookup_rate(&random, |p| grid.trilinear_index(p))).collect());
+        let coherent_rate = median((0..repeats).map(|_| lookup_rate(&coherent, |p| grid.trilinear_index(p))).collect());
+        let accessor_rate = median(
             (0..repeats)
-                .map(|_| lookup_rate(&grid, &coherent))
+                .map(|_| {
+                    let mut accessor = grid.accessor();
+                    lookup_rate(&coherent, |p| accessor.trilinear_index(p))
+                })
                 .collect(),
         );
         let mib = |b: f64| b / (1024.0 * 1024.0);
         println!(
-            "| {} | {:.1} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} |",
+            "| {} | {:.1} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} |",
             file.file_name()
                 .map(|n| n.to_string_lossy())
                 .unwrap_or_default(),
@@ -86,17 +91,18 @@ fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Re
             grid.memory_bytes() as f64 / openvdb_bytes as f64,
             random_rate / 1e6,
             coherent_rate / 1e6,
+            accessor_rate / 1e6,
         );
     }
     Ok(())
 }
 
-/// Trilinear lookups per second over `points`, on this thread.
-fn lookup_rate(grid: &SparseGrid, points: &[Vec3]) -> f64 {
+/// Lookups per second of `lookup` over `points`, on this thread.
+fn lookup_rate(points: &[Vec3], mut lookup: impl FnMut(Vec3) -> f32) -> f64 {
     let start = Instant::now();
     let mut sum = 0.0f32;
     for &p in points {
-        sum += grid.trilinear_index(black_box(p));
+        sum += lookup(black_box(p));
     }
     black_box(sum);
     points.len() as f64 / start.elapsed().as_secs_f64()

@@ -8,14 +8,19 @@
 //!   index of a node.
 //! - `nodes`: 16^3 entries per occupied super-block, one per 8^3 block: empty,
 //!   constant (an 8^3 tile), or the index of a brick.
-//! - `bricks`: 512 voxel values per OpenVDB leaf, in OpenVDB's order
-//!   (offset = x*64 + y*8 + z), inactive voxels included as OpenVDB stores them.
+//! - `bricks`: one per OpenVDB leaf, 9^3 values: the leaf's 8^3 voxels
+//!   (inactive ones included, as OpenVDB stores them) plus a one-voxel apron
+//!   copied from the +x/+y/+z neighbours, so every trilinear lookup whose lowest
+//!   corner lies in a brick reads one brick only (offset = x*81 + y*9 + z). The
+//!   apron costs 42% more brick memory and removes the slow cross-block path
+//!   from 33% of lookups; `cirrus bench vdb` measures both sides.
 //!
 //! Values follow OpenVDB's `BoxSampler` convention (CONVENTIONS.md): value
 //! v(i,j,k) sits at the integer index point (i,j,k); between points the value
 //! is trilinear; anything not stored is the background.
 
 use glam::{DAffine3, DVec3, IVec3, Vec3};
+use rayon::prelude::*;
 
 /// Entry tag: nothing stored here, the grid's background applies.
 const EMPTY: u32 = u32::MAX;
@@ -23,7 +28,11 @@ const EMPTY: u32 = u32::MAX;
 const CONSTANT: u32 = 1 << 31;
 /// Voxels per brick edge (OpenVDB leaf), and its log2.
 const BRICK_LOG2: i32 = 3;
-const BRICK_VOXELS: usize = 512;
+/// Values per OpenVDB leaf (8^3), as handed over by the bridge.
+const LEAF_VOXELS: usize = 512;
+/// Stored brick edge including the apron, and values per stored brick.
+const APRON_EDGE: usize = 9;
+const APRON_VOXELS: usize = APRON_EDGE * APRON_EDGE * APRON_EDGE;
 /// Bricks per node edge (OpenVDB lower internal node), and the super-block log2 in voxels.
 const NODE_LOG2: i32 = 4;
 const SUPER_LOG2: i32 = BRICK_LOG2 + NODE_LOG2;
@@ -110,22 +119,14 @@ pub struct SparseGrid {
     stats: GridStats,
 }
 
-/// What one 8^3 block resolves to.
-enum Block<'a> {
-    Background,
-    Constant(f32),
-    Brick(&'a [f32]),
-}
-
 impl SparseGrid {
     /// The value at integer index point `ijk` (nearest-neighbour lookup).
     #[inline]
     pub fn value(&self, ijk: IVec3) -> f32 {
-        let offset = Self::voxel_offset(ijk);
-        match self.block(ijk) {
-            Block::Background => self.background,
-            Block::Constant(v) => v,
-            Block::Brick(b) => b[offset],
+        match self.entry(ijk) {
+            EMPTY => self.background,
+            e if e & CONSTANT != 0 => self.constants[(e & !CONSTANT) as usize],
+            b => self.bricks[b as usize * APRON_VOXELS + Self::apron_offset(ijk)],
         }
     }
 
@@ -160,33 +161,49 @@ impl SparseGrid {
         self.value((p + DVec3::splat(0.5)).floor().as_ivec3())
     }
 
-    /// Trilinear interpolation inside the cell whose lowest corner is `ijk`, at
-    /// fractional position `t` in [0,1)^3; lerps z, then y, then x, as OpenVDB.
+    /// A cursor for coherent lookups (one per ray march).
+    pub fn accessor(&self) -> GridAccessor<'_> {
+        GridAccessor {
+            grid: self,
+            block: IVec3::MAX,
+            entry: EMPTY,
+        }
+    }
+
     #[inline]
     fn trilinear_cell(&self, ijk: IVec3, t: Vec3) -> f32 {
-        let mut v = [[[0.0f32; 2]; 2]; 2];
-        let local = ijk & IVec3::splat((1 << BRICK_LOG2) - 1);
-        let inside_one_block = local.cmplt(IVec3::splat((1 << BRICK_LOG2) - 1)).all();
-        match (inside_one_block, self.block(ijk)) {
-            (true, Block::Background) => return self.background,
-            (true, Block::Constant(c)) => return c,
-            (true, Block::Brick(b)) => {
-                let o = Self::voxel_offset(ijk);
-                v = [
-                    [[b[o], b[o + 1]], [b[o + 8], b[o + 9]]],
-                    [[b[o + 64], b[o + 65]], [b[o + 72], b[o + 73]]],
-                ];
-            }
-            (false, _) => {
-                for (dx, plane) in v.iter_mut().enumerate() {
-                    for (dy, row) in plane.iter_mut().enumerate() {
-                        for (dz, value) in row.iter_mut().enumerate() {
-                            *value = self.value(ijk + IVec3::new(dx as i32, dy as i32, dz as i32));
-                        }
+        self.trilinear_in_block(ijk, t, self.entry(ijk))
+    }
+
+    /// Trilinear interpolation inside the cell whose lowest corner is `ijk`, at
+    /// fractional position `t` in [0,1)^3, given the entry `e` of the block
+    /// holding `ijk`; lerps z, then y, then x, as OpenVDB's `BoxSampler`.
+    #[inline]
+    fn trilinear_in_block(&self, ijk: IVec3, t: Vec3, e: u32) -> f32 {
+        let v = if e != EMPTY && e & CONSTANT == 0 {
+            // The apron holds the +1 neighbours: one brick serves all 8 corners.
+            let b = &self.bricks[e as usize * APRON_VOXELS..][..APRON_VOXELS];
+            let o = Self::apron_offset(ijk);
+            const X: usize = APRON_EDGE * APRON_EDGE;
+            const Y: usize = APRON_EDGE;
+            [
+                [[b[o], b[o + 1]], [b[o + Y], b[o + Y + 1]]],
+                [[b[o + X], b[o + X + 1]], [b[o + X + Y], b[o + X + Y + 1]]],
+            ]
+        } else if (ijk & IVec3::splat(7)).cmplt(IVec3::splat(7)).all() {
+            // A constant or empty block, and the cell does not reach its neighbours.
+            return self.value(ijk);
+        } else {
+            let mut v = [[[0.0f32; 2]; 2]; 2];
+            for (dx, plane) in v.iter_mut().enumerate() {
+                for (dy, row) in plane.iter_mut().enumerate() {
+                    for (dz, value) in row.iter_mut().enumerate() {
+                        *value = self.value(ijk + IVec3::new(dx as i32, dy as i32, dz as i32));
                     }
                 }
             }
-        }
+            v
+        };
         let lerp = |a: f32, b: f32, w: f32| a + (b - a) * w;
         lerp(
             lerp(
@@ -203,31 +220,29 @@ impl SparseGrid {
         )
     }
 
+    /// Offset of `ijk` inside its apron brick.
     #[inline]
-    fn voxel_offset(ijk: IVec3) -> usize {
-        let l = ijk & IVec3::splat((1 << BRICK_LOG2) - 1);
-        ((l.x << (2 * BRICK_LOG2)) | (l.y << BRICK_LOG2) | l.z) as usize
+    fn apron_offset(ijk: IVec3) -> usize {
+        let l = (ijk & IVec3::splat((1 << BRICK_LOG2) - 1)).as_uvec3();
+        (l.x as usize * APRON_EDGE + l.y as usize) * APRON_EDGE + l.z as usize
     }
 
+    /// The node entry of the 8^3 block holding `ijk`: `EMPTY`, a `CONSTANT`
+    /// index, or a brick index.
     #[inline]
-    fn block(&self, ijk: IVec3) -> Block<'_> {
+    fn entry(&self, ijk: IVec3) -> u32 {
         let s = (ijk >> SUPER_LOG2) - self.top_origin;
         if s.cmplt(IVec3::ZERO).any() || s.cmpge(self.top_dims).any() {
-            return Block::Background;
+            return EMPTY;
         }
         let top = self.top[((s.x * self.top_dims.y + s.y) * self.top_dims.z + s.z) as usize];
-        let entry = match self.resolve(top) {
+        match self.resolve(top) {
             Some(node) => {
                 let b = (ijk >> BRICK_LOG2) & IVec3::splat((1 << NODE_LOG2) - 1);
                 let m = (b.x << (2 * NODE_LOG2)) | (b.y << NODE_LOG2) | b.z;
                 self.nodes[node * NODE_ENTRIES + m as usize]
             }
             None => top,
-        };
-        match entry {
-            EMPTY => Block::Background,
-            e if e & CONSTANT != 0 => Block::Constant(self.constants[(e & !CONSTANT) as usize]),
-            e => Block::Brick(&self.bricks[e as usize * BRICK_VOXELS..][..BRICK_VOXELS]),
         }
     }
 
@@ -270,7 +285,7 @@ impl SparseGrid {
         tiles: &[Tile],
         transform: GridTransform,
     ) -> Result<Self, LayoutError> {
-        if leaf_values.len() != leaf_origins.len() * BRICK_VOXELS {
+        if leaf_values.len() != leaf_origins.len() * LEAF_VOXELS {
             return Err(LayoutError::LeafValueCount(
                 leaf_values.len(),
                 leaf_origins.len(),
@@ -311,7 +326,7 @@ impl SparseGrid {
             top_dims,
             top: vec![EMPTY; entries as usize],
             nodes: Vec::new(),
-            bricks: leaf_values,
+            bricks: Vec::new(),
             constants: Vec::new(),
             transform,
             stats: GridStats {
@@ -321,7 +336,7 @@ impl SparseGrid {
                 ..GridStats::default()
             },
         };
-        for &v in &grid.bricks {
+        for &v in &leaf_values {
             grid.stats.note_value(v);
         }
         // Large tiles first: they own whole super-blocks.
@@ -357,7 +372,36 @@ impl SparseGrid {
         }
         grid.nodes.shrink_to_fit();
         grid.constants.shrink_to_fit();
+        grid.bricks = grid.apron_bricks(leaf_origins, &leaf_values);
         Ok(grid)
+    }
+
+    /// The 9^3 bricks: each leaf's voxels plus the +1 apron read from its
+    /// neighbours (leaves, tiles or background), in parallel over leaves.
+    fn apron_bricks(&self, leaf_origins: &[IVec3], leaf_values: &[f32]) -> Vec<f32> {
+        let leaf_value = |ijk: IVec3| match self.entry(ijk) {
+            EMPTY => self.background,
+            e if e & CONSTANT != 0 => self.constants[(e & !CONSTANT) as usize],
+            b => {
+                let l = (ijk & IVec3::splat(7)).as_uvec3();
+                leaf_values[b as usize * LEAF_VOXELS + (l.x * 64 + l.y * 8 + l.z) as usize]
+            }
+        };
+        let mut bricks = vec![0.0f32; leaf_origins.len() * APRON_VOXELS];
+        bricks
+            .par_chunks_mut(APRON_VOXELS)
+            .zip(leaf_origins.par_iter())
+            .for_each(|(brick, &origin)| {
+                for (n, v) in brick.iter_mut().enumerate() {
+                    let (x, y, z) = (
+                        n / (APRON_EDGE * APRON_EDGE),
+                        n / APRON_EDGE % APRON_EDGE,
+                        n % APRON_EDGE,
+                    );
+                    *v = leaf_value(origin + IVec3::new(x as i32, y as i32, z as i32));
+                }
+            });
+        bricks
     }
 
     fn top_slot(&self, s: IVec3) -> usize {
@@ -394,6 +438,32 @@ impl SparseGrid {
     }
 }
 
+/// Trilinear lookups that remember the last 8^3 block visited, as OpenVDB's
+/// `ValueAccessor` does: consecutive points of a ray march mostly share a block,
+/// so the two-level descent is skipped. Results equal [`SparseGrid::trilinear_index`].
+pub struct GridAccessor<'a> {
+    grid: &'a SparseGrid,
+    /// Block coordinate (index >> 3) of the cached entry.
+    block: IVec3,
+    entry: u32,
+}
+
+impl GridAccessor<'_> {
+    /// Trilinear value at an index-space point.
+    #[inline]
+    pub fn trilinear_index(&mut self, p_index: Vec3) -> f32 {
+        let cell = p_index.floor();
+        let ijk = cell.as_ivec3();
+        let block = ijk >> BRICK_LOG2;
+        if block != self.block {
+            self.block = block;
+            self.entry = self.grid.entry(ijk);
+        }
+        self.grid
+            .trilinear_in_block(ijk, p_index - cell, self.entry)
+    }
+}
+
 impl GridStats {
     fn note_value(&mut self, v: f32) {
         if v.is_finite() {
@@ -426,7 +496,7 @@ mod tests {
     /// A grid with one leaf at `origin` whose voxel (x,y,z) holds x + 10y + 100z
     /// (a linear function, so trilinear interpolation inside it is exact).
     fn linear_leaf(origin: IVec3) -> SparseGrid {
-        let mut values = vec![0.0; BRICK_VOXELS];
+        let mut values = vec![0.0; LEAF_VOXELS];
         for x in 0..8 {
             for y in 0..8 {
                 for z in 0..8 {
@@ -537,5 +607,37 @@ mod tests {
         let expected = grid.trilinear_index(p_index.as_vec3());
         assert!((grid.trilinear_world(p_world) - expected).abs() < 1e-4);
         assert_eq!(grid.nearest_world(p_world), grid.value(IVec3::new(2, 4, 5)));
+    }
+
+    #[test]
+    fn accessor_equals_plain_lookup_along_a_march_across_blocks() {
+        // Two leaves side by side along x plus an 8^3 tile beyond them.
+        let mut values = vec![0.0; 2 * LEAF_VOXELS];
+        let mut rng = Pcg32::new(5, 0);
+        values.iter_mut().for_each(|v| *v = rng.next_f32());
+        let tile = Tile {
+            origin: IVec3::new(16, 0, 0),
+            edge: 8,
+            value: 0.75,
+            active: true,
+        };
+        let grid = SparseGrid::build(
+            0.0,
+            &[IVec3::ZERO, IVec3::new(8, 0, 0)],
+            values,
+            &[tile],
+            identity(),
+        )
+        .unwrap();
+        let mut accessor = grid.accessor();
+        let mut p = Vec3::new(-2.0, 3.3, 4.1);
+        while p.x < 28.0 {
+            assert_eq!(
+                accessor.trilinear_index(p),
+                grid.trilinear_index(p),
+                "at {p}"
+            );
+            p += Vec3::new(0.23, 0.011, -0.007);
+        }
     }
 }

@@ -9,5 +9,5 @@
 mod grid;
 mod vdb;
 
-pub use grid::{GridStats, GridTransform, LayoutError, SparseGrid, Tile};
+pub use grid::{GridAccessor, GridStats, GridTransform, LayoutError, SparseGrid, Tile};
 pub use vdb::{GridInfo, VdbFile, VolumeError};
