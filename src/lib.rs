@@ -6,6 +6,8 @@
 //! mounted privately by `volumes::vdb` and `output::exr`.
 
 pub mod cli;
+pub mod geometry;
 pub mod output;
 pub mod sampling;
+pub mod scene;
 pub mod volumes;

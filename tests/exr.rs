@@ -132,9 +132,7 @@ fn exr_crate_reads_back_names_types_values_and_metadata() {
         .attributes
         .other
         .get(&exr::meta::attribute::Text::from("cirrus/settings"));
-    assert!(
-        matches!(custom, Some(exr::meta::attribute::AttributeValue::Text(t)) if t.to_string() == "spp=4")
-    );
+    assert!(matches!(custom, Some(exr::meta::attribute::AttributeValue::Text(t)) if t == "spp=4"));
 }
 
 #[test]

@@ -293,7 +293,7 @@ fn bad_inputs_give_clear_errors_naming_file_and_grid() {
     let cut = dir.join("cut.vdb");
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
     let outcome = VdbFile::open(&cut).and_then(|f| f.read_float_grid("density", 0).map(|_| ()));
-    let e = outcome.err().expect("a truncated file must not load");
+    let e = outcome.expect_err("a truncated file must not load");
     assert!(e.to_string().contains("cut.vdb"), "{e}");
 }
 

@@ -31,6 +31,26 @@ pub enum Bench {
         #[arg(long, default_value_t = 4_000_000)]
         lookups: usize,
     },
+    /// Instancing ingest (issue 3): export, load and BVH build time and
+    /// memory of a PointInstancer stage, beyond a 1-instance baseline.
+    Instances {
+        /// PointInstancer instances in the measured stage.
+        #[arg(long, default_value_t = 1_000_000)]
+        instances: usize,
+        /// Approximate triangles of the prototype sphere.
+        #[arg(long, default_value_t = 100_000)]
+        triangles: usize,
+        /// Timed repeats of load and build; the table shows medians.
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+    },
+    /// Internal to `bench instances`: loads one exported scene and builds its
+    /// BVHs in this fresh process, and prints the resident bytes added.
+    #[command(hide = true)]
+    InstancesMemory {
+        /// The exported scene folder.
+        scene: PathBuf,
+    },
 }
 
 pub fn run(bench: Bench) -> Result<()> {
@@ -41,6 +61,12 @@ pub fn run(bench: Bench) -> Result<()> {
             repeats,
             lookups,
         } => vdb(&files, &grid, repeats.max(1), lookups.max(1)),
+        Bench::Instances {
+            instances,
+            triangles,
+            repeats,
+        } => super::bench_instances::run(instances.max(1), triangles.max(8), repeats.max(1)),
+        Bench::InstancesMemory { scene } => super::bench_instances::print_memory(&scene),
     }
 }
 
@@ -69,8 +95,16 @@ fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Re
         let random = random_points(lo, hi, lookups);
         let coherent = coherent_points(lo, hi, lookups);
         // Each closure is monomorphised into `lookup_rate`: no dynamic call per lookup.
-        let random_rate = median((0..repeats).map(|_| lookup_rate(&random, |p| grid.trilinear_index(p))).collect());
-        let coherent_rate = median((0..repeats).map(|_| lookup_rate(&coherent, |p| grid.trilinear_index(p))).collect());
+        let random_rate = median(
+            (0..repeats)
+                .map(|_| lookup_rate(&random, |p| grid.trilinear_index(p)))
+                .collect(),
+        );
+        let coherent_rate = median(
+            (0..repeats)
+                .map(|_| lookup_rate(&coherent, |p| grid.trilinear_index(p)))
+                .collect(),
+        );
         let accessor_rate = median(
             (0..repeats)
                 .map(|_| {
@@ -137,7 +171,8 @@ fn coherent_points(lo: Vec3, hi: Vec3, n: usize) -> Vec<Vec3> {
     points
 }
 
-fn median(mut xs: Vec<f64>) -> f64 {
+/// The median of `xs` (the mean of the middle two for an even count).
+pub(super) fn median(mut xs: Vec<f64>) -> f64 {
     xs.sort_by(f64::total_cmp);
     let n = xs.len();
     if n % 2 == 1 {
@@ -148,7 +183,7 @@ fn median(mut xs: Vec<f64>) -> f64 {
 }
 
 /// "Machine: <cpu>, <cores> cores; <date>; commit <hash>" for benchmark headers.
-fn machine_line() -> String {
+pub(super) fn machine_line() -> String {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|s| {

@@ -2,12 +2,16 @@
 //! errors to exit codes. `anyhow` lives here only; the library uses typed errors.
 
 mod bench;
+mod bench_instances;
 mod info;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use anyhow::Result;
 use clap::{Parser, Subcommand};
+
+use crate::scene::Scene;
 
 /// Cirrus: a production path tracer for USD scenes and OpenVDB volumes.
 #[derive(Parser, Debug)]
@@ -19,10 +23,23 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Print what a file holds: for a .vdb, its grid table.
+    /// Print what a file holds: for a scene (an exported folder, its
+    /// scene.json, or a USD file, exported into the cache first) its counts;
+    /// for a .vdb, its grid table.
     Info {
-        /// The file to describe.
+        /// The file or scene folder to describe.
         file: PathBuf,
+    },
+    /// Export a USD file to a Cirrus scene folder (scene.json + scene.bin).
+    Export {
+        /// The USD file (.usd, .usda, .usdc, .usdz).
+        input: PathBuf,
+        /// The scene folder to write; replaced if it exists.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// USD time code to export (default: the stage's default time).
+        #[arg(long)]
+        frame: Option<f64>,
     },
     /// Run a benchmark and print a Markdown table (machine, date, medians).
     #[command(subcommand)]
@@ -38,6 +55,11 @@ pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info { file } => info::run(&file),
+        Command::Export {
+            input,
+            output,
+            frame,
+        } => export(&input, &output, frame),
         Command::Bench(b) => bench::run(b),
     };
     match result {
@@ -47,4 +69,20 @@ pub fn run() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `cirrus export`: runs the exporter, then loads the result so a scene that
+/// the renderer would refuse is reported now rather than at render time.
+fn export(input: &Path, output: &Path, frame: Option<f64>) -> Result<()> {
+    crate::scene::export(input, output, frame)?;
+    let scene = Scene::load(output)?;
+    let m = &scene.manifest;
+    println!(
+        "{}: {} prototype(s), {} instance(s), {} warning(s)",
+        output.display(),
+        m.prototypes.len(),
+        m.instances.count,
+        m.warnings.len()
+    );
+    Ok(())
 }

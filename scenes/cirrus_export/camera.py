@@ -1,0 +1,112 @@
+"""The render camera and resolution: UsdRender.Settings, else the first Camera, else a default.
+
+The default camera (path null) looks at the scene bounds along the stage's horizontal
+view axis (-Z for Y-up, +Y for Z-up) from far enough to see all of them.
+"""
+
+import math
+
+import numpy as np
+from pxr import Usd, UsdGeom, UsdRender
+
+from .report import Report
+from .xforms import as_array, to_3x4_list
+
+# UsdGeomCamera schema fallbacks (millimetre-style tenths of a scene unit).
+DEFAULT_FOCAL = 50.0
+DEFAULT_APERTURE = (20.955, 15.2908)
+
+
+def _render_settings(stage: Usd.Stage) -> UsdRender.Settings | None:
+    """The stage's renderSettingsPrimPath settings, else the first RenderSettings prim."""
+    path = stage.GetMetadata("renderSettingsPrimPath")
+    if path:
+        settings = UsdRender.Settings(stage.GetPrimAtPath(path))
+        if settings:
+            return settings
+    for prim in stage.Traverse():
+        if prim.IsA(UsdRender.Settings):
+            return UsdRender.Settings(prim)
+    return None
+
+
+def _camera_prim(stage: Usd.Stage, settings: UsdRender.Settings | None, report: Report) -> Usd.Prim | None:
+    """The settings' camera, else the first Camera prim of the stage."""
+    if settings:
+        targets = settings.GetCameraRel().GetForwardedTargets()
+        if targets:
+            prim = stage.GetPrimAtPath(targets[0])
+            if prim and prim.IsA(UsdGeom.Camera):
+                return prim
+            report.warn(f"render settings {settings.GetPath()}: camera {targets[0]} is not a Camera; ignored")
+    for prim in stage.Traverse():
+        if prim.IsA(UsdGeom.Camera):
+            return prim
+    return None
+
+
+def export_render(stage: Usd.Stage, time: Usd.TimeCode, bounds: tuple[np.ndarray, np.ndarray],
+                  report: Report) -> tuple[dict, dict]:
+    """The manifest `camera` and `render` objects."""
+    settings = _render_settings(stage)
+    resolution = settings.GetResolutionAttr().Get(time) if settings else None
+    render = {"resolution": [int(resolution[0]), int(resolution[1])] if resolution else None}
+    prim = _camera_prim(stage, settings, report)
+    if prim is None:
+        return _default_camera(bounds, UsdGeom.GetStageUpAxis(stage)), render
+    return _usd_camera(prim, time), render
+
+
+def _usd_camera(prim: Usd.Prim, time: Usd.TimeCode) -> dict:
+    """A UsdGeom.Camera's record at `time`."""
+    camera = UsdGeom.Camera(prim)
+
+    def value(attr: Usd.Attribute) -> float:
+        """An attribute at `time` as a JSON float."""
+        return float(attr.Get(time))
+
+    near, far = camera.GetClippingRangeAttr().Get(time)
+    world = as_array(UsdGeom.XformCache(time).GetLocalToWorldTransform(prim))
+    return {
+        "path": str(prim.GetPath()),
+        "transform": to_3x4_list(world),
+        "projection": str(camera.GetProjectionAttr().Get(time)),
+        "focal_length": value(camera.GetFocalLengthAttr()),
+        "horizontal_aperture": value(camera.GetHorizontalApertureAttr()),
+        "vertical_aperture": value(camera.GetVerticalApertureAttr()),
+        "horizontal_aperture_offset": value(camera.GetHorizontalApertureOffsetAttr()),
+        "vertical_aperture_offset": value(camera.GetVerticalApertureOffsetAttr()),
+        "clipping_range": [float(near), float(far)],
+        "f_stop": value(camera.GetFStopAttr()),
+        "focus_distance": value(camera.GetFocusDistanceAttr()),
+    }
+
+
+def _default_camera(bounds: tuple[np.ndarray, np.ndarray], up_axis: str) -> dict:
+    """A perspective camera framing `bounds` whole, looking horizontally at their centre."""
+    lo, hi = bounds
+    centre = 0.5 * (lo + hi)
+    radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-6)
+    half_fov = math.atan(0.5 * DEFAULT_APERTURE[1] / DEFAULT_FOCAL)
+    distance = 1.1 * radius / math.sin(half_fov)
+    if up_axis == UsdGeom.Tokens.z:
+        # camera +X -> world +X, +Y -> world +Z, +Z (backwards) -> world -Y; rows are row-vector axes.
+        rotation = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
+    else:
+        rotation = np.eye(3)
+    world = np.eye(4)
+    world[:3, :3] = rotation
+    world[3, :3] = centre + rotation[2] * distance
+    return {
+        "path": None,
+        "transform": to_3x4_list(world),
+        "projection": "perspective",
+        "focal_length": DEFAULT_FOCAL,
+        "horizontal_aperture": DEFAULT_APERTURE[0],
+        "vertical_aperture": DEFAULT_APERTURE[1],
+        "horizontal_aperture_offset": 0.0,
+        "vertical_aperture_offset": 0.0,
+        "clipping_range": [max(distance - radius, 0.0) * 0.5 + 1e-4, distance + 2.0 * radius],
+        "f_stop": 0.0,
+        "focus_distance": distance,
+    }

@@ -1,0 +1,135 @@
+"""One export run: compose the stage, collect every record, write scene.json and scene.bin."""
+
+import json
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+from pxr import Pcp, Tf, Usd, UsdGeom
+
+from .assets import AssetResolver
+from .binfile import BinWriter
+from .camera import export_render
+from .instancing import Walker, instance_records
+from .lights import export_lights
+from .materials import MaterialTable
+from .prototypes import MeshTable, Prototypes
+from .report import ExportError, Report
+from .volumes import VolumeTable
+from .xforms import box_corners
+
+FORMAT_VERSION = 1
+
+
+def open_stage(path: Path, report: Report) -> Usd.Stage:
+    """The composed stage with payloads loaded; unusable input raises ExportError."""
+    if not path.is_file():
+        raise ExportError(f"{path}: no such file")
+    try:
+        stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
+    except Tf.ErrorException as error:
+        raise ExportError(f"{path}: cannot be read as USD: {tf_messages(error)}") from None
+    if stage is None:
+        raise ExportError(f"{path}: cannot be read as USD")
+    report_composition_errors(stage, path, report)
+    return stage
+
+
+def report_composition_errors(stage: Usd.Stage, path: Path, report: Report) -> None:
+    """One warning per missing layer (with how many places refer to it), one per other error."""
+    missing: dict[str, list[str]] = {}
+    for error in stage.GetCompositionErrors():
+        text = " ".join(str(error).split())
+        if isinstance(error, Pcp.ErrorInvalidAssetPath):
+            missing.setdefault(text.split("@")[1], []).append(str(error.rootSite.path))
+        else:
+            report.warn(f"{path}: composition error: {text}")
+    for layer, sites in missing.items():
+        what = "unreadable layer (no usd-core file format for it)" if Path(layer).is_file() else "missing layer"
+        report.warn(f"{path}: {what} {layer}, referenced at {len(sites)} prims "
+                    f"(first {sites[0]}); their content from it is not exported")
+
+
+def tf_messages(error: Tf.ErrorException) -> str:
+    """The quoted messages of a Tf error, without the C++ function and source locations."""
+    text = " ".join(str(error).split())
+    messages = re.findall(r" : '(.*?)'(?= Error in |$)", text)
+    return "; ".join(m.strip() for m in messages) or text
+
+
+def pick_time(stage: Usd.Stage, frame: float | None) -> Usd.TimeCode:
+    """--frame if given, else the stage's start time code, else the default time."""
+    if frame is not None:
+        return Usd.TimeCode(frame)
+    if stage.HasAuthoredMetadata("startTimeCode"):
+        return Usd.TimeCode(stage.GetStartTimeCode())
+    return Usd.TimeCode.Default()
+
+
+def world_bounds(prototype_boxes: list, prototype: np.ndarray, matrices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Union of every instance's prototype box through its world matrix (vectorised)."""
+    lo = np.array([box[0] for box in prototype_boxes]).reshape(-1, 3)
+    hi = np.array([box[1] for box in prototype_boxes]).reshape(-1, 3)
+    corners = np.stack([box_corners(a, b) for a, b in zip(lo, hi)]) if len(lo) else np.zeros((0, 8, 3))
+    keep = np.isfinite(lo).all(axis=1)[prototype]
+    local = corners[prototype[keep]]
+    m = matrices[keep]
+    world = np.einsum("nkj,nji->nki", local, m[:, :3, :3]) + m[:, None, 3, :3]
+    if world.size == 0:
+        return np.zeros(3), np.zeros(3)
+    return world.reshape(-1, 3).min(axis=0), world.reshape(-1, 3).max(axis=0)
+
+
+def export(path: Path, out_dir: Path, frame: float | None) -> list[str]:
+    """Exports `path` to `out_dir`; returns the warnings. Raises ExportError for unusable input."""
+    report = Report()
+    with report.usd_diagnostics():
+        manifest, writer = collect(path, out_dir, frame, report)
+    manifest["warnings"] = report.warnings
+    writer.write(out_dir / "scene.bin")
+    with open(out_dir / "scene.json", "w", encoding="utf-8") as out:
+        json.dump(manifest, out, indent=1, allow_nan=False)
+    return report.warnings
+
+
+def collect(path: Path, out_dir: Path, frame: float | None, report: Report) -> tuple[dict, BinWriter]:
+    """Reads the stage into the manifest (warnings not yet filled in) and the scene.bin arrays."""
+    stage = open_stage(path, report)
+    time = pick_time(stage, frame)
+    frame_label = "default" if time.IsDefault() else f"{time.GetValue():g}"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    resolver = AssetResolver(out_dir)
+    writer = BinWriter()
+    materials = MaterialTable(resolver, report, time)
+    meshes = MeshTable(writer, materials, report, time, str(path))
+    volumes = VolumeTable(resolver, report, time, frame_label)
+    prototypes = Prototypes(meshes, volumes)
+    sink = Walker(prototypes, report, time).walk_stage(stage)
+    instances, prototype, matrices = instance_records(sink, writer)
+    lights = export_lights(stage, time, resolver, report)
+    if instances["count"] == 0 and not lights:
+        problems = "; ".join(report.warnings) or "the stage holds no visible mesh, gprim, volume or light"
+        raise ExportError(f"{path}: nothing to export from /: {problems}")
+    lo, hi = world_bounds(prototypes.boxes, prototype, matrices)
+    camera, render = export_render(stage, time, (lo, hi), report)
+    manifest = {
+        "format": "cirrus-scene",
+        "version": FORMAT_VERSION,
+        "source": {"path": str(path.resolve()), "mtime": os.path.getmtime(path),
+                   "time_code": None if time.IsDefault() else time.GetValue()},
+        "stage": {"meters_per_unit": UsdGeom.GetStageMetersPerUnit(stage),
+                  "up_axis": str(UsdGeom.GetStageUpAxis(stage))},
+        "bounds": {"min": lo.tolist(), "max": hi.tolist()},
+        "meshes": meshes.records,
+        "prototypes": prototypes.records,
+        "instances": instances,
+        "materials": materials.materials,
+        "textures": materials.textures,
+        "lights": lights,
+        "camera": camera,
+        "volumes": volumes.records,
+        "render": render,
+        "warnings": [],
+    }
+    return manifest, writer

@@ -1,0 +1,203 @@
+"""Walks the composed stage and flattens every kind of instancing to one level.
+
+Native instances (prim.IsInstance() -> prim.GetPrototype()) and PointInstancer
+prototypes are exported once each as a Cirrus prototype; nested instancing is
+resolved by composing transform arrays (numpy, never a Python loop per instance), so
+every Cirrus instance is world-from-prototype for a prototype holding real parts.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from .binfile import BinWriter
+from .prototypes import PREDICATE, Prototypes, prototype_path
+from .report import Report
+from .xforms import compose, local_transform, to_3x4
+
+PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Volume"}
+SKIPPED_PURPOSES = {UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy}
+
+
+@dataclass
+class Leaf:
+    """Copies of one Cirrus prototype: row-vector matrices into the holder's space.
+
+    `index` is each copy's index in the outermost PointInstancer that made it (its
+    `ids` when authored), 0 when no PointInstancer is involved.
+    """
+
+    prototype: int
+    matrices: np.ndarray  # (n, 4, 4) float64
+    index: np.ndarray  # (n,) int64
+
+    def placed(self, matrix: np.ndarray) -> "Leaf":
+        """The same copies moved by one more (4, 4) transform."""
+        return Leaf(self.prototype, self.matrices @ matrix, self.index)
+
+
+class GroupSink:
+    """Collects the parts and nested instances found under one prototype root."""
+
+    def __init__(self) -> None:
+        self.parts: list[tuple[Usd.Prim, np.ndarray]] = []
+        self.leaves: list[Leaf] = []
+
+    def part(self, prim: Usd.Prim, matrix: np.ndarray) -> None:
+        """A mesh or volume directly in the group."""
+        self.parts.append((prim, matrix))
+
+    def nested(self, prim: Usd.Prim, leaves: list[Leaf], matrix: np.ndarray) -> None:
+        """An instance or PointInstancer inside the group, placed by `matrix`."""
+        self.leaves.extend(leaf.placed(matrix) for leaf in leaves)
+
+
+class TopSink:
+    """Collects world-space instances, each tagged with the stage prim that produced it."""
+
+    def __init__(self, prototypes: Prototypes) -> None:
+        self.sources: list[str] = []
+        self.placed: list[tuple[int, Leaf]] = []
+        self._prototypes = prototypes
+
+    def part(self, prim: Usd.Prim, matrix: np.ndarray) -> None:
+        """A plain prim: its own prototype, one instance at its world transform."""
+        proto = self._prototypes.add(str(prim.GetPath()), [(prim, np.eye(4))])
+        if proto is not None:
+            self.nested(prim, [Leaf(proto, np.eye(4)[None], np.zeros(1, np.int64))], matrix)
+
+    def nested(self, prim: Usd.Prim, leaves: list[Leaf], matrix: np.ndarray) -> None:
+        """All copies made by one native instance or PointInstancer of the stage."""
+        if not leaves:
+            return
+        self.sources.append(str(prim.GetPath()))
+        self.placed.extend((len(self.sources) - 1, leaf.placed(matrix)) for leaf in leaves)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The Instances structure of arrays: prototype, transform (n, 12), source, source_index."""
+        leaves = [leaf for _, leaf in self.placed]
+        counts = [len(leaf.index) for leaf in leaves]
+        return {
+            "prototype": np.repeat([leaf.prototype for leaf in leaves], counts).astype(np.uint32),
+            "matrices": np.concatenate([leaf.matrices for leaf in leaves]) if leaves else np.zeros((0, 4, 4)),
+            "source": np.repeat([source for source, _ in self.placed], counts).astype(np.uint32),
+            "source_index": np.concatenate([leaf.index for leaf in leaves]) if leaves else np.zeros(0),
+        }
+
+
+class Walker:
+    """Depth-first traversal honouring visibility and purpose at one time code."""
+
+    def __init__(self, prototypes: Prototypes, report: Report, time: Usd.TimeCode) -> None:
+        self._prototypes = prototypes
+        self._report = report
+        self._time = time
+        self._groups: dict[tuple, list[Leaf]] = {}
+
+    def walk_stage(self, stage: Usd.Stage) -> TopSink:
+        """Every renderable prim of the stage, as world-space instances."""
+        sink = TopSink(self._prototypes)
+        for child in stage.GetPseudoRoot().GetFilteredChildren(PREDICATE):
+            self._walk(child, np.eye(4), sink)
+        return sink
+
+    def _renderable(self, prim: Usd.Prim) -> bool:
+        """False for invisible prims and guide/proxy purpose (render and default are kept)."""
+        imageable = UsdGeom.Imageable(prim)
+        if not imageable:
+            return True
+        if imageable.GetVisibilityAttr().Get(self._time) == UsdGeom.Tokens.invisible:
+            return False
+        return imageable.GetPurposeAttr().Get() not in SKIPPED_PURPOSES
+
+    def _walk(self, prim: Usd.Prim, parent: np.ndarray, sink: GroupSink | TopSink,
+              apply_local: bool = True) -> None:
+        """Visits `prim` with `parent` = holder-from-parent, then its children.
+
+        A prim that resets the xform stack is placed relative to the holder (the world at
+        the top level, the prototype root inside a prototype).
+        """
+        if not self._renderable(prim):
+            return
+        matrix = parent
+        if apply_local:
+            local, resets = local_transform(prim, self._time)
+            matrix = local if resets else local @ parent
+        if prim.IsInstance():
+            sink.nested(prim, self._native_leaves(prim), matrix)
+            return
+        if prim.IsA(UsdGeom.PointInstancer):
+            sink.nested(prim, self._point_instancer_leaves(prim), matrix)
+            return
+        if prim.GetTypeName() in PART_TYPES:
+            sink.part(prim, matrix)
+        for child in prim.GetFilteredChildren(PREDICATE):
+            self._walk(child, matrix, sink)
+
+    def _group(self, key: tuple, name: str, roots: list[Usd.Prim], apply_local: bool) -> list[Leaf]:
+        """Copies of everything under `roots`, in the group's space; built once per key."""
+        if key not in self._groups:
+            sink = GroupSink()
+            for root in roots:
+                self._walk(root, np.eye(4), sink, apply_local)
+            leaves = list(sink.leaves)
+            proto = self._prototypes.add(name, sink.parts) if sink.parts else None
+            if proto is not None:
+                leaves.insert(0, Leaf(proto, np.eye(4)[None], np.zeros(1, np.int64)))
+            self._groups[key] = leaves
+        return self._groups[key]
+
+    def _native_leaves(self, prim: Usd.Prim) -> list[Leaf]:
+        """A native instance's prototype, in the instance prim's space (its xform excluded).
+
+        Instances share one group unless their material bindings differ.
+        """
+        key = (str(prim.GetPrototype().GetPath()), self._prototypes.meshes.signature(prim))
+        return self._group(key, str(prim.GetPath()), list(prim.GetFilteredChildren(PREDICATE)), True)
+
+    def _point_instancer_leaves(self, prim: Usd.Prim) -> list[Leaf]:
+        """Every instance of a PointInstancer, in the instancer's space.
+
+        Instance transforms come from ComputeInstanceTransformsAtTime (prototype root
+        xform included, mask applied), so each prototype group leaves its root's own
+        transform out.
+        """
+        instancer = UsdGeom.PointInstancer(prim)
+        matrices = np.array(instancer.ComputeInstanceTransformsAtTime(self._time, self._time),
+                            dtype=np.float64).reshape(-1, 4, 4)
+        proto_indices = np.array(instancer.GetProtoIndicesAttr().Get(self._time) or [], dtype=np.int64)
+        ids = np.array(instancer.GetIdsAttr().Get(self._time) or np.arange(proto_indices.size), dtype=np.int64)
+        mask = np.array(instancer.ComputeMaskAtTime(self._time) or np.ones(proto_indices.size, bool), dtype=bool)
+        targets = instancer.GetPrototypesRel().GetForwardedTargets()
+        if mask.size != proto_indices.size or ids.size != proto_indices.size or \
+                matrices.shape[0] != int(mask.sum()) or (proto_indices >= len(targets)).any():
+            self._report.warn(f"PointInstancer {prim.GetPath()}: protoIndices, ids, mask and transforms "
+                              f"disagree in length or index range; skipped")
+            return []
+        proto_indices, ids = proto_indices[mask], ids[mask]
+        stage = prim.GetStage()
+        leaves = []
+        for j, target in enumerate(targets):
+            chosen = proto_indices == j
+            if not chosen.any():
+                continue
+            root = stage.GetPrimAtPath(target)
+            for leaf in self._group((prototype_path(root),), str(target), [root], False):
+                inner = compose(leaf.matrices, matrices[chosen])
+                leaves.append(Leaf(leaf.prototype, inner, np.repeat(ids[chosen], len(leaf.index))))
+        return leaves
+
+
+def instance_records(sink: TopSink, writer: BinWriter) -> tuple[dict, np.ndarray, np.ndarray]:
+    """The manifest `instances` object, plus the prototype and world matrices per instance."""
+    arrays = sink.arrays()
+    record = {
+        "count": int(arrays["prototype"].size),
+        "prototype": writer.add(arrays["prototype"], "u32", 1),
+        "transform": writer.add(to_3x4(arrays["matrices"]), "f32", 12),
+        "source": writer.add(arrays["source"], "u32", 1),
+        "source_index": writer.add(arrays["source_index"], "u32", 1),
+        "instance_sources": sink.sources,
+    }
+    return record, arrays["prototype"], arrays["matrices"]

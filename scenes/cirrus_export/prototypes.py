@@ -1,0 +1,138 @@
+"""Unique geometry (meshes, volumes) and the Cirrus prototypes that group it.
+
+A mesh is keyed by its path inside its USD prototype, so every instance of a native
+prototype or PointInstancer prototype shares one copy.
+"""
+
+import numpy as np
+from pxr import Usd, UsdGeom, UsdShade
+
+from .binfile import BinWriter
+from .materials import NO_MATERIAL, MaterialTable
+from .meshes import BadMesh, MeshGeometry, read_mesh
+from .report import Report
+from .shapes import tessellate
+from .xforms import box_corners, to_3x4_list, transform_points
+
+EMPTY_BOX = (np.full(3, np.inf), np.full(3, -np.inf))
+PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+
+
+def prototype_path(prim: Usd.Prim) -> str:
+    """The prim's path inside its USD prototype (instance proxies), else its own path."""
+    return str(prim.GetPrimInPrototype().GetPath() if prim.IsInstanceProxy() else prim.GetPath())
+
+
+def _optional(writer: BinWriter, values: np.ndarray | None, width: int) -> dict | None:
+    """An f32 array reference, or None for an absent attribute."""
+    return None if values is None else writer.add(values, "f32", width)
+
+
+class MeshTable:
+    """Meshes of the manifest, each stored once, with their object-space bounds."""
+
+    def __init__(self, writer: BinWriter, materials: MaterialTable, report: Report,
+                 time: Usd.TimeCode, source: str) -> None:
+        self.records: list[dict] = []
+        self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
+        self._by_path: dict[tuple, int | None] = {}
+        self._writer, self._materials, self._report = writer, materials, report
+        self._time, self._source = time, source
+
+    def index(self, prim: Usd.Prim) -> int | None:
+        """The mesh index of a Mesh or implicit gprim, or None when it was skipped.
+
+        Meshes are shared by prototype path and materials: instances of one prototype
+        whose bindings differ (bound outside the prototype) get their own copy.
+        """
+        materials = self.material_key(prim)
+        key = (prototype_path(prim), materials)
+        if key not in self._by_path:
+            self._by_path[key] = self._add(prim, key[0], materials)
+        return self._by_path[key]
+
+    def _subsets(self, prim: Usd.Prim) -> list[UsdGeom.Subset]:
+        """The prim's face GeomSubsets of the materialBind family."""
+        return UsdGeom.Subset.GetGeomSubsets(UsdGeom.Imageable(prim), UsdGeom.Tokens.face,
+                                             UsdShade.Tokens.materialBind)
+
+    def material_key(self, prim: Usd.Prim) -> tuple[int, ...]:
+        """Material indices a gprim uses: its own binding, then each materialBind subset's."""
+        subsets = [s.GetPrim() for s in self._subsets(prim)]
+        return tuple(self._materials.bound_index(p) for p in [prim, *subsets])
+
+    def signature(self, root: Usd.Prim) -> tuple:
+        """Every material binding under `root`: equal for instances that can share parts."""
+        return tuple(self.material_key(p) for p in Usd.PrimRange(root, PREDICATE) if p.IsA(UsdGeom.Gprim))
+
+    def _add(self, prim: Usd.Prim, key: str, materials: tuple[int, ...]) -> int | None:
+        """Reads, validates and stores one mesh; a bad one is warned about and skipped."""
+        bound = [m for m in materials if m != NO_MATERIAL]
+        uv_name = self._materials.uv_primvar(bound[0]) if bound else "st"
+        try:
+            geometry = read_mesh(prim, self._time, self._report, uv_name) if prim.IsA(UsdGeom.Mesh) \
+                else tessellate(prim, self._time)
+        except BadMesh as bad:
+            self._report.warn(f"{self._source}: mesh {prim.GetPath()} skipped: {bad}")
+            return None
+        if geometry is None or len(geometry.triangles) == 0:
+            self._report.warn(f"{self._source}: {prim.GetTypeName()} {prim.GetPath()} has no triangles; skipped")
+            return None
+        self.records.append(self._record(prim, key, geometry, materials))
+        self.boxes.append((geometry.points.min(axis=0), geometry.points.max(axis=0)))
+        return len(self.records) - 1
+
+    def _triangle_materials(self, prim: Usd.Prim, geometry: MeshGeometry,
+                            materials: tuple[int, ...]) -> np.ndarray:
+        """Material per triangle: the prim's binding, overridden by materialBind GeomSubsets."""
+        result = np.full(len(geometry.triangles), materials[0], dtype=np.uint32)
+        for subset, material in zip(self._subsets(prim), materials[1:]):
+            faces = np.array(subset.GetIndicesAttr().Get(self._time) or [], dtype=np.int64)
+            result[np.isin(geometry.triangle_face, faces)] = material
+        return result
+
+    def _record(self, prim: Usd.Prim, key: str, geometry: MeshGeometry,
+                materials: tuple[int, ...]) -> dict:
+        """The manifest Mesh record, arrays written to scene.bin."""
+        w = self._writer
+        return {
+            "path": key,
+            "points": w.add(geometry.points, "f32", 3),
+            "triangles": w.add(geometry.triangles, "u32", 3),
+            "normals": _optional(w, geometry.normals, 3),
+            "uvs": _optional(w, geometry.uvs, 2),
+            "triangle_materials": w.add(self._triangle_materials(prim, geometry, materials), "u32", 1),
+            "double_sided": bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(self._time)),
+        }
+
+
+class Prototypes:
+    """Cirrus prototypes: parts (mesh or volume + transform) in the prototype's space."""
+
+    def __init__(self, meshes: MeshTable, volumes) -> None:
+        self.records: list[dict] = []
+        self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
+        self.meshes, self._volumes = meshes, volumes
+
+    def add(self, path: str, parts: list[tuple[Usd.Prim, np.ndarray]]) -> int | None:
+        """A prototype from (prim, prototype-from-part matrix) parts; None when all were skipped."""
+        record = {"path": path, "meshes": [], "volumes": []}
+        lo, hi = EMPTY_BOX
+        for prim, matrix in parts:
+            is_volume = prim.GetTypeName() == "Volume"
+            table = self._volumes if is_volume else self.meshes
+            index = table.index(prim)
+            if index is None:
+                continue
+            kind = "volume" if is_volume else "mesh"
+            record[f"{kind}es" if kind == "mesh" else f"{kind}s"].append(
+                {kind: index, "transform": to_3x4_list(matrix)})
+            box = table.boxes[index]
+            if box is not None:
+                corners = transform_points(box_corners(*box), matrix)
+                lo, hi = np.minimum(lo, corners.min(axis=0)), np.maximum(hi, corners.max(axis=0))
+        if not record["meshes"] and not record["volumes"]:
+            return None
+        self.records.append(record)
+        self.boxes.append((lo, hi))
+        return len(self.records) - 1

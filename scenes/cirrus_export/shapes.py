@@ -1,0 +1,79 @@
+"""UsdGeom implicit gprims (Sphere, Cube, Cylinder, Cone, Capsule) tessellated to triangles.
+
+Round shapes are a lathe of a (radius, height) profile about the prim's axis with a
+multiple of 4 segments, so the tessellation touches the authored extent on every axis.
+"""
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from .meshes import MeshGeometry
+
+SEGMENTS = 32
+RINGS = 16
+
+# Cube: 6 faces of the unit cube, each as 4 corners CCW seen from outside.
+_CUBE_POINTS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
+_CUBE_QUADS = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1],
+                        [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+
+
+def _quads_to_triangles(quads: np.ndarray) -> np.ndarray:
+    """(q, 4) CCW quads as (2q, 3) triangles."""
+    return np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+
+
+def _lathe(radius: np.ndarray, height: np.ndarray, axis: str) -> tuple[np.ndarray, np.ndarray]:
+    """Revolves a profile (bottom to top) about `axis`; returns points and CCW triangles."""
+    angle = np.linspace(0.0, 2.0 * np.pi, SEGMENTS, endpoint=False)
+    x = radius[:, None] * np.cos(angle)[None, :]
+    y = radius[:, None] * np.sin(angle)[None, :]
+    z = np.broadcast_to(height[:, None], x.shape)
+    local = np.stack([x, y, z], axis=-1).reshape(-1, 3)
+    order = {"X": [1, 2, 0], "Y": [2, 0, 1], "Z": [0, 1, 2]}[axis]
+    points = np.empty_like(local)
+    points[:, order] = local
+    ring = np.arange(radius.size - 1)[:, None] * SEGMENTS
+    seg = np.arange(SEGMENTS)[None, :]
+    nxt = (seg + 1) % SEGMENTS
+    quads = np.stack([ring + seg, ring + nxt, ring + SEGMENTS + nxt, ring + SEGMENTS + seg], axis=-1)
+    return points, _quads_to_triangles(quads.reshape(-1, 4))
+
+
+def _sphere_profile(radius: float, half_height: float) -> tuple[np.ndarray, np.ndarray]:
+    """Hemispheres of `radius` capping a cylinder of half height `half_height` (0: a sphere)."""
+    theta = np.linspace(-0.5 * np.pi, 0.5 * np.pi, RINGS + 1)
+    r = radius * np.cos(theta)
+    z = radius * np.sin(theta) + np.where(theta < 0, -half_height, half_height)
+    r[[0, -1]] = 0.0
+    if half_height > 0:
+        middle = RINGS // 2
+        r = np.insert(r, middle + 1, r[middle])
+        z = np.insert(z, middle + 1, half_height)
+        z[middle] = -half_height
+    return r, z
+
+
+def _attr(prim: Usd.Prim, name: str, time: Usd.TimeCode):
+    """An attribute's value at `time`, schema fallback included."""
+    return prim.GetAttribute(name).Get(time)
+
+
+def tessellate(prim: Usd.Prim, time: Usd.TimeCode) -> MeshGeometry | None:
+    """The gprim as triangles in object space, or None when the type is not an implicit shape."""
+    kind = prim.GetTypeName()
+    if kind == "Cube":
+        half = 0.5 * _attr(prim, "size", time)
+        points, triangles = _CUBE_POINTS * half, _quads_to_triangles(_CUBE_QUADS)
+    elif kind in ("Sphere", "Capsule"):
+        half = 0.5 * _attr(prim, "height", time) if kind == "Capsule" else 0.0
+        axis = _attr(prim, "axis", time) if kind == "Capsule" else "Z"
+        points, triangles = _lathe(*_sphere_profile(_attr(prim, "radius", time), half), axis)
+    elif kind in ("Cylinder", "Cone"):
+        r, h = _attr(prim, "radius", time), 0.5 * _attr(prim, "height", time)
+        top = 0.0 if kind == "Cone" else r
+        points, triangles = _lathe(np.array([0.0, r, top, 0.0]), np.array([-h, -h, h, h]),
+                                   _attr(prim, "axis", time))
+    else:
+        return None
+    return MeshGeometry(points, triangles, None, None, np.zeros(len(triangles), dtype=np.int64))

@@ -1,0 +1,128 @@
+"""UsdVol.Volume prims with OpenVDBAsset fields, and their constant shading primvars.
+
+Shading follows /work/shared/CONVENTIONS.md: constant primvars on the Volume prim,
+each unauthored one replaced by its default and reported once per volume.
+"""
+
+import numpy as np
+from pxr import Usd, UsdGeom, UsdShade, UsdVol
+
+from .assets import AssetResolver
+from .prototypes import prototype_path
+from .report import Report
+from .vdb_header import grid_bounds
+
+# Manifest key, primvar name, default (CONVENTIONS.md: densityScale 1, albedo 1, anisotropy 0, no emission).
+# USD field relationship name -> manifest field key; "heat" is the openusd assets' name.
+FIELD_KEYS = {"density": "density", "temperature": "temperature", "heat": "temperature"}
+
+SHADING_PRIMVARS = [
+    ("density_scale", "densityScale", 1.0),
+    ("albedo", "albedo", [1.0, 1.0, 1.0]),
+    ("anisotropy", "anisotropy", 0.0),
+    ("heat_scale", "heatScale", 0.0),
+    ("temperature_offset", "temperatureOffset", 0.0),
+    ("temperature_scale", "temperatureScale", 1.0),
+]
+
+
+def _shading_value(primvar: UsdGeom.Primvar, default, time: Usd.TimeCode):
+    """A constant primvar as JSON; a float albedo becomes a grey triple."""
+    value = primvar.Get(time)
+    if isinstance(default, list):
+        return [float(v) for v in value] if hasattr(value, "__len__") else [float(value)] * 3
+    return float(value)
+
+
+class VolumeTable:
+    """Volumes of the manifest, each stored once, with their object-space bounds."""
+
+    def __init__(self, resolver: AssetResolver, report: Report, time: Usd.TimeCode, frame_label: str) -> None:
+        self.records: list[dict] = []
+        self.boxes: list[tuple[np.ndarray, np.ndarray] | None] = []
+        self._by_path: dict[str, int | None] = {}
+        self._resolver, self._report, self._time = resolver, report, time
+        self._frame = frame_label
+
+    def index(self, prim: Usd.Prim) -> int | None:
+        """The volume index of a Volume prim, or None when it was skipped."""
+        key = prototype_path(prim)
+        if key not in self._by_path:
+            self._by_path[key] = self._add(prim, key)
+        return self._by_path[key]
+
+    def _field(self, volume: Usd.Prim, field: Usd.Prim) -> dict | None:
+        """One OpenVDBAsset field; None (with a warning) when its file is missing."""
+        asset = UsdVol.OpenVDBAsset(field)
+        if not asset:
+            self._report.warn(f"volume {volume.GetPath()}: field {field.GetPath()} is a "
+                              f"{field.GetTypeName() or 'typeless prim'}, not an OpenVDBAsset; ignored")
+            return None
+        if UsdGeom.Xformable(field).GetOrderedXformOps():
+            self._report.warn(f"volume {volume.GetPath()}: field {field.GetPath()} has its own "
+                              f"transform, which is ignored")
+        resolved = self._resolver.resolve(asset.GetFilePathAttr(), self._time)
+        if resolved is None or not resolved[1]:
+            file = resolved[0] if resolved else "(no filePath)"
+            self._report.warn(f"volume {volume.GetPath()}: VDB file {file} of field {field.GetPath()} "
+                              f"does not exist at frame {self._frame}; volume skipped")
+            return None
+        return {"file": resolved[0], "grid": str(asset.GetFieldNameAttr().Get(self._time) or ""),
+                "index": int(asset.GetFieldIndexAttr().Get(self._time) or 0)}
+
+    def _add(self, prim: Usd.Prim, key: str) -> int | None:
+        """Reads one Volume; skipped when any field file is missing or it has no field."""
+        stage = prim.GetStage()
+        fields = {}
+        for name, path in UsdVol.Volume(prim).GetFieldPaths().items():
+            field_key = FIELD_KEYS.get(str(name))
+            if field_key is None or field_key in fields:
+                self._report.warn(f"volume {prim.GetPath()}: field:{name} is not used by Cirrus "
+                                  f"(only density and temperature/heat); ignored")
+                continue
+            field = self._field(prim, stage.GetPrimAtPath(path))
+            if field is None:
+                return None
+            fields[field_key] = field
+        if "density" not in fields:
+            self._report.warn(f"volume {prim.GetPath()}: no field:density; skipped")
+            return None
+        record = {"path": key, "fields": fields, **self._shading(prim)}
+        self.records.append(record)
+        self.boxes.append(self._bounds(prim, fields))
+        return len(self.records) - 1
+
+    def _shading(self, prim: Usd.Prim) -> dict:
+        """Shading parameters from constant primvars, defaults reported once per volume."""
+        material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+        if material:
+            self._report.warn(f"volume {prim.GetPath()}: material {material.GetPath()} is not read "
+                              f"(not a volume material we recognise); fallback volume shading used")
+        primvars = UsdGeom.PrimvarsAPI(prim)
+        shading, defaulted = {}, []
+        for key, name, default in SHADING_PRIMVARS:
+            primvar = primvars.GetPrimvar(name)
+            if primvar and primvar.HasValue():
+                shading[key] = _shading_value(primvar, default, self._time)
+            else:
+                shading[key] = default
+                defaulted.append(f"{name}={default}")
+        if defaulted:
+            self._report.warn(f"volume {prim.GetPath()}: unauthored, defaults used: {', '.join(defaulted)}")
+        return shading
+
+    def _bounds(self, prim: Usd.Prim, fields: dict) -> tuple[np.ndarray, np.ndarray] | None:
+        """Object-space box: the union of the fields' VDB grid boxes, else the authored extent.
+
+        None (with a warning) when neither can be read; the scene bounds then leave it out.
+        """
+        boxes = [grid_bounds(field["file"], field["grid"]) for field in fields.values()]
+        boxes = [box for box in boxes if box is not None]
+        if boxes:
+            return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
+        extent = UsdGeom.Boundable(prim).GetExtentAttr().Get(self._time)
+        if extent is not None and len(extent) == 2:
+            return np.array(extent[0], dtype=np.float64), np.array(extent[1], dtype=np.float64)
+        self._report.warn(f"volume {prim.GetPath()}: no readable grid bounds (empty or unsupported VDB) "
+                          f"and no authored extent; left out of scene bounds")
+        return None

@@ -1,0 +1,246 @@
+//! `cirrus bench instances`: the instancing ingest benchmark of issue 3. A
+//! stage of N PointInstancer instances of one T-triangle sphere
+//! (`scenes/make_instancing_stress.py`) is exported, loaded and built into
+//! the two-level BVH; the same prototype with one instance is the baseline,
+//! so what N instances cost beyond the prototype is measured, not estimated.
+//!
+//! `Geometry::build` builds both BVH levels in one call, so the BLAS time is
+//! the baseline's build (one mesh BVH and a one-leaf TLAS) and the TLAS time
+//! is the difference of the two builds' medians.
+
+use std::hint::black_box;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use anyhow::{bail, ensure, Context, Result};
+
+use super::bench::{machine_line, median};
+use crate::geometry::Geometry;
+use crate::scene::Scene;
+
+/// Issue 3's target for load plus TLAS build at 1M instances, in seconds.
+const TARGET_SECONDS: f64 = 3.0;
+/// Issue 3's target for peak memory beyond the prototype, in bytes (250 MB).
+const TARGET_BYTES: f64 = 250e6;
+
+/// What one stage cost: medians of the timed repeats and one memory pass.
+struct Costs {
+    export_s: f64,
+    load_s: f64,
+    build_s: f64,
+    /// Resident bytes added by the loaded scene (above the RSS before loading).
+    after_load: f64,
+    /// Resident bytes added by the scene and its BVHs together.
+    after_build: f64,
+    /// Peak resident bytes above the RSS before loading, over load and build.
+    peak: f64,
+}
+
+/// Runs the benchmark and prints its table: `instances` instances of a
+/// sphere of about `triangles` triangles, load and build timed `repeats`
+/// times each. Stages and exports go to a fresh folder under the system
+/// temporary folder, removed at the end.
+pub fn run(instances: usize, triangles: usize, repeats: usize) -> Result<()> {
+    let load_average = || std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    let load_average_start = load_average();
+    let dir = std::env::temp_dir().join(format!("cirrus-bench-instances-{}", std::process::id()));
+    let dir = dir.as_path();
+    std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
+    // The baseline goes first, so the big stage's memory is measured in a
+    // process whose allocator and thread pool are already set up.
+    let base = measure(dir, 1, triangles, repeats)?;
+    let big = measure(dir, instances, triangles, repeats)?;
+    std::fs::remove_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
+
+    let ms = |s: f64| s * 1e3;
+    let mb = |b: f64| b / 1e6;
+    println!("{}\n", machine_line());
+    println!(
+        "Prototype: sphere of about {triangles} triangles; medians of {repeats} repeats \
+         (export once); memory is resident (VmRSS/VmHWM) above the RSS before loading, \
+         in a fresh process per stage; MB = 10^6 bytes.\n"
+    );
+    println!("| stage | export (s) | load (ms) | build, BLAS + TLAS (ms) | RSS after load (MB) | RSS after build (MB) | peak RSS (MB) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    for (name, c) in [
+        ("1 instance (baseline)", &base),
+        (&*format!("{instances} instances"), &big),
+    ] {
+        println!(
+            "| {name} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            c.export_s,
+            ms(c.load_s),
+            ms(c.build_s),
+            mb(c.after_load),
+            mb(c.after_build),
+            mb(c.peak)
+        );
+    }
+    println!(
+        "| difference (beyond the prototype) | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |\n",
+        big.export_s - base.export_s,
+        ms(big.load_s - base.load_s),
+        ms(big.build_s - base.build_s),
+        mb(big.after_load - base.after_load),
+        mb(big.after_build - base.after_build),
+        mb(big.peak - base.peak)
+    );
+    let tlas_s = big.build_s - base.build_s;
+    let seconds = big.load_s + tlas_s;
+    let beyond = big.peak - base.peak;
+    let verdict = |met: bool| if met { "met" } else { "NOT met" };
+    println!(
+        "BLAS (the baseline's build): {:.1} ms; TLAS over {instances} instances (build difference): {:.1} ms.",
+        ms(base.build_s),
+        ms(tlas_s)
+    );
+    println!(
+        "Targets (issue 3): load + TLAS build < {TARGET_SECONDS} s: {seconds:.2} s, {}; \
+         peak memory beyond the prototype < {} MB: {:.1} MB, {}.",
+        verdict(seconds < TARGET_SECONDS),
+        mb(TARGET_BYTES),
+        mb(beyond),
+        verdict(beyond < TARGET_BYTES)
+    );
+    println!(
+        "Load average (1, 5, 15 min) at start: {}; at end: {}.",
+        load_average_start
+            .split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" "),
+        load_average()
+            .split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    Ok(())
+}
+
+/// Generates and exports the stage of `instances` instances in `dir`, then
+/// measures memory over one load and build in a fresh process, and times
+/// `repeats` of each here.
+fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Result<Costs> {
+    let stage = dir.join(format!("stress_{instances}.usdc"));
+    generate(&stage, instances, triangles)?;
+    let scene_dir = dir.join(format!("stress_{instances}"));
+    let start = Instant::now();
+    crate::scene::export(&stage, &scene_dir, None)?;
+    let export_s = start.elapsed().as_secs_f64();
+
+    let [after_load, after_build, peak] = memory_in_child(&scene_dir)?;
+    let load_s = median(
+        (0..repeats)
+            .map(|_| {
+                let (seconds, scene) = timed(|| Scene::load(&scene_dir));
+                scene.map(|_| seconds)
+            })
+            .collect::<Result<_, _>>()?,
+    );
+    let scene = Scene::load(&scene_dir)?;
+    let count = scene.manifest.instances.count;
+    ensure!(
+        count == instances as u64,
+        "{}: {count} instances exported, {instances} generated",
+        scene_dir.display()
+    );
+    let build_s = median(
+        (0..repeats)
+            .map(|_| timed(|| Geometry::build(&scene)).0)
+            .collect(),
+    );
+    Ok(Costs {
+        export_s,
+        load_s,
+        build_s,
+        after_load,
+        after_build,
+        peak,
+    })
+}
+
+/// Seconds `f` took, and its result (dropped by the caller, off the clock).
+fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
+    let start = Instant::now();
+    let value = black_box(f());
+    (start.elapsed().as_secs_f64(), value)
+}
+
+/// Runs `scenes/make_instancing_stress.py` under the checkout's `.venv`.
+fn generate(stage: &Path, instances: usize, triangles: usize) -> Result<()> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let script = root.join("scenes/make_instancing_stress.py");
+    let out = Command::new(root.join(".venv/bin/python"))
+        .arg(&script)
+        .arg(stage)
+        .args(["--instances", &instances.to_string()])
+        .args(["--triangles", &triangles.to_string()])
+        .output()
+        .with_context(|| format!("running {}", script.display()))?;
+    if !out.status.success() {
+        bail!(
+            "{} failed: {}",
+            script.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    Ok(())
+}
+
+/// Runs [`print_memory`] on `scene_dir` in a fresh `cirrus` process and
+/// returns its three numbers. A fresh process per stage keeps memory freed by
+/// an earlier stage, and kept by the allocator, out of the next one's count.
+fn memory_in_child(scene_dir: &Path) -> Result<[f64; 3]> {
+    let exe = std::env::current_exe().context("finding the cirrus executable")?;
+    let out = Command::new(&exe)
+        .args(["bench", "instances-memory"])
+        .arg(scene_dir)
+        .output()
+        .with_context(|| format!("running {}", exe.display()))?;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let numbers: Vec<f64> = stdout
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    match (out.status.success(), numbers.as_slice()) {
+        (true, &[a, b, c]) => Ok([a, b, c]),
+        _ => bail!(
+            "cirrus bench instances-memory {}: {}{}",
+            scene_dir.display(),
+            stdout.trim(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        ),
+    }
+}
+
+/// Loads `scene_dir` and builds its BVHs, then prints the resident bytes this
+/// added after the load, after the build, and at the peak (VmRSS, VmRSS and
+/// VmHWM, each minus the VmRSS before loading), space-separated on one line.
+/// Meant for a process that has done nothing else (see [`memory_in_child`]).
+pub fn print_memory(scene_dir: &Path) -> Result<()> {
+    let before = memory("VmRSS")?;
+    // Writing 5 resets VmHWM to the current RSS (proc(5), Linux >= 4.0), so
+    // start-up's own peak is not counted.
+    std::fs::write("/proc/self/clear_refs", "5").context("resetting the peak RSS")?;
+    let scene = Scene::load(scene_dir)?;
+    let after_load = memory("VmRSS")? - before;
+    let geometry = Geometry::build(&scene);
+    let after_build = memory("VmRSS")? - before;
+    let peak = memory("VmHWM")? - before;
+    black_box(&geometry);
+    println!("{after_load} {after_build} {peak}");
+    Ok(())
+}
+
+/// A `/proc/self/status` memory field (`VmRSS`, `VmHWM`), in bytes.
+fn memory(field: &str) -> Result<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").context("/proc/self/status")?;
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix(field)?.strip_prefix(':'))
+        .and_then(|v| v.trim().strip_suffix("kB")?.trim().parse::<f64>().ok())
+        .map(|kb| kb * 1024.0)
+        .with_context(|| format!("no {field} in /proc/self/status"))
+}

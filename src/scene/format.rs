@@ -1,0 +1,524 @@
+//! The records of `scene.json`, format version 1, field for field as
+//! `scenes/FORMAT.md` defines them. Each field names the USD attribute it comes
+//! from, its default when unauthored, and its units. serde checks shapes and
+//! enums; `load.rs` checks everything that needs more than one field (array
+//! references against `scene.bin`, indices, finite numbers).
+
+use std::collections::BTreeMap;
+use std::marker::PhantomData;
+use std::path::PathBuf;
+
+use serde::Deserialize;
+
+/// The only manifest version this loader reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// The value of the manifest's `format` field.
+pub const FORMAT_NAME: &str = "cirrus-scene";
+
+/// A 3x4 row-major affine matrix `[R | t]` acting on column vectors:
+/// `p' = M[:, :3] p + M[:, 3]`; composed in double precision by the exporter.
+pub type Transform = [f32; 12];
+
+/// Linear Rec.709 RGB.
+pub type Rgb = [f32; 3];
+
+/// The whole manifest: everything the renderer models, bulk data as [`Array`]s.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Manifest {
+    /// Always [`FORMAT_NAME`].
+    pub format: String,
+    /// Always [`FORMAT_VERSION`]; checked before the rest is parsed.
+    pub version: u32,
+    /// The USD file this scene was exported from.
+    pub source: Source,
+    /// Stage metadata.
+    pub stage: Stage,
+    /// World-space bounds of all geometry and volumes, in scene units.
+    pub bounds: Bounds,
+    /// Unique geometry, stored once and shared by prototypes.
+    pub meshes: Vec<Mesh>,
+    /// What instances place: meshes and volumes in the prototype's space.
+    pub prototypes: Vec<Prototype>,
+    /// Every placed copy, plain prims included, as structure of arrays.
+    pub instances: Instances,
+    /// UsdPreviewSurface materials, indexed by `Mesh::triangle_materials`.
+    pub materials: Vec<Material>,
+    /// Image files, indexed by [`TextureInput::texture`].
+    pub textures: Vec<Texture>,
+    /// UsdLux lights.
+    pub lights: Vec<Light>,
+    /// The render camera (or a default one framing `bounds`).
+    pub camera: Camera,
+    /// Volume prims with their OpenVDB fields.
+    pub volumes: Vec<Volume>,
+    /// Render settings.
+    pub render: Render,
+    /// Everything that fell back during export, once each.
+    pub warnings: Vec<String>,
+}
+
+/// Where the scene came from.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Source {
+    /// Absolute path of the exported USD file.
+    pub path: PathBuf,
+    /// Its modification time, seconds since the Unix epoch.
+    pub mtime: f64,
+    /// The USD time code exported; `null` = the default time.
+    pub time_code: Option<f64>,
+}
+
+/// Stage-level metadata.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Stage {
+    /// `metersPerUnit` (default 0.01): metres per scene unit.
+    pub meters_per_unit: f64,
+    /// `upAxis` (default Y).
+    pub up_axis: UpAxis,
+}
+
+/// USD's `upAxis`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+pub enum UpAxis {
+    /// +Y is up.
+    Y,
+    /// +Z is up.
+    Z,
+}
+
+/// An axis-aligned box in world space, scene units.
+#[derive(Clone, Copy, Debug, Deserialize)]
+pub struct Bounds {
+    /// Smallest corner.
+    pub min: [f32; 3],
+    /// Largest corner.
+    pub max: [f32; 3],
+}
+
+/// The scalar type of an array in `scene.bin`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Scalar {
+    /// IEEE 754 binary32, little-endian.
+    F32,
+    /// Unsigned 32-bit integer, little-endian.
+    U32,
+}
+
+/// What one element of an [`Array`] is in Rust: its scalar type and width, so
+/// the loader can check the manifest's `type`/`width` before viewing the bytes.
+pub trait Element: bytemuck::Pod {
+    /// The scalar type the manifest must name.
+    const SCALAR: Scalar;
+    /// Scalars per element the manifest must name.
+    const WIDTH: u32;
+}
+
+macro_rules! element {
+    ($t:ty, $scalar:ident, $width:expr) => {
+        impl Element for $t {
+            const SCALAR: Scalar = Scalar::$scalar;
+            const WIDTH: u32 = $width;
+        }
+    };
+}
+element!(u32, U32, 1);
+element!([u32; 3], U32, 3);
+element!([f32; 2], F32, 2);
+element!([f32; 3], F32, 3);
+element!([f32; 12], F32, 12);
+
+/// A reference to bulk data in `scene.bin`: `count` elements of type `T`
+/// starting at byte `offset`. View it with `Scene::view`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(bound = "")]
+pub struct Array<T> {
+    /// Byte offset into `scene.bin`, a multiple of 16.
+    pub offset: u64,
+    /// Number of elements (not scalars).
+    pub count: u64,
+    /// Scalar type as written; must equal `T::SCALAR`.
+    #[serde(rename = "type")]
+    pub scalar: Scalar,
+    /// Scalars per element as written; must equal `T::WIDTH`.
+    pub width: u32,
+    #[serde(skip)]
+    element: PhantomData<T>,
+}
+
+impl<T: Element> Array<T> {
+    /// Bytes the array occupies in `scene.bin` (`None` on overflow).
+    pub fn bytes(&self) -> Option<u64> {
+        self.count.checked_mul(u64::from(self.width) * 4)
+    }
+}
+
+/// Unique triangle geometry in its prototype's local space (`UsdGeomMesh`).
+#[derive(Clone, Debug, Deserialize)]
+pub struct Mesh {
+    /// Prim path (inside the prototype for instanced geometry).
+    pub path: String,
+    /// `points`: vertex positions, scene units; unwelded per corner by the
+    /// exporter where normals or UVs are faceVarying.
+    pub points: Array<[f32; 3]>,
+    /// `faceVertexIndices`, fan-triangulated, counter-clockwise seen from the
+    /// front (`leftHanded` meshes flipped by the exporter); indices into `points`.
+    pub triangles: Array<[u32; 3]>,
+    /// `normals`/`primvars:normals`, one per point; `null` = geometric normals.
+    pub normals: Option<Array<[f32; 3]>>,
+    /// `primvars:st`, one per point; `null` when unauthored.
+    pub uvs: Option<Array<[f32; 2]>>,
+    /// Bound material per triangle (GeomSubsets resolved); [`NO_MATERIAL`] = none.
+    pub triangle_materials: Array<u32>,
+    /// `doubleSided` (default false).
+    pub double_sided: bool,
+}
+
+/// `triangle_materials` entry for a triangle with no bound material (grey default).
+pub const NO_MATERIAL: u32 = u32::MAX;
+
+/// What an instance places: meshes and volumes, each with its own transform.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Prototype {
+    /// Prim path of the prototype (or of the plain prim it wraps).
+    pub path: String,
+    /// Meshes of this prototype.
+    pub meshes: Vec<MeshPart>,
+    /// Volumes of this prototype.
+    pub volumes: Vec<VolumePart>,
+}
+
+/// One mesh placed in a prototype.
+#[derive(Clone, Debug, Deserialize)]
+pub struct MeshPart {
+    /// Index into `Manifest::meshes`.
+    pub mesh: u32,
+    /// Prototype-from-mesh transform (the prim's local-to-prototype xform).
+    pub transform: Transform,
+}
+
+/// One volume placed in a prototype.
+#[derive(Clone, Debug, Deserialize)]
+pub struct VolumePart {
+    /// Index into `Manifest::volumes`.
+    pub volume: u32,
+    /// Prototype-from-volume transform.
+    pub transform: Transform,
+}
+
+/// Every placed copy of a prototype, structure of arrays, all `count` long:
+/// 60 bytes per instance whatever the prototype's size.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Instances {
+    /// Number of instances.
+    pub count: u64,
+    /// Prototype index per instance.
+    pub prototype: Array<u32>,
+    /// World-from-prototype transform per instance (PointInstancer
+    /// `positions`/`orientations`/`scales` composed with the instancer's xform).
+    pub transform: Array<[f32; 12]>,
+    /// Index into `instance_sources` per instance.
+    pub source: Array<u32>,
+    /// The instance's index within its source: PointInstancer `ids` if
+    /// authored, else its position in the instancer's arrays.
+    pub source_index: Array<u32>,
+    /// Prim paths of instancers, instanceable prims and plain prims.
+    pub instance_sources: Vec<String>,
+}
+
+/// A `UsdPreviewSurface` material; defaults are UsdPreviewSurface's.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Material {
+    /// Prim path of the Material.
+    pub path: String,
+    /// True when the material could not be read (MaterialX-only, glslfx, ...)
+    /// and became grey diffuse 0.18; the exporter warned once naming it.
+    pub fallback: bool,
+    /// `inputs:diffuseColor` (default 0.18 grey), linear RGB.
+    pub diffuse_color: Input<Rgb>,
+    /// `inputs:emissiveColor` (default black), linear RGB radiance scale.
+    pub emissive_color: Input<Rgb>,
+    /// `inputs:metallic` (default 0), in [0, 1].
+    pub metallic: Input<f32>,
+    /// `inputs:roughness` (default 0.5), perceptual, in [0, 1].
+    pub roughness: Input<f32>,
+    /// `inputs:specularColor` (default black), used with the specular workflow.
+    pub specular_color: Input<Rgb>,
+    /// `inputs:useSpecularWorkflow` (default 0).
+    pub use_specular_workflow: bool,
+    /// `inputs:ior` (default 1.5).
+    pub ior: f32,
+    /// `inputs:opacity` (default 1), in [0, 1].
+    pub opacity: Input<f32>,
+    /// `inputs:clearcoat` (default 0), weight in [0, 1].
+    pub clearcoat: f32,
+    /// `inputs:clearcoatRoughness` (default 0.01).
+    pub clearcoat_roughness: f32,
+    /// `inputs:normal` texture (tangent space); `null` = none.
+    pub normal: Option<TextureInput>,
+}
+
+/// A material input: a constant or a texture lookup.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum Input<T> {
+    /// The authored (or default) value.
+    Constant(T),
+    /// A `UsdUVTexture` connected to the input.
+    Texture(TextureInput),
+}
+
+impl<T> Input<T> {
+    /// The texture connection, if the input is not a constant.
+    pub fn texture(&self) -> Option<&TextureInput> {
+        match self {
+            Self::Constant(_) => None,
+            Self::Texture(t) => Some(t),
+        }
+    }
+}
+
+/// A connection from a material input to a texture's output channel(s).
+#[derive(Clone, Debug, Deserialize)]
+pub struct TextureInput {
+    /// Index into `Manifest::textures`.
+    pub texture: u32,
+    /// `UsdUVTexture` output used: `outputs:rgb`, `:r`, `:g`, `:b` or `:a`.
+    pub channel: Channel,
+}
+
+/// A `UsdUVTexture` output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Channel {
+    /// `outputs:rgb`.
+    Rgb,
+    /// `outputs:r`.
+    R,
+    /// `outputs:g`.
+    G,
+    /// `outputs:b`.
+    B,
+    /// `outputs:a`.
+    A,
+}
+
+/// A `UsdUVTexture` shader.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Texture {
+    /// `inputs:file`, resolved to an absolute path (kept even when missing).
+    pub file: PathBuf,
+    /// `inputs:wrapS` (default `useMetadata`, resolved by the exporter).
+    pub wrap_s: Wrap,
+    /// `inputs:wrapT`.
+    pub wrap_t: Wrap,
+    /// `inputs:scale` (default 1,1,1,1), multiplies the texel.
+    pub scale: [f32; 4],
+    /// `inputs:bias` (default 0,0,0,0), added after `scale`.
+    pub bias: [f32; 4],
+    /// `inputs:fallback` (default 0,0,0,1), used when the file is missing.
+    pub fallback: [f32; 4],
+    /// `inputs:sourceColorSpace` (default auto).
+    pub color_space: ColorSpace,
+    /// A `UsdTransform2d` feeding `inputs:st`; `null` = identity.
+    pub st_transform: Option<StTransform>,
+}
+
+/// `UsdUVTexture` wrap modes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Wrap {
+    /// Tile.
+    Repeat,
+    /// Clamp to the edge texel.
+    Clamp,
+    /// Tile, every other copy mirrored.
+    Mirror,
+    /// Outside [0, 1] reads black.
+    Black,
+}
+
+/// `inputs:sourceColorSpace`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+pub enum ColorSpace {
+    /// sRGB for 8-bit images, linear otherwise.
+    #[serde(rename = "auto")]
+    Auto,
+    /// sRGB-encoded.
+    #[serde(rename = "sRGB")]
+    Srgb,
+    /// Linear data (normals, roughness).
+    #[serde(rename = "raw")]
+    Raw,
+}
+
+/// A `UsdTransform2d` applied to texture coordinates: scale, then rotate, then translate.
+#[derive(Clone, Copy, Debug, Deserialize)]
+pub struct StTransform {
+    /// `inputs:translation` (default 0,0).
+    pub translation: [f32; 2],
+    /// `inputs:rotation` (default 0), degrees counter-clockwise.
+    pub rotation_deg: f32,
+    /// `inputs:scale` (default 1,1).
+    pub scale: [f32; 2],
+}
+
+/// A UsdLux light: what every type shares, plus its [`LightShape`].
+#[derive(Clone, Debug, Deserialize)]
+pub struct Light {
+    /// Prim path.
+    pub path: String,
+    /// World-from-light transform; the light faces its -Z.
+    pub transform: Transform,
+    /// `inputs:color` (default 1,1,1), linear RGB.
+    pub color: Rgb,
+    /// `inputs:intensity` (default 1).
+    pub intensity: f32,
+    /// `inputs:exposure` (default 0), stops: emission scales by 2^exposure.
+    pub exposure: f32,
+    /// `inputs:normalize` (default false): divide by area (or, for distant
+    /// lights, give irradiance); see CONVENTIONS.md.
+    pub normalize: bool,
+    /// `inputs:colorTemperature` in kelvin when `enableColorTemperature` is
+    /// true; `null` otherwise.
+    pub color_temperature: Option<f32>,
+    /// The type and its own attributes.
+    #[serde(flatten)]
+    pub shape: LightShape,
+}
+
+/// The UsdLux light types, with their type-specific attributes.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase")]
+pub enum LightShape {
+    /// `DistantLight`.
+    Distant {
+        /// `inputs:angle` (default 0.53), angular diameter in degrees.
+        angle_deg: f32,
+    },
+    /// `SphereLight`.
+    Sphere {
+        /// `inputs:radius` (default 0.5), scene units.
+        radius: f32,
+        /// `treatAsPoint` (default false).
+        treat_as_point: bool,
+    },
+    /// `RectLight`, in the light's XY plane.
+    Rect {
+        /// `inputs:width` (default 1), scene units along X.
+        width: f32,
+        /// `inputs:height` (default 1), scene units along Y.
+        height: f32,
+        /// `inputs:texture:file`, absolute; `null` = none.
+        texture: Option<PathBuf>,
+    },
+    /// `DiskLight`, in the light's XY plane.
+    Disk {
+        /// `inputs:radius` (default 0.5), scene units.
+        radius: f32,
+    },
+    /// `CylinderLight`, along the light's X axis.
+    Cylinder {
+        /// `inputs:radius` (default 0.5), scene units.
+        radius: f32,
+        /// `inputs:length` (default 1), scene units.
+        length: f32,
+    },
+    /// `DomeLight`.
+    Dome {
+        /// `inputs:texture:file`, a lat-long image, absolute; `null` = constant.
+        texture: Option<PathBuf>,
+    },
+}
+
+impl LightShape {
+    /// The manifest's name for this type (`"distant"`, `"sphere"`, ...).
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            Self::Distant { .. } => "distant",
+            Self::Sphere { .. } => "sphere",
+            Self::Rect { .. } => "rect",
+            Self::Disk { .. } => "disk",
+            Self::Cylinder { .. } => "cylinder",
+            Self::Dome { .. } => "dome",
+        }
+    }
+}
+
+/// A `UsdGeomCamera`.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Camera {
+    /// Prim path; `null` = a default camera framing `bounds`.
+    pub path: Option<String>,
+    /// World-from-camera; the camera looks down -Z with +Y up.
+    pub transform: Transform,
+    /// `projection` (default perspective).
+    pub projection: Projection,
+    /// `focalLength` (default 50), tenths of a scene unit.
+    pub focal_length: f32,
+    /// `horizontalAperture` (default 20.955), tenths of a scene unit.
+    pub horizontal_aperture: f32,
+    /// `verticalAperture` (default 15.2908), tenths of a scene unit.
+    pub vertical_aperture: f32,
+    /// `horizontalApertureOffset` (default 0), tenths of a scene unit.
+    pub horizontal_aperture_offset: f32,
+    /// `verticalApertureOffset` (default 0), tenths of a scene unit.
+    pub vertical_aperture_offset: f32,
+    /// `clippingRange` (default 1, 1000000): near and far, scene units.
+    pub clipping_range: [f32; 2],
+    /// `fStop` (default 0 = pinhole).
+    pub f_stop: f32,
+    /// `focusDistance` (default 0), scene units.
+    pub focus_distance: f32,
+}
+
+/// `UsdGeomCamera.projection`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Projection {
+    /// Pinhole or thin lens.
+    Perspective,
+    /// Parallel rays; apertures give the view size.
+    Orthographic,
+}
+
+/// A `UsdVolVolume` and its shading (see CONVENTIONS.md, Volumes).
+#[derive(Clone, Debug, Deserialize)]
+pub struct Volume {
+    /// Prim path.
+    pub path: String,
+    /// `field:<name>` relationships to `OpenVDBAsset` prims, by field name
+    /// (`density` and optionally `temperature`, ...).
+    pub fields: BTreeMap<String, VolumeField>,
+    /// `primvars:densityScale` (default 1): sigma_t per world unit per density.
+    pub density_scale: f32,
+    /// `primvars:albedo` (default 1,1,1): sigma_s / sigma_t per channel.
+    pub albedo: Rgb,
+    /// `primvars:anisotropy` (default 0): Henyey-Greenstein g.
+    pub anisotropy: f32,
+    /// `primvars:heatScale` (default 0 = no emission).
+    pub heat_scale: f32,
+    /// `primvars:temperatureOffset` (default 0), kelvin.
+    pub temperature_offset: f32,
+    /// `primvars:temperatureScale` (default 1).
+    pub temperature_scale: f32,
+}
+
+/// An `OpenVDBAsset` field prim.
+#[derive(Clone, Debug, Deserialize)]
+pub struct VolumeField {
+    /// `filePath`, absolute.
+    pub file: PathBuf,
+    /// `fieldName`: the grid's name in the file.
+    pub grid: String,
+    /// `fieldIndex` (default 0): which grid of that name.
+    pub index: u32,
+}
+
+/// Render settings from `UsdRender.Settings`.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Render {
+    /// `resolution` in pixels (width, height); `null` when the stage has none.
+    pub resolution: Option<[u32; 2]>,
+}

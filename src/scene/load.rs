@@ -1,0 +1,366 @@
+//! Reading a scene folder: `scene.json` parsed and checked, `scene.bin` read
+//! once into a 16-byte-aligned buffer whose arrays are viewed in place with
+//! `bytemuck`, never parsed element by element. Every array reference, index,
+//! enum and transform is validated here, so nothing downstream re-checks.
+
+use std::fs::File;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use bytemuck::{Pod, Zeroable};
+
+use super::format::{Array, Element, Manifest, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL};
+
+/// The manifest's file name inside a scene folder.
+pub const MANIFEST_FILE: &str = "scene.json";
+/// The bulk data's file name inside a scene folder.
+pub const BLOB_FILE: &str = "scene.bin";
+
+/// Why a scene folder could not be loaded. Every variant names the file, and
+/// [`SceneError::Invalid`] the field path (`meshes[3].triangles`).
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be opened or read (missing, truncated, permissions).
+    #[error("{path}: {error}", path = path.display())]
+    Io {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    /// `scene.json` is not valid JSON.
+    #[error("{path}: not JSON: {error}", path = path.display())]
+    NotJson {
+        path: PathBuf,
+        error: serde_json::Error,
+    },
+    /// Valid JSON, but not a Cirrus scene manifest.
+    #[error("{path}: not a Cirrus scene (\"format\" is {found}, expected \"{FORMAT_NAME}\")", path = path.display())]
+    NotScene { path: PathBuf, found: String },
+    /// A manifest of another format version.
+    #[error("{path}: scene format version {found}, but this Cirrus reads version {FORMAT_VERSION} only; re-export the scene with this checkout's exporter", path = path.display())]
+    Version { path: PathBuf, found: String },
+    /// A field that is missing, of the wrong type or out of range.
+    #[error("{path}: {field}: {message}", path = path.display())]
+    Invalid {
+        path: PathBuf,
+        field: String,
+        message: String,
+    },
+}
+
+/// One 16-byte chunk: a `Vec` of these is a byte buffer aligned for any array view.
+#[derive(Clone, Copy, Pod, Zeroable)]
+#[repr(C, align(16))]
+struct Chunk([u8; 16]);
+
+/// The contents of `scene.bin`, 16-byte aligned.
+pub(crate) struct Blob {
+    chunks: Vec<Chunk>,
+    len: usize,
+}
+
+impl Blob {
+    /// The file's bytes.
+    pub(crate) fn bytes(&self) -> &[u8] {
+        &bytemuck::cast_slice(&self.chunks)[..self.len]
+    }
+
+    /// The elements of a validated array, viewed in place.
+    pub(crate) fn view<T: Element>(&self, array: &Array<T>) -> &[T] {
+        let start = array.offset as usize;
+        let end = start + array.bytes().expect("validated array") as usize;
+        bytemuck::cast_slice(&self.bytes()[start..end])
+    }
+
+    fn read(path: &Path) -> Result<Self, SceneError> {
+        let io = |error| SceneError::Io {
+            path: path.to_owned(),
+            error,
+        };
+        let mut file = File::open(path).map_err(io)?;
+        let len = file.metadata().map_err(io)?.len() as usize;
+        let mut chunks = vec![Chunk::zeroed(); len.div_ceil(16)];
+        file.read_exact(&mut bytemuck::cast_slice_mut(&mut chunks)[..len])
+            .map_err(io)?;
+        Ok(Self { chunks, len })
+    }
+}
+
+/// Resolves a scene argument (the folder, or its `scene.json`) to the folder.
+pub(crate) fn scene_dir(path: &Path) -> PathBuf {
+    if path.file_name().is_some_and(|n| n == MANIFEST_FILE) {
+        path.parent().unwrap_or(Path::new(".")).to_owned()
+    } else {
+        path.to_owned()
+    }
+}
+
+/// Reads and validates `dir/scene.json` and `dir/scene.bin`.
+pub(crate) fn load(dir: &Path) -> Result<(Manifest, Blob), SceneError> {
+    let manifest_path = dir.join(MANIFEST_FILE);
+    let text = std::fs::read_to_string(&manifest_path).map_err(|error| SceneError::Io {
+        path: manifest_path.clone(),
+        error,
+    })?;
+    let manifest = parse_manifest(&manifest_path, &text)?;
+    let blob = Blob::read(&dir.join(BLOB_FILE))?;
+    Checker {
+        path: &manifest_path,
+        blob: &blob,
+        manifest: &manifest,
+    }
+    .scene()?;
+    Ok((manifest, blob))
+}
+
+/// Parses the manifest: the format name and version first, so a file of another
+/// version is refused as such rather than as a pile of field errors.
+fn parse_manifest(path: &Path, text: &str) -> Result<Manifest, SceneError> {
+    let value: serde_json::Value =
+        serde_json::from_str(text).map_err(|error| SceneError::NotJson {
+            path: path.to_owned(),
+            error,
+        })?;
+    let field = |name: &str| {
+        value
+            .get(name)
+            .map_or_else(|| "missing".to_owned(), |v| v.to_string())
+    };
+    if value.get("format").and_then(|v| v.as_str()) != Some(FORMAT_NAME) {
+        return Err(SceneError::NotScene {
+            path: path.to_owned(),
+            found: field("format"),
+        });
+    }
+    if value.get("version").and_then(|v| v.as_u64()) != Some(FORMAT_VERSION.into()) {
+        return Err(SceneError::Version {
+            path: path.to_owned(),
+            found: field("version"),
+        });
+    }
+    serde_path_to_error::deserialize(value).map_err(|e| SceneError::Invalid {
+        path: path.to_owned(),
+        // serde_path_to_error names the root ".": a field missing at the top level.
+        field: match e.path().to_string() {
+            root if root == "." => "manifest".to_owned(),
+            path => path,
+        },
+        message: e.inner().to_string(),
+    })
+}
+
+/// Cross-field validation of a parsed manifest against its blob.
+struct Checker<'a> {
+    path: &'a Path,
+    blob: &'a Blob,
+    manifest: &'a Manifest,
+}
+
+impl Checker<'_> {
+    fn invalid(&self, field: &str, message: String) -> SceneError {
+        SceneError::Invalid {
+            path: self.path.to_owned(),
+            field: field.to_owned(),
+            message,
+        }
+    }
+
+    fn scene(&self) -> Result<(), SceneError> {
+        let m = self.manifest;
+        let mpu = m.stage.meters_per_unit;
+        if !(mpu.is_finite() && mpu > 0.0) {
+            return Err(self.invalid(
+                "stage.meters_per_unit",
+                format!("{mpu} is not a positive number"),
+            ));
+        }
+        for (i, mesh) in m.meshes.iter().enumerate() {
+            self.mesh(i, mesh)?;
+        }
+        for (i, proto) in m.prototypes.iter().enumerate() {
+            for (j, part) in proto.meshes.iter().enumerate() {
+                let field = format!("prototypes[{i}].meshes[{j}]");
+                self.index(
+                    &format!("{field}.mesh"),
+                    part.mesh,
+                    m.meshes.len(),
+                    "meshes",
+                )?;
+                self.finite(&format!("{field}.transform"), &part.transform)?;
+            }
+            for (j, part) in proto.volumes.iter().enumerate() {
+                let field = format!("prototypes[{i}].volumes[{j}]");
+                self.index(
+                    &format!("{field}.volume"),
+                    part.volume,
+                    m.volumes.len(),
+                    "volumes",
+                )?;
+                self.finite(&format!("{field}.transform"), &part.transform)?;
+            }
+        }
+        self.instances()?;
+        for (i, mat) in m.materials.iter().enumerate() {
+            let inputs = [
+                ("diffuse_color", mat.diffuse_color.texture()),
+                ("emissive_color", mat.emissive_color.texture()),
+                ("metallic", mat.metallic.texture()),
+                ("roughness", mat.roughness.texture()),
+                ("specular_color", mat.specular_color.texture()),
+                ("opacity", mat.opacity.texture()),
+                ("normal", mat.normal.as_ref()),
+            ];
+            for (name, input) in inputs {
+                if let Some(t) = input {
+                    let field = format!("materials[{i}].{name}.texture");
+                    self.index(&field, t.texture, m.textures.len(), "textures")?;
+                }
+            }
+        }
+        for (i, light) in m.lights.iter().enumerate() {
+            self.finite(&format!("lights[{i}].transform"), &light.transform)?;
+        }
+        self.finite("camera.transform", &m.camera.transform)
+    }
+
+    fn mesh(&self, i: usize, mesh: &super::format::Mesh) -> Result<(), SceneError> {
+        let field = |name: &str| format!("meshes[{i}].{name}");
+        let points = self.array(&field("points"), &mesh.points)?;
+        self.finite(&field("points"), bytemuck::cast_slice(points))?;
+        let triangles = self.array(&field("triangles"), &mesh.triangles)?;
+        self.indices(
+            &field("triangles"),
+            triangles.iter().flatten().copied(),
+            points.len(),
+            "points",
+            None,
+        )?;
+        if let Some(normals) = &mesh.normals {
+            let normals = self.array(&field("normals"), normals)?;
+            self.count(&field("normals"), normals.len(), points.len(), "points")?;
+            self.finite(&field("normals"), bytemuck::cast_slice(normals))?;
+        }
+        if let Some(uvs) = &mesh.uvs {
+            let uvs = self.array(&field("uvs"), uvs)?;
+            self.count(&field("uvs"), uvs.len(), points.len(), "points")?;
+            self.finite(&field("uvs"), bytemuck::cast_slice(uvs))?;
+        }
+        let materials = self.array(&field("triangle_materials"), &mesh.triangle_materials)?;
+        self.count(
+            &field("triangle_materials"),
+            materials.len(),
+            triangles.len(),
+            "triangles",
+        )?;
+        self.indices(
+            &field("triangle_materials"),
+            materials.iter().copied(),
+            self.manifest.materials.len(),
+            "materials",
+            Some(NO_MATERIAL),
+        )
+    }
+
+    fn instances(&self) -> Result<(), SceneError> {
+        let inst = &self.manifest.instances;
+        let n = inst.count as usize;
+        let prototype = self.array("instances.prototype", &inst.prototype)?;
+        self.count("instances.prototype", prototype.len(), n, "instances")?;
+        let prototypes = self.manifest.prototypes.len();
+        self.indices(
+            "instances.prototype",
+            prototype.iter().copied(),
+            prototypes,
+            "prototypes",
+            None,
+        )?;
+        let transform = self.array("instances.transform", &inst.transform)?;
+        self.count("instances.transform", transform.len(), n, "instances")?;
+        self.finite("instances.transform", bytemuck::cast_slice(transform))?;
+        let source = self.array("instances.source", &inst.source)?;
+        self.count("instances.source", source.len(), n, "instances")?;
+        self.indices(
+            "instances.source",
+            source.iter().copied(),
+            inst.instance_sources.len(),
+            "instance_sources",
+            None,
+        )?;
+        let source_index = self.array("instances.source_index", &inst.source_index)?;
+        self.count("instances.source_index", source_index.len(), n, "instances")
+    }
+
+    /// Checks an array reference (type, width, alignment, extent) and views it.
+    fn array<T: Element>(&self, field: &str, array: &Array<T>) -> Result<&[T], SceneError> {
+        if array.scalar != T::SCALAR {
+            return Err(self.invalid(
+                field,
+                format!("type {:?}, expected {:?}", array.scalar, T::SCALAR).to_lowercase(),
+            ));
+        }
+        if array.width != T::WIDTH {
+            return Err(self.invalid(
+                field,
+                format!("width {}, expected {}", array.width, T::WIDTH),
+            ));
+        }
+        if !array.offset.is_multiple_of(16) {
+            return Err(self.invalid(
+                field,
+                format!("offset {} is not a multiple of 16", array.offset),
+            ));
+        }
+        let len = self.blob.bytes().len() as u64;
+        match array.bytes().and_then(|b| b.checked_add(array.offset)) {
+            Some(end) if end <= len => Ok(self.blob.view(array)),
+            _ => Err(self.invalid(
+                field,
+                format!(
+                    "{} elements at offset {} run past the end of {BLOB_FILE} ({len} bytes)",
+                    array.count, array.offset
+                ),
+            )),
+        }
+    }
+
+    fn count(&self, field: &str, got: usize, want: usize, of: &str) -> Result<(), SceneError> {
+        if got == want {
+            Ok(())
+        } else {
+            Err(self.invalid(
+                field,
+                format!("count {got}, expected one per {of} ({want})"),
+            ))
+        }
+    }
+
+    fn index(&self, field: &str, index: u32, len: usize, of: &str) -> Result<(), SceneError> {
+        self.indices(field, std::iter::once(index), len, of, None)
+    }
+
+    /// Every index `< len`, or equal to `allowed` (a "none" sentinel).
+    fn indices(
+        &self,
+        field: &str,
+        indices: impl Iterator<Item = u32>,
+        len: usize,
+        of: &str,
+        allowed: Option<u32>,
+    ) -> Result<(), SceneError> {
+        for index in indices {
+            if index as usize >= len && Some(index) != allowed {
+                return Err(self.invalid(field, format!("index {index} >= {len} {of}")));
+            }
+        }
+        Ok(())
+    }
+
+    fn finite(&self, field: &str, values: &[f32]) -> Result<(), SceneError> {
+        match values.iter().position(|v| !v.is_finite()) {
+            None => Ok(()),
+            Some(at) => Err(self.invalid(
+                field,
+                format!("non-finite value {} at scalar {at}", values[at]),
+            )),
+        }
+    }
+}

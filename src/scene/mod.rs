@@ -1,0 +1,94 @@
+//! The intermediate scene format (`scenes/FORMAT.md`): what the USD exporter
+//! (`scenes/export_usd.py`) writes and the renderer reads.
+//!
+//! A scene is a folder of `scene.json` (the manifest, [`Manifest`]) and
+//! `scene.bin` (every bulk array). [`Scene::load`] reads the blob once into an
+//! aligned buffer and validates every reference, index and enum, so a [`Scene`]
+//! in hand is internally consistent. It is plain data: acceleration structures
+//! are built from it by `geometry`, never stored in it.
+//!
+//! Memory grows with prototypes, not instances: meshes are stored once, and
+//! each instance costs 60 bytes (a 3x4 transform and three `u32`s) in
+//! structure-of-arrays form, viewed in place from `scene.bin`.
+//!
+//! [`export`] runs the Python exporter on a USD file, and [`export_cached`]
+//! keeps its result in a cache keyed by the input's path and modification time.
+
+mod export;
+mod format;
+mod load;
+
+use std::path::{Path, PathBuf};
+
+pub use export::{export, export_cached, ExportError};
+pub use format::{
+    Array, Bounds, Camera, Channel, ColorSpace, Element, Input, Instances, Light, LightShape,
+    Manifest, Material, Mesh, MeshPart, Projection, Prototype, Render, Rgb, Scalar, Source,
+    StTransform, Stage, Texture, TextureInput, Transform, UpAxis, Volume, VolumeField, VolumePart,
+    Wrap, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+};
+pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
+
+/// A loaded, validated scene: the manifest records and the bulk data they reference.
+pub struct Scene {
+    /// The scene folder.
+    pub dir: PathBuf,
+    /// Every record of `scene.json`; bulk fields are [`Array`]s, read with [`Scene::view`].
+    pub manifest: Manifest,
+    blob: load::Blob,
+}
+
+/// Bytes of bulk data a scene holds, by what they describe.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ArrayBytes {
+    /// Mesh points, triangles, normals, UVs and per-triangle materials.
+    pub meshes: u64,
+    /// Instance transforms, prototype, source and source-index arrays.
+    pub instances: u64,
+}
+
+impl Scene {
+    /// Loads a scene from its folder or its `scene.json`, validating everything
+    /// (see [`SceneError`] for what is refused).
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let dir = load::scene_dir(path);
+        let (manifest, blob) = load::load(&dir)?;
+        Ok(Self {
+            dir,
+            manifest,
+            blob,
+        })
+    }
+
+    /// The elements of one of this scene's arrays, viewed in place in `scene.bin`.
+    ///
+    /// # Panics
+    /// If `array` is not one of this scene's (validated) references.
+    pub fn view<T: Element>(&self, array: &Array<T>) -> &[T] {
+        self.blob.view(array)
+    }
+
+    /// Bulk bytes by kind: meshes grow with unique geometry, instances by 60
+    /// bytes per instance.
+    pub fn array_bytes(&self) -> ArrayBytes {
+        let bytes = |b: Option<u64>| b.expect("validated array");
+        let meshes = self
+            .manifest
+            .meshes
+            .iter()
+            .map(|m| {
+                bytes(m.points.bytes())
+                    + bytes(m.triangles.bytes())
+                    + m.normals.as_ref().map_or(0, |a| bytes(a.bytes()))
+                    + m.uvs.as_ref().map_or(0, |a| bytes(a.bytes()))
+                    + bytes(m.triangle_materials.bytes())
+            })
+            .sum();
+        let i = &self.manifest.instances;
+        let instances = bytes(i.prototype.bytes())
+            + bytes(i.transform.bytes())
+            + bytes(i.source.bytes())
+            + bytes(i.source_index.bytes());
+        ArrayBytes { meshes, instances }
+    }
+}

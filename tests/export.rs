@@ -1,0 +1,378 @@
+//! The USD exporter (`scenes/export_usd.py`) on every real USD scene in
+//! `../shared/assets`, each checked by the independent `tests/python/check_export.py`
+//! (usd-core's own transforms and bounds), plus the instancing counts that matter
+//! and a clear one-line error for every kind of bad input.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use common::{asset, python_script, run_python, scratch, venv_python};
+
+/// Every shared USD scene the exporter must handle: (asset path, --frame or "").
+const SCENES: &[(&str, &str)] = &[
+    ("openusd/testUsdImagingGLVdbVolume/vdbVolume.usda", ""),
+    (
+        "openusd/testUsdImagingGLVdbVolume/vdbVolumeTwoFields.usda",
+        "",
+    ),
+    (
+        "openusd/testUsdImagingGLVdbVolume/vdbVolumeFallbackMaterial.usda",
+        "",
+    ),
+    (
+        "openusd/testUsdImagingGLVdbVolume/vdbVolumeTargetMemory.usda",
+        "",
+    ),
+    ("openusd/testUsdImagingGLVdbVolume/vdbVolumeOrtho.usda", ""),
+    ("openusd/testUsdImagingGLPointInstancer/pi_basic.usda", ""),
+    ("openusd/testUsdImagingGLPointInstancer/pi_ni.usda", ""),
+    ("openusd/testUsdImagingGLPointInstancer/ni_pi.usda", ""),
+    (
+        "openusd/testUsdImagingGLPointInstancer/ni_pi_variant.usda",
+        "",
+    ),
+    ("openusd/testUsdImagingGLPointInstancer/pi_pi.usda", ""),
+    (
+        "openusd/testUsdImagingGLInstancingWithMaterials/cubeShaded.usda",
+        "",
+    ),
+    (
+        "openusd/testUsdImagingGLInstancingWithMaterials/ni_2instances_shaded.usda",
+        "",
+    ),
+    (
+        "openusd/testUsdImagingGLInstancingWithMaterials/ni_ni_material_binding_resolution.usda",
+        "",
+    ),
+    (
+        "openusd/testUsdImagingGLPreviewSurface/testPreviewSurfaceNormalMap.usda",
+        "",
+    ),
+    (
+        "openusd/testUsdImagingGLPreviewSurface/testPreviewSurfaceTexture.usda",
+        "",
+    ),
+    ("openusd/testUsdImagingGLUsdLux/usdLux.usda", ""),
+    ("openusd/testUsdImagingGLDomeLight/sphereMetallic.usda", ""),
+    ("arnold-usd/test_0030/data/scene.usda", ""),
+    ("arnold-usd/test_2239/data/test.usda", ""),
+    ("arnold-usd/test_2239/data/test.usda", "2"),
+    ("usd-wg/full_assets/Teapot/Teapot.usd", ""),
+    (
+        "usd-wg/full_assets/StandardShaderBall/standard_shader_ball_scene.usda",
+        "",
+    ),
+    ("usd-wg/full_assets/OpenChessSet/chess_set.usda", ""),
+    ("usd-wg/intent-vfx/scenes/teapotScene_layout.usd", ""),
+    ("usd-wg/intent-vfx/scenes/teapotScene.usd", ""),
+    ("usd-wg/intent-vfx/scenes/simpleAssetScene.usd", ""),
+    (
+        "usd-wg/test_assets/TextureTransformTest/TextureTransformTest.usd",
+        "",
+    ),
+    (
+        "usd-wg/test_assets/TextureCoordinateTest/TextureCoordinateTest.usda",
+        "",
+    ),
+    ("usd-wg/test_assets/RoughnessTest/RoughnessTest.usdz", ""),
+];
+
+/// Runs the exporter on `input` into `out` (with `--frame` when not empty).
+fn export(input: &Path, out: &Path, frame: &str) -> Output {
+    let mut cmd = Command::new(venv_python());
+    cmd.arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/export_usd.py"))
+        .arg(input)
+        .arg("-o")
+        .arg(out);
+    if !frame.is_empty() {
+        cmd.args(["--frame", frame]);
+    }
+    cmd.output().unwrap()
+}
+
+/// Exports a shared asset, asserting success, and returns the output folder.
+fn export_ok(rel: &str, frame: &str, dir: &Path) -> PathBuf {
+    let out = dir.join(rel.replace('/', "_") + frame);
+    let result = export(&asset(rel), &out, frame);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        result.status.success() && !stderr.contains("Traceback"),
+        "exporting {rel} (frame '{frame}') failed:\n{stderr}"
+    );
+    out
+}
+
+/// The manifest of an exported scene.
+fn manifest(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("scene.json")).unwrap()).unwrap()
+}
+
+/// Runs the independent checker; returns (success, stdout + stderr).
+fn check(input: &Path, out: &Path) -> (bool, String) {
+    let result = Command::new(venv_python())
+        .arg(python_script("check_export.py"))
+        .arg(input)
+        .arg(out)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&result.stdout).to_string()
+        + &String::from_utf8_lossy(&result.stderr);
+    (result.status.success(), text)
+}
+
+/// Number of instances whose source is `path`.
+fn instances_of(out: &Path, path: &str) -> usize {
+    let m = manifest(out);
+    let sources = m["instances"]["instance_sources"].as_array().unwrap();
+    let Some(index) = sources.iter().position(|s| s == path) else {
+        return 0;
+    };
+    let reference = &m["instances"]["source"];
+    let bin = std::fs::read(out.join("scene.bin")).unwrap();
+    let offset = reference["offset"].as_u64().unwrap() as usize;
+    let count = reference["count"].as_u64().unwrap() as usize;
+    bin[offset..offset + 4 * count]
+        .chunks_exact(4)
+        .filter(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as usize == index)
+        .count()
+}
+
+#[test]
+fn every_shared_scene_exports_and_matches_usd_core() {
+    let dir = scratch("export_all");
+    let mut failures = Vec::new();
+    for (rel, frame) in SCENES {
+        let out = export_ok(rel, frame, &dir);
+        let (ok, text) = check(&asset(rel), &out);
+        if !ok {
+            failures.push(format!("{rel} (frame '{frame}'):\n{text}"));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "checker failures:\n{}",
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn checker_catches_a_moved_instance() {
+    let dir = scratch("export_checker_fails");
+    let rel = "openusd/testUsdImagingGLPointInstancer/pi_basic.usda";
+    let out = export_ok(rel, "", &dir);
+    let m = manifest(&out);
+    let offset = m["instances"]["transform"]["offset"].as_u64().unwrap() as usize;
+    let mut bin = std::fs::read(out.join("scene.bin")).unwrap();
+    // Translation x of instance 0 (3x4 row-major: element 3).
+    let at = offset + 3 * 4;
+    let x = f32::from_le_bytes(bin[at..at + 4].try_into().unwrap()) + 0.01;
+    bin[at..at + 4].copy_from_slice(&x.to_le_bytes());
+    std::fs::write(out.join("scene.bin"), bin).unwrap();
+    let (ok, text) = check(&asset(rel), &out);
+    assert!(!ok, "checker accepted a moved instance:\n{text}");
+    assert!(text.contains("transforms differ"), "{text}");
+}
+
+#[test]
+fn intent_vfx_layout_keeps_one_teapot() {
+    let dir = scratch("export_intent_vfx");
+    let out = export_ok("usd-wg/intent-vfx/scenes/teapotScene_layout.usd", "", &dir);
+    let m = manifest(&out);
+    let meshes = m["meshes"].as_array().unwrap();
+    assert_eq!(meshes.len(), 1, "teapot geometry stored more than once");
+    let count = m["instances"]["count"].as_u64().unwrap();
+    assert!(count >= 494, "only {count} instances");
+    let sources = m["instances"]["instance_sources"].as_array().unwrap();
+    assert_eq!(
+        sources.len(),
+        494 + 0,
+        "instance sources: {}",
+        sources.len()
+    );
+}
+
+#[test]
+fn point_instancer_counts() {
+    let dir = scratch("export_pi_counts");
+    let base = "openusd/testUsdImagingGLPointInstancer/";
+    let out = export_ok(&format!("{base}pi_basic.usda"), "", &dir);
+    assert_eq!(instances_of(&out, "/Root/depth1"), 4);
+    let out = export_ok(&format!("{base}ni_pi.usda"), "", &dir);
+    assert_eq!(manifest(&out)["meshes"].as_array().unwrap().len(), 1);
+    assert_eq!(manifest(&out)["instances"]["count"], 8);
+    let out = export_ok(&format!("{base}pi_pi.usda"), "", &dir);
+    assert_eq!(manifest(&out)["instances"]["count"], 24);
+}
+
+#[test]
+fn missing_vdb_frame_warns_with_prim_file_and_frame() {
+    let dir = scratch("export_missing_vdb");
+    let out = export_ok("arnold-usd/test_2239/data/test.usda", "1", &dir);
+    let m = manifest(&out);
+    let warnings = m["warnings"].to_string();
+    assert!(
+        warnings.contains("/adsktest/testdata")
+            && warnings.contains("plane01.vdb")
+            && warnings.contains("frame 1"),
+        "{warnings}"
+    );
+    assert_eq!(m["volumes"].as_array().unwrap().len(), 0);
+    let out = export_ok("arnold-usd/test_2239/data/test.usda", "2", &dir);
+    assert_eq!(manifest(&out)["volumes"].as_array().unwrap().len(), 1);
+}
+
+#[test]
+fn fallbacks_are_warned_once_each() {
+    let dir = scratch("export_fallbacks");
+    let out = export_ok("usd-wg/intent-vfx/scenes/teapotScene.usd", "", &dir);
+    let warnings = manifest(&out)["warnings"].to_string();
+    assert!(warnings.contains("teapot_animCycle.usd"), "{warnings}");
+    let out = export_ok("openusd/testUsdImagingGLVdbVolume/vdbVolume.usda", "", &dir);
+    let m = manifest(&out);
+    let materials = m["materials"].as_array().unwrap();
+    assert!(materials.iter().any(|mat| mat["fallback"] == true));
+    let out = export_ok(
+        "usd-wg/full_assets/StandardShaderBall/standard_shader_ball_scene.usda",
+        "",
+        &dir,
+    );
+    assert!(manifest(&out)["warnings"]
+        .to_string()
+        .contains("ground.ACEScg.exr"));
+}
+
+/// Asserts a failed export: exit code 2, one clear message naming `needles`, no traceback.
+fn assert_clean_failure(result: &Output, needles: &[&str]) {
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert_eq!(result.status.code(), Some(2), "{stderr}");
+    assert!(!stderr.contains("Traceback"), "{stderr}");
+    let errors: Vec<_> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    for needle in needles {
+        assert!(
+            errors[0].contains(needle),
+            "'{needle}' not in: {}",
+            errors[0]
+        );
+    }
+}
+
+/// Writes a small .usda into `dir` and returns its path.
+fn write_usda(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn bad_inputs_fail_with_one_clear_message() {
+    let dir = scratch("export_bad_inputs");
+    let out = dir.join("out");
+    let missing = dir.join("does_not_exist.usda");
+    assert_clean_failure(&export(&missing, &out, ""), &["does_not_exist.usda"]);
+
+    let broken = write_usda(&dir, "broken.usda", "#usda 1.0\ndef Mesh \"M\" {{{\n");
+    assert_clean_failure(&export(&broken, &out, ""), &["broken.usda"]);
+
+    let empty = write_usda(&dir, "empty.usda", "#usda 1.0\n");
+    assert_clean_failure(
+        &export(&empty, &out, ""),
+        &["empty.usda", "nothing to export"],
+    );
+
+    let dangling = write_usda(
+        &dir,
+        "dangling.usda",
+        "#usda 1.0\ndef Xform \"Asset\" (references = @./gone.usda@) {}\n",
+    );
+    assert_clean_failure(&export(&dangling, &out, ""), &["gone.usda", "/Asset"]);
+
+    let nan = write_usda(
+        &dir,
+        "nan.usda",
+        "#usda 1.0\ndef Mesh \"Bad\" {\n point3f[] points = [(0,0,0), (nan,0,0), (0,1,0)]\n \
+         int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 2]\n}\n",
+    );
+    assert_clean_failure(&export(&nan, &out, ""), &["nan.usda", "/Bad", "NaN"]);
+}
+
+#[test]
+fn a_bad_mesh_is_skipped_and_the_rest_exported() {
+    let dir = scratch("export_bad_mesh");
+    let input = write_usda(
+        &dir,
+        "partly_bad.usda",
+        "#usda 1.0\ndef Mesh \"Bad\" {\n point3f[] points = [(0,0,0), (1,0,0), (0,1,0)]\n \
+         int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 7]\n}\n\
+         def Cube \"Good\" {}\n",
+    );
+    let out = dir.join("out");
+    let result = export(&input, &out, "");
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(result.status.success(), "{stderr}");
+    assert!(!stderr.contains("Traceback"), "{stderr}");
+    let warning = stderr
+        .lines()
+        .find(|l| l.starts_with("warning:") && l.contains("/Bad"))
+        .unwrap_or_else(|| panic!("no warning naming /Bad:\n{stderr}"));
+    assert!(
+        warning.contains("partly_bad.usda") && warning.contains('7'),
+        "{warning}"
+    );
+    let m = manifest(&out);
+    assert_eq!(m["meshes"].as_array().unwrap().len(), 1);
+    assert!(m["warnings"].to_string().contains("/Bad"));
+    run_python(
+        &venv_python(),
+        &python_script("check_export.py"),
+        &[input.to_str().unwrap(), out.to_str().unwrap()],
+    );
+}
+
+/// A PointInstancer of `n` rotated, scaled cubes and spheres, written as .usda text.
+fn write_big_point_instancer(path: &Path, n: usize) {
+    use std::fmt::Write;
+    let mut positions = String::with_capacity(n * 24);
+    let mut orientations = String::with_capacity(n * 24);
+    let mut scales = String::with_capacity(n * 16);
+    let mut indices = String::with_capacity(n * 3);
+    for i in 0..n {
+        let (x, y, z) = (i % 1000, (i / 1000) % 1000, i % 7);
+        write!(positions, "({x},{y},{z}),").unwrap();
+        let a = (i % 360) as f32 * std::f32::consts::PI / 360.0;
+        write!(orientations, "({:.4},0,{:.4},0),", a.cos(), a.sin()).unwrap();
+        write!(scales, "({},1,{}),", 1 + i % 3, 1 + i % 2).unwrap();
+        write!(indices, "{},", i % 2).unwrap();
+    }
+    let text = format!(
+        "#usda 1.0\ndef PointInstancer \"Big\" {{\n\
+         point3f[] positions = [{positions}]\n\
+         quath[] orientations = [{orientations}]\n\
+         float3[] scales = [{scales}]\n\
+         int[] protoIndices = [{indices}]\n\
+         rel prototypes = [</Big/Protos/Box>, </Big/Protos/Ball>]\n\
+         def \"Protos\" {{\n def Cube \"Box\" {{}}\n def Sphere \"Ball\" {{\n double radius = 0.5\n }}\n }}\n}}\n"
+    );
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn a_million_point_instances_export_and_check() {
+    let dir = scratch("export_million");
+    let input = dir.join("million.usda");
+    write_big_point_instancer(&input, 1_000_000);
+    let out = dir.join("out");
+    let result = export(&input, &out, "");
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let m = manifest(&out);
+    assert_eq!(m["instances"]["count"], 1_000_000);
+    assert_eq!(m["meshes"].as_array().unwrap().len(), 2);
+    let (ok, text) = check(&input, &out);
+    assert!(ok, "{text}");
+}
