@@ -21,6 +21,7 @@ fn main() {
         println!("cargo:rustc-link-lib={lib}");
     }
     for path in [
+        "ffi/guard.h",
         "ffi/openvdb/bridge.rs",
         "ffi/openvdb/shim.h",
         "ffi/openvdb/shim.cc",

@@ -8,7 +8,7 @@ use std::path::Path;
 use std::process::Command;
 
 use cirrus::sampling::Pcg32;
-use cirrus::volumes::{SparseGrid, VdbFile, VolumeError};
+use cirrus::volumes::{Space, SparseGrid, VdbFile, VolumeError};
 use glam::{DVec3, IVec3, Vec3};
 
 /// Every float grid with data in the shared assets: (file, grid name).
@@ -144,7 +144,9 @@ fn rust_trilinear_equals_openvdb_box_sampler_on_every_shared_grid() {
         let points = probe_points(&vdb, at, 100_000, 7);
 
         let index64: Vec<DVec3> = points.iter().map(|p| p.as_dvec3()).collect();
-        let reference = vdb.openvdb_trilinear_index(name, 0, &index64).unwrap();
+        let reference = vdb
+            .openvdb_trilinear(name, 0, &index64, Space::Index)
+            .unwrap();
         let mut outside = 0;
         for (p, &r) in points.iter().zip(&reference) {
             let v = grid.trilinear_index(*p);
@@ -158,7 +160,9 @@ fn rust_trilinear_equals_openvdb_box_sampler_on_every_shared_grid() {
 
         let m = grid.transform().world_from_index;
         let world: Vec<DVec3> = index64.iter().map(|&p| m.transform_point3(p)).collect();
-        let reference = vdb.openvdb_trilinear_world(name, 0, &world).unwrap();
+        let reference = vdb
+            .openvdb_trilinear(name, 0, &world, Space::World)
+            .unwrap();
         for (p, &r) in world.iter().zip(&reference) {
             assert_close(
                 grid.trilinear_world(*p),
@@ -181,7 +185,9 @@ fn nearest_lookup_returns_the_closest_stored_voxel() {
         .iter()
         .map(|p| (*p + 0.5).floor().as_dvec3())
         .collect();
-    let reference = vdb.openvdb_trilinear_index(name, 0, &rounded).unwrap();
+    let reference = vdb
+        .openvdb_trilinear(name, 0, &rounded, Space::Index)
+        .unwrap();
     for (p, r) in points.iter().zip(reference) {
         assert_eq!(grid.nearest_index(*p), r, "at {p}");
     }
@@ -222,7 +228,9 @@ fn duplicate_names_select_by_index_and_transforms_hold() {
         .iter()
         .map(|p| m.transform_point3(p.as_dvec3()))
         .collect();
-    let reference = vdb.openvdb_trilinear_world("density", 1, &world).unwrap();
+    let reference = vdb
+        .openvdb_trilinear("density", 1, &world, Space::World)
+        .unwrap();
     for (p, r) in world.iter().zip(reference) {
         assert_close(second.trilinear_world(*p), r, 3.0, &format!("world {p}"));
     }

@@ -1,5 +1,6 @@
 // OpenImageIO side of the bridge: writes multi-channel EXRs with per-channel
 // half/float formats, compression and metadata, and reads texture images.
+#include "cirrus/ffi/guard.h"
 #include "cirrus/ffi/oiio/shim.h"
 #include "cirrus/ffi/oiio/bridge.rs.h"
 
@@ -14,16 +15,6 @@ namespace oiio {
 
 namespace {
 
-// cxx turns std::exception into a Rust Err; anything else would terminate.
-template <typename F> auto guard(F &&body) -> decltype(body()) {
-  try {
-    return body();
-  } catch (const std::exception &) {
-    throw;
-  } catch (...) {
-    throw std::runtime_error("unknown C++ exception in OpenImageIO");
-  }
-}
 
 std::string or_default(std::string message, const char *fallback) {
   return message.empty() ? std::string(fallback) : message;
@@ -32,7 +23,7 @@ std::string or_default(std::string message, const char *fallback) {
 } // namespace
 
 void write_exr(const ExrRequest &req) {
-  guard([&] {
+  guard("OpenImageIO", [&] {
     const std::string path(req.path);
     const size_t nch = req.channel_names.size();
     if (nch == 0 || req.channel_half.size() != nch) {
@@ -82,7 +73,7 @@ void write_exr(const ExrRequest &req) {
 }
 
 ImageData read_image(rust::Str path_str) {
-  return guard([&] {
+  return guard("OpenImageIO", [&] {
     const std::string path(path_str);
     auto in = OIIO::ImageInput::open(path);
     if (!in) {

@@ -51,17 +51,13 @@ pub(super) mod ffi {
         fn grids(self: &VdbFile) -> Result<Vec<GridInfo>>;
         /// `file_index` is the grid's position in `grids()`.
         fn read_float_grid(self: &VdbFile, file_index: u32) -> Result<FloatGridData>;
-        /// OpenVDB's BoxSampler at index-space points (x,y,z triples). Tests only.
-        fn box_sample_index(
+        /// OpenVDB's `GridSampler<BoxSampler>` at (x,y,z) triples, index space
+        /// (`isSample`) or world space (`wsSample`). Tests and benchmarks only.
+        fn box_sample(
             self: &VdbFile,
             file_index: u32,
-            points_index: &[f64],
-        ) -> Result<Vec<f32>>;
-        /// OpenVDB's GridSampler<BoxSampler> at world-space points. Tests only.
-        fn box_sample_world(
-            self: &VdbFile,
-            file_index: u32,
-            points_world: &[f64],
+            points: &[f64],
+            world_space: bool,
         ) -> Result<Vec<f32>>;
     }
 }

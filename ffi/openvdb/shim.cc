@@ -2,6 +2,7 @@
 // opening files, listing grid metadata, flattening a float tree into plain
 // arrays (copied once into Rust), and OpenVDB's own BoxSampler for the tests
 // that check the Rust sampler against it.
+#include "cirrus/ffi/guard.h"
 #include "cirrus/ffi/openvdb/shim.h"
 #include "cirrus/ffi/openvdb/bridge.rs.h"
 
@@ -19,17 +20,6 @@ namespace vdb {
 
 namespace {
 
-// cxx turns std::exception into a Rust Err; anything else would terminate.
-// Every entry point runs its body through this so no exception type escapes.
-template <typename F> auto guard(F &&body) -> decltype(body()) {
-  try {
-    return body();
-  } catch (const std::exception &) {
-    throw;
-  } catch (...) {
-    throw std::runtime_error("unknown C++ exception in OpenVDB");
-  }
-}
 
 void initialize_once() {
   static std::once_flag flag;
@@ -72,7 +62,7 @@ VdbFile::VdbFile(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 VdbFile::~VdbFile() = default;
 
 std::unique_ptr<VdbFile> open_vdb(rust::Str path) {
-  return guard([&] {
+  return guard("OpenVDB", [&] {
     initialize_once();
     auto impl = std::make_unique<VdbFile::Impl>(std::string(path));
     // No delayed loading: it memory-maps the file and defers errors to first access.
@@ -86,7 +76,7 @@ std::unique_ptr<VdbFile> open_vdb(rust::Str path) {
 }
 
 rust::Vec<GridInfo> VdbFile::grids() const {
-  return guard([&] {
+  return guard("OpenVDB", [&] {
     rust::Vec<GridInfo> out;
     for (size_t i = 0; i < impl_->metadata.size(); ++i) {
       const openvdb::GridBase::Ptr &meta = impl_->metadata[i];
@@ -141,7 +131,7 @@ rust::Vec<GridInfo> VdbFile::grids() const {
 }
 
 FloatGridData VdbFile::read_float_grid(uint32_t file_index) const {
-  return guard([&] {
+  return guard("OpenVDB", [&] {
     openvdb::FloatGrid::Ptr grid = as_float_grid(impl_->read(file_index));
     const openvdb::FloatTree &tree = grid->tree();
     FloatGridData out;
@@ -179,29 +169,16 @@ FloatGridData VdbFile::read_float_grid(uint32_t file_index) const {
   });
 }
 
-rust::Vec<float> VdbFile::box_sample_index(uint32_t file_index,
-                                           rust::Slice<const double> points) const {
-  return guard([&] {
-    openvdb::FloatGrid::Ptr grid = as_float_grid(impl_->read(file_index));
-    rust::Vec<float> out;
-    out.reserve(points.size() / 3);
-    for (size_t i = 0; i + 2 < points.size(); i += 3) {
-      const openvdb::Vec3R p(points[i], points[i + 1], points[i + 2]);
-      out.push_back(openvdb::tools::BoxSampler::sample(grid->tree(), p));
-    }
-    return out;
-  });
-}
-
-rust::Vec<float> VdbFile::box_sample_world(uint32_t file_index,
-                                           rust::Slice<const double> points) const {
-  return guard([&] {
+rust::Vec<float> VdbFile::box_sample(uint32_t file_index, rust::Slice<const double> points,
+                                     bool world_space) const {
+  return guard("OpenVDB", [&] {
     openvdb::FloatGrid::Ptr grid = as_float_grid(impl_->read(file_index));
     openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> sampler(*grid);
     rust::Vec<float> out;
     out.reserve(points.size() / 3);
     for (size_t i = 0; i + 2 < points.size(); i += 3) {
-      out.push_back(sampler.wsSample(openvdb::Vec3R(points[i], points[i + 1], points[i + 2])));
+      const openvdb::Vec3R p(points[i], points[i + 1], points[i + 2]);
+      out.push_back(world_space ? sampler.wsSample(p) : sampler.isSample(p));
     }
     return out;
   });

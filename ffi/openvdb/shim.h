@@ -22,8 +22,8 @@ public:
 
   rust::Vec<GridInfo> grids() const;
   FloatGridData read_float_grid(uint32_t file_index) const;
-  rust::Vec<float> box_sample_index(uint32_t file_index, rust::Slice<const double> points_index) const;
-  rust::Vec<float> box_sample_world(uint32_t file_index, rust::Slice<const double> points_world) const;
+  rust::Vec<float> box_sample(uint32_t file_index, rust::Slice<const double> points,
+                              bool world_space) const;
 
 private:
   std::unique_ptr<Impl> impl_;

@@ -10,4 +10,4 @@ mod grid;
 mod vdb;
 
 pub use grid::{GridAccessor, GridStats, GridTransform, LayoutError, SparseGrid, Tile};
-pub use vdb::{GridInfo, VdbFile, VolumeError};
+pub use vdb::{GridInfo, Space, VdbFile, VolumeError};

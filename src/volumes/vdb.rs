@@ -47,6 +47,15 @@ pub enum VolumeError {
     },
 }
 
+/// Which space sample points are given in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Space {
+    /// Index space: voxel (i,j,k) at integer point (i,j,k).
+    Index,
+    /// World space: through the grid's index-to-world transform.
+    World,
+}
+
 /// One grid's metadata as the file describes it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridInfo {
@@ -209,30 +218,19 @@ impl VdbFile {
         Ok(data.tree_mem_bytes)
     }
 
-    /// OpenVDB's `BoxSampler` at index-space points: the reference the Rust
-    /// sampler is tested against. Reads the grid on every call; not for rendering.
-    pub fn openvdb_trilinear_index(
+    /// OpenVDB's own `BoxSampler` at `points` in the given space: the reference
+    /// the Rust sampler is tested against. Reads the grid on every call; not for rendering.
+    pub fn openvdb_trilinear(
         &self,
         name: &str,
         index: usize,
         points: &[DVec3],
+        space: Space,
     ) -> Result<Vec<f32>, VolumeError> {
         let at = self.find(name, index)?;
+        let flat: Vec<f64> = points.iter().flat_map(|p| p.to_array()).collect();
         self.handle
-            .box_sample_index(at as u32, &flatten(points))
-            .map_err(|e| self.openvdb_error(name, e))
-    }
-
-    /// OpenVDB's `GridSampler<BoxSampler>::wsSample` at world-space points (tests only).
-    pub fn openvdb_trilinear_world(
-        &self,
-        name: &str,
-        index: usize,
-        points: &[DVec3],
-    ) -> Result<Vec<f32>, VolumeError> {
-        let at = self.find(name, index)?;
-        self.handle
-            .box_sample_world(at as u32, &flatten(points))
+            .box_sample(at as u32, &flat, space == Space::World)
             .map_err(|e| self.openvdb_error(name, e))
     }
 
@@ -254,10 +252,6 @@ impl VdbFile {
             .collect();
         names.join(", ")
     }
-}
-
-fn flatten(points: &[DVec3]) -> Vec<f64> {
-    points.iter().flat_map(|p| p.to_array()).collect()
 }
 
 impl From<ffi::GridInfo> for GridInfo {
