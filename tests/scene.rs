@@ -654,3 +654,32 @@ fn info_on_usd_exports_once_into_the_cache() {
     let first = info();
     assert_eq!(info(), first, "the second run exported again");
 }
+
+/// `scenes/make_instancing_stress.py` (the stage of `cirrus bench instances`)
+/// is deterministic, and its stage exports to exactly the instances asked for,
+/// all of one mesh of about the triangles asked for.
+#[test]
+fn instancing_stress_stage_is_deterministic_and_exports_every_instance() {
+    let dir = common::scratch("scene_instancing_stress");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/make_instancing_stress.py");
+    let stages = ["a.usdc", "b.usdc"].map(|name| {
+        let stage = dir.join(name);
+        let args = ["--instances", "1000", "--triangles", "2000"];
+        common::run_python(
+            &common::venv_python(),
+            &script,
+            &[&[stage.to_str().unwrap()][..], &args].concat(),
+        );
+        std::fs::read(&stage).unwrap()
+    });
+    assert!(stages[0] == stages[1], "two runs wrote different stages");
+
+    let out = dir.join("out");
+    cirrus::scene::export(&dir.join("a.usdc"), &out, None).unwrap();
+    let scene = Scene::load(&out).unwrap();
+    let m = &scene.manifest;
+    assert_eq!(m.instances.count, 1000);
+    assert_eq!(m.meshes.len(), 1);
+    let triangles = m.meshes[0].triangles.count;
+    assert!((2000..2200).contains(&triangles), "{triangles} triangles");
+}
