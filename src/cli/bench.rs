@@ -16,7 +16,8 @@ use crate::volumes::VdbFile;
 #[derive(Subcommand, Debug)]
 pub enum Bench {
     /// Sparse grid layout: load time, memory next to OpenVDB's own tree, and
-    /// single-thread trilinear lookups per second (random and coherent).
+    /// single-thread trilinear lookups per second (random points, independent
+    /// ray marches, and tiles of neighbouring ray marches).
     Vdb {
         /// VDB files to measure.
         #[arg(required = true)]
@@ -72,8 +73,8 @@ pub fn run(bench: Bench) -> Result<()> {
 
 fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Result<()> {
     println!("{}\n", machine_line());
-    println!("| file | load (ms) | layout (MiB) | OpenVDB tree (MiB) | layout / OpenVDB | random trilinear (M/s) | coherent trilinear (M/s) | coherent, accessor (M/s) |");
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| file | load (ms) | layout (MiB) | OpenVDB tree (MiB) | layout / OpenVDB | random (M/s) | independent rays (M/s) | ray tiles (M/s) | ray tiles, accessor (M/s) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for file in files {
         let mut load_ms = Vec::new();
         let mut grid = None;
@@ -93,11 +94,17 @@ fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Re
         );
 
         let random = random_points(lo, hi, lookups);
-        let coherent = coherent_points(lo, hi, lookups);
+        let rays = ray_march_points(lo, hi, lookups, 1);
+        let coherent = ray_march_points(lo, hi, lookups, 16);
         // Each closure is monomorphised into `lookup_rate`: no dynamic call per lookup.
         let random_rate = median(
             (0..repeats)
                 .map(|_| lookup_rate(&random, |p| grid.trilinear_index(p)))
+                .collect(),
+        );
+        let rays_rate = median(
+            (0..repeats)
+                .map(|_| lookup_rate(&rays, |p| grid.trilinear_index(p)))
                 .collect(),
         );
         let coherent_rate = median(
@@ -115,7 +122,7 @@ fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Re
         );
         let mib = |b: f64| b / (1024.0 * 1024.0);
         println!(
-            "| {} | {:.1} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} |",
+            "| {} | {:.1} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} |",
             file.file_name()
                 .map(|n| n.to_string_lossy())
                 .unwrap_or_default(),
@@ -124,6 +131,7 @@ fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Re
             mib(openvdb_bytes as f64),
             grid.memory_bytes() as f64 / openvdb_bytes as f64,
             random_rate / 1e6,
+            rays_rate / 1e6,
             coherent_rate / 1e6,
             accessor_rate / 1e6,
         );
@@ -150,28 +158,32 @@ fn random_points(lo: Vec3, hi: Vec3, n: usize) -> Vec<Vec3> {
         .collect()
 }
 
-/// Points a quarter voxel apart along random straight rays through [lo, hi],
-/// as a ray marcher visits them.
-fn coherent_points(lo: Vec3, hi: Vec3, n: usize) -> Vec<Vec3> {
+/// Points a quarter voxel apart along straight rays through [lo, hi], as a ray
+/// marcher visits them. Rays come in bundles of `tile` x `tile` parallel rays
+/// half a voxel apart, marched one after another, as a tile renderer sends
+/// neighbouring camera rays; `tile = 1` gives independent random rays.
+fn ray_march_points(lo: Vec3, hi: Vec3, n: usize, tile: usize) -> Vec<Vec3> {
     let mut rng = Pcg32::new(2, 0);
     let mut points = Vec::with_capacity(n);
     while points.len() < n {
         let start = lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
         let dir =
             (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5).normalize_or(Vec3::X);
-        let mut p = start;
-        for _ in 0..1024 {
-            if points.len() == n || p.cmplt(lo).any() || p.cmpgt(hi).any() {
-                break;
+        let (u, v) = dir.any_orthonormal_pair();
+        for ray in 0..tile * tile {
+            let mut p = start + (u * (ray % tile) as f32 + v * (ray / tile) as f32) * 0.5;
+            for _ in 0..1024 {
+                if points.len() == n || p.cmplt(lo).any() || p.cmpgt(hi).any() {
+                    break;
+                }
+                points.push(p);
+                p += dir * 0.25;
             }
-            points.push(p);
-            p += dir * 0.25;
         }
     }
     points
 }
 
-/// The median of `xs` (the mean of the middle two for an even count).
 pub(super) fn median(mut xs: Vec<f64>) -> f64 {
     xs.sort_by(f64::total_cmp);
     let n = xs.len();

@@ -113,7 +113,7 @@ pub struct SparseGrid {
     top_dims: IVec3,
     top: Vec<u32>,
     nodes: Vec<u32>,
-    bricks: Vec<f32>,
+    bricks: Vec<[f32; APRON_VOXELS]>,
     constants: Vec<f32>,
     transform: GridTransform,
     stats: GridStats,
@@ -126,7 +126,7 @@ impl SparseGrid {
         match self.entry(ijk) {
             EMPTY => self.background,
             e if e & CONSTANT != 0 => self.constants[(e & !CONSTANT) as usize],
-            b => self.bricks[b as usize * APRON_VOXELS + Self::apron_offset(ijk)],
+            b => self.bricks[b as usize][Self::apron_offset(ijk)],
         }
     }
 
@@ -178,11 +178,11 @@ impl SparseGrid {
     /// Trilinear interpolation inside the cell whose lowest corner is `ijk`, at
     /// fractional position `t` in [0,1)^3, given the entry `e` of the block
     /// holding `ijk`; lerps z, then y, then x, as OpenVDB's `BoxSampler`.
-    #[inline]
+    #[inline(always)]
     fn trilinear_in_block(&self, ijk: IVec3, t: Vec3, e: u32) -> f32 {
         let v = if e != EMPTY && e & CONSTANT == 0 {
             // The apron holds the +1 neighbours: one brick serves all 8 corners.
-            let b = &self.bricks[e as usize * APRON_VOXELS..][..APRON_VOXELS];
+            let b = &self.bricks[e as usize];
             let o = Self::apron_offset(ijk);
             const X: usize = APRON_EDGE * APRON_EDGE;
             const Y: usize = APRON_EDGE;
@@ -272,7 +272,7 @@ impl SparseGrid {
         std::mem::size_of::<Self>()
             + 4 * (self.top.capacity()
                 + self.nodes.capacity()
-                + self.bricks.capacity()
+                + self.bricks.capacity() * APRON_VOXELS
                 + self.constants.capacity())
     }
 
@@ -378,7 +378,11 @@ impl SparseGrid {
 
     /// The 9^3 bricks: each leaf's voxels plus the +1 apron read from its
     /// neighbours (leaves, tiles or background), in parallel over leaves.
-    fn apron_bricks(&self, leaf_origins: &[IVec3], leaf_values: &[f32]) -> Vec<f32> {
+    fn apron_bricks(
+        &self,
+        leaf_origins: &[IVec3],
+        leaf_values: &[f32],
+    ) -> Vec<[f32; APRON_VOXELS]> {
         let leaf_value = |ijk: IVec3| match self.entry(ijk) {
             EMPTY => self.background,
             e if e & CONSTANT != 0 => self.constants[(e & !CONSTANT) as usize],
@@ -387,9 +391,9 @@ impl SparseGrid {
                 leaf_values[b as usize * LEAF_VOXELS + (l.x * 64 + l.y * 8 + l.z) as usize]
             }
         };
-        let mut bricks = vec![0.0f32; leaf_origins.len() * APRON_VOXELS];
+        let mut bricks = vec![[0.0f32; APRON_VOXELS]; leaf_origins.len()];
         bricks
-            .par_chunks_mut(APRON_VOXELS)
+            .par_iter_mut()
             .zip(leaf_origins.par_iter())
             .for_each(|(brick, &origin)| {
                 for (n, v) in brick.iter_mut().enumerate() {
