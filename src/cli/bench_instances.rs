@@ -9,7 +9,7 @@
 //! is the difference of the two builds' medians.
 
 use std::hint::black_box;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
@@ -174,9 +174,10 @@ fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
     (start.elapsed().as_secs_f64(), value)
 }
 
-/// Runs `scenes/make_instancing_stress.py` under the checkout's `.venv`.
+/// Runs `scenes/make_instancing_stress.py` under the `.venv` of the checkout
+/// named by `$CIRRUS_HOME` (else the one this binary was built from).
 fn generate(stage: &Path, instances: usize, triangles: usize) -> Result<()> {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let root = crate::scene::repo_root();
     let script = root.join("scenes/make_instancing_stress.py");
     let out = Command::new(root.join(".venv/bin/python"))
         .arg(&script)

@@ -7,9 +7,11 @@
 //! unique geometry plus one small leaf per placed mesh. Both levels are
 //! obvhs's compressed wide BVH8 (Ylitie, Karras and Laine 2017, "Efficient
 //! Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs"), built with
-//! PLOC (Meister and Bittner 2018). Triangles are tested with the watertight
-//! algorithm of Woop, Benthin and Wald (2013), so rays through shared edges
-//! and vertices never slip between triangles.
+//! PLOC (Meister and Bittner 2018); the top level is built in Morton cells
+//! (an LBVH split above PLOC), which keeps its build's peak memory small
+//! (see `bvh.rs`). Triangles are tested with the watertight algorithm of Woop, Benthin
+//! and Wald (2013), so rays through shared edges and vertices never slip
+//! between triangles.
 //!
 //! [`Scene`]: crate::scene::Scene
 

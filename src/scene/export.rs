@@ -82,7 +82,7 @@ pub fn export_cached(input: &Path, frame: Option<f64>) -> Result<PathBuf, Export
 
 /// The Cirrus checkout holding `.venv` and `scenes/`: `$CIRRUS_HOME`, else the
 /// source folder this binary was built from.
-fn repo_root() -> PathBuf {
+pub(crate) fn repo_root() -> PathBuf {
     std::env::var_os("CIRRUS_HOME")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))

@@ -20,6 +20,7 @@ mod load;
 
 use std::path::{Path, PathBuf};
 
+pub(crate) use export::repo_root;
 pub use export::{export, export_cached, ExportError};
 pub use format::{
     Array, Bounds, Camera, Channel, ColorSpace, Element, Input, Instances, Light, LightShape,
