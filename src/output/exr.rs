@@ -13,12 +13,22 @@ use bridge::ffi;
 /// Why an image could not be written or read.
 #[derive(Debug, thiserror::Error)]
 pub enum ImageError {
+    /// Writing `path` failed; `message` is OpenImageIO's or the OS's reason.
     #[error("{path}: cannot write EXR: {message}", path = path.display())]
-    Write { path: PathBuf, message: String },
+    Write {
+        /// The file asked for (not the temporary it is written under).
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
+    /// Reading `path` failed (missing, corrupt, not an image).
     #[error("{path}: cannot read image: {message}", path = path.display())]
-    Read { path: PathBuf, message: String },
-    #[error("{path}: {message}", path = path.display())]
-    Invalid { path: PathBuf, message: String },
+    Read {
+        /// The image file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
 }
 
 /// How a channel is stored in the file (pixels are always handed over as f32).
@@ -34,10 +44,14 @@ pub enum PixelType {
 /// noisy images; Dwaa is lossy and small.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum Compression {
+    /// Uncompressed.
     None,
+    /// Lossless zlib over 16 scanlines (the default).
     #[default]
     Zip,
+    /// Lossless wavelet, good on noisy images.
     Piz,
+    /// Lossy DCT (DreamWorks), smallest files.
     Dwaa,
 }
 
@@ -55,17 +69,24 @@ impl Compression {
 /// One named channel, e.g. `R`, `diffuse.G`, `N.X`, `Z`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Channel {
+    /// Full channel name, layer prefix included (`diffuse.R`).
     pub name: String,
+    /// Storage in the file.
     pub pixel_type: PixelType,
 }
 
 /// An EXR to write: `pixels` are interleaved f32, channel-fastest, row 0 at the top.
 #[derive(Clone, Debug)]
 pub struct ExrImage<'a> {
+    /// Pixels per row.
     pub width: u32,
+    /// Rows.
     pub height: u32,
+    /// Channel names and storage, in the order of `pixels`' interleaving.
     pub channels: Vec<Channel>,
+    /// `width * height * channels.len()` values.
     pub pixels: &'a [f32],
+    /// File compression.
     pub compression: Compression,
     /// Header attributes of string type (e.g. `software`).
     pub strings: Vec<(String, String)>,
@@ -76,9 +97,13 @@ pub struct ExrImage<'a> {
 /// A decoded image: linear values, interleaved, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
+    /// Pixels per row.
     pub width: u32,
+    /// Rows.
     pub height: u32,
+    /// Values per pixel.
     pub channels: u32,
+    /// `width * height * channels` linear values.
     pub pixels: Vec<f32>,
 }
 

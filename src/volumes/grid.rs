@@ -70,8 +70,9 @@ pub struct GridStats {
     pub active_tile_count: usize,
     /// Inactive tiles whose value differs from the background (kept, as OpenVDB samples them).
     pub inactive_tile_count: usize,
-    /// Smallest and largest finite stored value (leaf voxels and tiles).
+    /// Smallest finite stored value (leaf voxels and tiles).
     pub min_value: f32,
+    /// Largest finite stored value: the global majorant of density.
     pub max_value: f32,
     /// Stored values that are NaN or infinite.
     pub non_finite_count: usize,
@@ -84,21 +85,33 @@ pub struct Tile {
     pub origin: IVec3,
     /// Edge length in voxels: 8, 128 or 4096 (OpenVDB's standard float tree).
     pub edge: u32,
+    /// The constant value of every voxel it covers.
     pub value: f32,
+    /// Whether OpenVDB marks it active (inactive tiles are kept only when their value differs from the background).
     pub active: bool,
 }
 
 /// Why a tree cannot be laid out.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum LayoutError {
+    /// A leaf origin off the 8-voxel lattice.
     #[error("leaf origin {0} is not a multiple of 8")]
     MisalignedLeaf(IVec3),
+    /// A tile of a size or alignment the standard 5-4-3 float tree never makes.
     #[error("tile at {origin} has edge {edge}; only 8, 128 and 4096 are supported")]
-    UnsupportedTile { origin: IVec3, edge: u32 },
+    UnsupportedTile {
+        /// Min corner, in voxels.
+        origin: IVec3,
+        /// Edge length, in voxels.
+        edge: u32,
+    },
+    /// Two leaves or tiles claim the same block.
     #[error("leaf or tile data overlaps at {0}")]
     Overlap(IVec3),
+    /// Leaf values and leaf origins disagree in count.
     #[error("{0} leaf values for {1} leaves (expected 512 each)")]
     LeafValueCount(usize, usize),
+    /// The dense top level would exceed its size limit.
     #[error("the grid spans {0} blocks of 128^3 voxels, more than the {MAX_TOP_ENTRIES} the sparse layout accepts")]
     TooLarge(u64),
 }

@@ -16,33 +16,70 @@ use bridge::ffi;
 /// Why a VDB file or grid could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum VolumeError {
+    /// The file cannot be reached (missing, unreadable).
     #[error("{path}: {message}", path = path.display())]
-    Io { path: PathBuf, message: String },
+    Io {
+        /// The VDB file.
+        path: PathBuf,
+        /// The OS's reason.
+        message: String,
+    },
+    /// OpenVDB threw (not a VDB file, truncated, unsupported version...).
     #[error("{path}: OpenVDB: {message}", path = path.display())]
-    OpenVdb { path: PathBuf, message: String },
+    OpenVdb {
+        /// The VDB file.
+        path: PathBuf,
+        /// OpenVDB's exception text, with the grid when one was being read.
+        message: String,
+    },
     #[error("{path}: no grid named '{grid}'{which}; the file has: {available}",
         path = path.display(),
         which = if *index > 0 { format!(" (occurrence {index})") } else { String::new() })]
+    /// No grid of that name (or not that many of them) in the file.
     NoSuchGrid {
+        /// The VDB file.
         path: PathBuf,
+        /// The grid name asked for.
         grid: String,
+        /// Which occurrence of the name was asked for (0 = first).
         index: usize,
+        /// The grids the file does hold, for the message.
         available: String,
     },
     #[error("{path}: grid '{grid}' holds '{value_type}' values; Cirrus needs a float grid here", path = path.display())]
+    /// The grid holds another value type where a float grid is needed.
     NotFloat {
+        /// The VDB file.
         path: PathBuf,
+        /// The grid.
         grid: String,
+        /// Its OpenVDB value type ("vec3s", "int32", ...).
         value_type: String,
     },
+    /// The grid has no active voxels or tiles: nothing to render.
     #[error("{path}: grid '{grid}' is empty (no active voxels or tiles)", path = path.display())]
-    EmptyGrid { path: PathBuf, grid: String },
+    EmptyGrid {
+        /// The VDB file.
+        path: PathBuf,
+        /// The grid.
+        grid: String,
+    },
+    /// The grid's transform is not affine (a frustum map).
     #[error("{path}: grid '{grid}' has a non-affine (frustum) transform, which Cirrus does not support", path = path.display())]
-    NonLinearTransform { path: PathBuf, grid: String },
+    NonLinearTransform {
+        /// The VDB file.
+        path: PathBuf,
+        /// The grid.
+        grid: String,
+    },
+    /// The tree cannot be laid out as a [`super::SparseGrid`].
     #[error("{path}: grid '{grid}': {source}", path = path.display())]
     Layout {
+        /// The VDB file.
         path: PathBuf,
+        /// The grid.
         grid: String,
+        /// What is wrong with the tree.
         source: super::grid::LayoutError,
     },
 }
@@ -59,6 +96,7 @@ pub enum Space {
 /// One grid's metadata as the file describes it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridInfo {
+    /// The grid's name (several grids may share one).
     pub name: String,
     /// OpenVDB's value type name ("float", "vec3s", "int32", ...).
     pub value_type: String,
@@ -66,8 +104,9 @@ pub struct GridInfo {
     pub grid_class: String,
     /// World units per voxel along each index axis.
     pub voxel_size: DVec3,
-    /// Inclusive index bounds of active voxels and tiles (min > max when empty).
+    /// Inclusive index bounds of active voxels and tiles: min corner (min > max when empty).
     pub index_min: IVec3,
+    /// Inclusive max corner of the active bounds.
     pub index_max: IVec3,
     /// Active voxels, tiles counted voxel by voxel.
     pub active_voxel_count: u64,
