@@ -96,30 +96,14 @@ fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Re
         let random = random_points(lo, hi, lookups);
         let rays = ray_march_points(lo, hi, lookups, 1);
         let coherent = ray_march_points(lo, hi, lookups, 16);
-        // Each closure is monomorphised into `lookup_rate`: no dynamic call per lookup.
-        let random_rate = median(
-            (0..repeats)
-                .map(|_| lookup_rate(&random, |p| grid.trilinear_index(p)))
-                .collect(),
-        );
-        let rays_rate = median(
-            (0..repeats)
-                .map(|_| lookup_rate(&rays, |p| grid.trilinear_index(p)))
-                .collect(),
-        );
-        let coherent_rate = median(
-            (0..repeats)
-                .map(|_| lookup_rate(&coherent, |p| grid.trilinear_index(p)))
-                .collect(),
-        );
-        let accessor_rate = median(
-            (0..repeats)
-                .map(|_| {
-                    let mut accessor = grid.accessor();
-                    lookup_rate(&coherent, |p| accessor.trilinear_index(p))
-                })
-                .collect(),
-        );
+        let plain = || |p| grid.trilinear_index(p);
+        let random_rate = median_rate(repeats, &random, plain);
+        let rays_rate = median_rate(repeats, &rays, plain);
+        let coherent_rate = median_rate(repeats, &coherent, plain);
+        let accessor_rate = median_rate(repeats, &coherent, || {
+            let mut accessor = grid.accessor();
+            move |p| accessor.trilinear_index(p)
+        });
         let mib = |b: f64| b / (1024.0 * 1024.0);
         println!(
             "| {} | {:.1} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} |",
@@ -137,6 +121,17 @@ fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Re
         );
     }
     Ok(())
+}
+
+/// Median over `repeats` of [`lookup_rate`], each repeat with a fresh lookup
+/// from `fresh` (so cached state, such as an accessor's, starts cold). The
+/// lookup type is generic: no dynamic call per lookup.
+fn median_rate<F: FnMut(Vec3) -> f32>(
+    repeats: usize,
+    points: &[Vec3],
+    mut fresh: impl FnMut() -> F,
+) -> f64 {
+    median((0..repeats).map(|_| lookup_rate(points, fresh())).collect())
 }
 
 /// Lookups per second of `lookup` over `points`, on this thread.

@@ -248,15 +248,24 @@ impl SparseGrid {
         if s.cmplt(IVec3::ZERO).any() || s.cmpge(self.top_dims).any() {
             return EMPTY;
         }
-        let top = self.top[((s.x * self.top_dims.y + s.y) * self.top_dims.z + s.z) as usize];
+        let top = self.top[self.top_slot(s)];
         match self.resolve(top) {
-            Some(node) => {
-                let b = (ijk >> BRICK_LOG2) & IVec3::splat((1 << NODE_LOG2) - 1);
-                let m = (b.x << (2 * NODE_LOG2)) | (b.y << NODE_LOG2) | b.z;
-                self.nodes[node * NODE_ENTRIES + m as usize]
-            }
+            Some(node) => self.nodes[node * NODE_ENTRIES + Self::node_slot(ijk)],
             None => top,
         }
+    }
+
+    /// Position in `top` of super-block `s`, given relative to `top_origin`.
+    #[inline]
+    fn top_slot(&self, s: IVec3) -> usize {
+        ((s.x * self.top_dims.y + s.y) * self.top_dims.z + s.z) as usize
+    }
+
+    /// Position inside its node of the 8^3 block holding `ijk`.
+    #[inline]
+    fn node_slot(ijk: IVec3) -> usize {
+        let b = (ijk >> BRICK_LOG2) & IVec3::splat((1 << NODE_LOG2) - 1);
+        ((b.x << (2 * NODE_LOG2)) | (b.y << NODE_LOG2) | b.z) as usize
     }
 
     /// The child index of a non-empty, non-constant entry.
@@ -362,7 +371,7 @@ impl SparseGrid {
                 for y in 0..span {
                     for z in 0..span {
                         let s = first + IVec3::new(x, y, z);
-                        let slot = grid.top_slot(s);
+                        let slot = grid.top_slot(s - grid.top_origin);
                         if grid.top[slot] != EMPTY {
                             return Err(LayoutError::Overlap(s << SUPER_LOG2));
                         }
@@ -421,11 +430,6 @@ impl SparseGrid {
         bricks
     }
 
-    fn top_slot(&self, s: IVec3) -> usize {
-        let s = s - self.top_origin;
-        ((s.x * self.top_dims.y + s.y) * self.top_dims.z + s.z) as usize
-    }
-
     fn push_constant(&mut self, value: f32) -> u32 {
         self.constants.push(value);
         (self.constants.len() - 1) as u32 | CONSTANT
@@ -433,7 +437,7 @@ impl SparseGrid {
 
     /// Points the node entry of the 8^3 block at `origin` to `entry`, creating the node.
     fn set_block(&mut self, origin: IVec3, entry: u32) -> Result<(), LayoutError> {
-        let slot = self.top_slot(origin >> SUPER_LOG2);
+        let slot = self.top_slot((origin >> SUPER_LOG2) - self.top_origin);
         let node = match self.top[slot] {
             EMPTY => {
                 let node = self.nodes.len() / NODE_ENTRIES;
@@ -444,9 +448,7 @@ impl SparseGrid {
             e if e & CONSTANT != 0 => return Err(LayoutError::Overlap(origin)),
             e => e as usize,
         };
-        let b = (origin >> BRICK_LOG2) & IVec3::splat((1 << NODE_LOG2) - 1);
-        let m = ((b.x << (2 * NODE_LOG2)) | (b.y << NODE_LOG2) | b.z) as usize;
-        let cell = &mut self.nodes[node * NODE_ENTRIES + m];
+        let cell = &mut self.nodes[node * NODE_ENTRIES + Self::node_slot(origin)];
         if *cell != EMPTY {
             return Err(LayoutError::Overlap(origin));
         }
