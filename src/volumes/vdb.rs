@@ -72,6 +72,14 @@ pub enum VolumeError {
         /// The grid.
         grid: String,
     },
+    /// The grid's affine transform cannot be inverted (a zero scale).
+    #[error("{path}: grid '{grid}' has a singular index-to-world transform (zero scale)", path = path.display())]
+    SingularTransform {
+        /// The VDB file.
+        path: PathBuf,
+        /// The grid.
+        grid: String,
+    },
     /// The tree cannot be laid out as a [`super::SparseGrid`].
     #[error("{path}: grid '{grid}': {source}", path = path.display())]
     Layout {
@@ -227,12 +235,11 @@ impl VdbFile {
                 active: data.tile_active[t],
             })
             .collect();
-        let transform = GridTransform::new(world_from_index).ok_or_else(|| {
-            VolumeError::NonLinearTransform {
+        let transform =
+            GridTransform::new(world_from_index).ok_or_else(|| VolumeError::SingularTransform {
                 path: self.path.clone(),
                 grid: grid.clone(),
-            }
-        })?;
+            })?;
         SparseGrid::build(
             data.background,
             &leaf_origins,
