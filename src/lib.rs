@@ -5,9 +5,14 @@
 //! the C++ libraries (OpenVDB, OpenImageIO) are reached only through `ffi/`,
 //! mounted privately by `volumes::vdb` and `output::exr`.
 
+pub mod camera;
 pub mod cli;
 pub mod geometry;
+pub mod integrator;
+pub mod lights;
+pub mod materials;
 pub mod output;
+pub mod render_state;
 pub mod sampling;
 pub mod scene;
 pub mod volumes;

@@ -9,6 +9,7 @@ use std::path::Path;
 use cirrus::output::{
     read_image, write_exr, Channel, Compression, ExrImage, ImageError, PixelType,
 };
+use cirrus::scene::ColorSpace;
 use exr::prelude::{f16, read_all_flat_layers_from_file, FlatSamples};
 use serde_json::Value;
 
@@ -277,16 +278,17 @@ fn textures_read_as_linear_floats() {
     let dir = common::scratch("texture_read");
     let exr_path = dir.join("linear.exr");
     write_test_exr(&exr_path, Compression::Zip);
-    let img = read_image(&exr_path).unwrap();
+    let img = read_image(&exr_path, ColorSpace::Auto).unwrap();
     assert_eq!(
         (img.width, img.height, img.channels as usize),
         (WIDTH, HEIGHT, channels().len())
     );
 
     // An 8-bit sRGB PNG from the shared assets decodes through the sRGB curve.
-    let png = read_image(&common::asset(
-        "openusd/testUsdImagingGLPreviewSurface/grid.png",
-    ))
+    let png = read_image(
+        &common::asset("openusd/testUsdImagingGLPreviewSurface/grid.png"),
+        ColorSpace::Auto,
+    )
     .unwrap();
     assert!(png.width > 0 && png.height > 0);
     assert!(png.pixels.iter().all(|v| (0.0..=1.0).contains(v)));
@@ -297,7 +299,7 @@ fn textures_read_as_linear_floats() {
     let mut bytes = vec![0u8, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 0, 24, 0x20];
     bytes.extend_from_slice(&[128, 128, 128, 255, 255, 255]); // BGR, top-left origin
     std::fs::write(&tga, &bytes).unwrap();
-    let img = read_image(&tga).unwrap();
+    let img = read_image(&tga, ColorSpace::Auto).unwrap();
     assert_eq!((img.width, img.height, img.channels), (2, 1, 3));
     assert!(
         (img.pixels[0] - 0.215_860_5).abs() < 1e-4,
@@ -305,20 +307,28 @@ fn textures_read_as_linear_floats() {
         img.pixels
     );
     assert!((img.pixels[3] - 1.0).abs() < 1e-6, "{:?}", img.pixels);
+    // `raw` (normal maps, roughness) keeps the stored values: 128 / 255.
+    let raw = read_image(&tga, ColorSpace::Raw).unwrap();
+    assert!(
+        (raw.pixels[0] - 128.0 / 255.0).abs() < 1e-4,
+        "{:?}",
+        raw.pixels
+    );
 
     // A JPEG texture from a production asset.
-    let jpg = read_image(&common::asset(
-        "usd-wg/full_assets/Teapot/textures/tea_set_01_diff_2k.jpg",
-    ))
+    let jpg = read_image(
+        &common::asset("usd-wg/full_assets/Teapot/textures/tea_set_01_diff_2k.jpg"),
+        ColorSpace::Auto,
+    )
     .unwrap();
     assert_eq!((jpg.width, jpg.height), (2048, 2048));
 
     // Missing and corrupt files are errors naming the file.
-    let e = read_image(&dir.join("missing.png")).unwrap_err();
+    let e = read_image(&dir.join("missing.png"), ColorSpace::Auto).unwrap_err();
     assert!(e.to_string().contains("missing.png"), "{e}");
     let corrupt = dir.join("corrupt.png");
     std::fs::write(&corrupt, b"\x89PNG\r\n\x1a\nnot really").unwrap();
-    let e = read_image(&corrupt).unwrap_err();
+    let e = read_image(&corrupt, ColorSpace::Auto).unwrap_err();
     assert!(
         matches!(e, ImageError::Read { .. }) && e.to_string().contains("corrupt.png"),
         "{e}"

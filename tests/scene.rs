@@ -8,7 +8,7 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-use cirrus::geometry::{Geometry, Hit, Ray};
+use cirrus::geometry::{Geometry, Ray};
 use cirrus::sampling::Pcg32;
 use cirrus::scene::{Scene, SceneError};
 use glam::{vec3a, Vec2};
@@ -489,24 +489,25 @@ fn ray_hits_the_expected_triangle_of_an_instance() {
     // Local point (0.75, 0.25) of an instance is in triangle 0 = (0, 1, 2), with
     // weights 0.5 on (1, 0) and 0.25 on (1, 1); (0.25, 0.75) is in triangle
     // 1 = (0, 2, 3), with weights 0.25 on (1, 1) and 0.5 on (0, 1).
-    let expect = |instance, triangle, barycentrics| Hit {
-        t: 1.0,
-        instance,
-        prototype_mesh: 0,
-        triangle,
-        barycentrics,
+    let expect = |instance: u32, triangle: u32, barycentrics: Vec2| {
+        Some((1.0f32, instance, 0u32, triangle, barycentrics))
     };
+    let found = |ray: &Ray| {
+        geometry.intersect(ray).map(|h| {
+            (
+                h.t,
+                h.instance,
+                h.prototype_mesh,
+                h.triangle,
+                h.barycentrics,
+            )
+        })
+    };
+    assert_eq!(found(&down(4.75, 0.25)), expect(2, 0, Vec2::new(0.5, 0.25)));
+    assert_eq!(found(&down(2.25, 0.75)), expect(1, 1, Vec2::new(0.25, 0.5)));
     assert_eq!(
-        geometry.intersect(&down(4.75, 0.25)),
-        Some(expect(2, 0, Vec2::new(0.5, 0.25)))
-    );
-    assert_eq!(
-        geometry.intersect(&down(2.25, 0.75)),
-        Some(expect(1, 1, Vec2::new(0.25, 0.5)))
-    );
-    assert_eq!(
-        geometry.intersect(&down(-0.25, 0.75)),
-        Some(expect(0, 0, Vec2::new(0.5, 0.25)))
+        found(&down(-0.25, 0.75)),
+        expect(0, 0, Vec2::new(0.5, 0.25))
     );
     // Between instances, and short of the surface.
     assert_eq!(geometry.intersect(&down(3.5, 0.5)), None);

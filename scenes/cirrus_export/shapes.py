@@ -2,6 +2,8 @@
 
 Round shapes are a lathe of a (radius, height) profile about the prim's axis with a
 multiple of 4 segments, so the tessellation touches the authored extent on every axis.
+Spheres and capsules carry smooth per-point normals (the exact surface's); cubes,
+cylinders and cones keep flat facets, since their edges are creases.
 """
 
 import numpy as np
@@ -54,6 +56,15 @@ def _sphere_profile(radius: float, half_height: float) -> tuple[np.ndarray, np.n
     return r, z
 
 
+def _round_normals(points: np.ndarray, half_height: float, axis: str) -> np.ndarray:
+    """Smooth normals of a sphere or capsule: from the nearest point of its axis segment."""
+    k = "XYZ".index(axis)
+    centre = np.zeros_like(points)
+    centre[:, k] = np.clip(points[:, k], -half_height, half_height)
+    n = points - centre
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
 def _attr(prim: Usd.Prim, name: str, time: Usd.TimeCode):
     """An attribute's value at `time`, schema fallback included."""
     return prim.GetAttribute(name).Get(time)
@@ -62,6 +73,7 @@ def _attr(prim: Usd.Prim, name: str, time: Usd.TimeCode):
 def tessellate(prim: Usd.Prim, time: Usd.TimeCode) -> MeshGeometry | None:
     """The gprim as triangles in object space, or None when the type is not an implicit shape."""
     kind = prim.GetTypeName()
+    normals = None
     if kind == "Cube":
         half = 0.5 * _attr(prim, "size", time)
         points, triangles = _CUBE_POINTS * half, _quads_to_triangles(_CUBE_QUADS)
@@ -69,6 +81,7 @@ def tessellate(prim: Usd.Prim, time: Usd.TimeCode) -> MeshGeometry | None:
         half = 0.5 * _attr(prim, "height", time) if kind == "Capsule" else 0.0
         axis = _attr(prim, "axis", time) if kind == "Capsule" else "Z"
         points, triangles = _lathe(*_sphere_profile(_attr(prim, "radius", time), half), axis)
+        normals = _round_normals(points, half, axis)
     elif kind in ("Cylinder", "Cone"):
         r, h = _attr(prim, "radius", time), 0.5 * _attr(prim, "height", time)
         top = 0.0 if kind == "Cone" else r
@@ -76,4 +89,4 @@ def tessellate(prim: Usd.Prim, time: Usd.TimeCode) -> MeshGeometry | None:
                                    _attr(prim, "axis", time))
     else:
         return None
-    return MeshGeometry(points, triangles, None, None, np.zeros(len(triangles), dtype=np.int64))
+    return MeshGeometry(points, triangles, normals, None, np.zeros(len(triangles), dtype=np.int64))

@@ -45,6 +45,32 @@ pub enum Bench {
         #[arg(long, default_value_t = 3)]
         repeats: usize,
     },
+    /// Rendering core (issue 4): camera-ray, path-ray and sample rates, and
+    /// the equal-time MSE of BSDF-only, NEE-only and MIS with Sobol and
+    /// independent samples against a high-spp reference (table + SVG chart).
+    Render {
+        /// Scenes (USD or exported); default: the StandardShaderBall and the
+        /// intent-vfx layout from ../shared/assets.
+        scenes: Vec<PathBuf>,
+        /// Image size WIDTHxHEIGHT.
+        #[arg(long, default_value = "160x120", value_parser = super::render::parse_resolution)]
+        res: glam::UVec2,
+        /// Samples per pixel of the MIS + Sobol reference.
+        #[arg(long, default_value_t = 4096)]
+        reference_spp: u32,
+        /// Equal-time budgets in seconds.
+        #[arg(long, value_delimiter = ',', default_value = "0.5,1,2,4")]
+        times: Vec<f64>,
+        /// Seeds per measurement; the table shows medians.
+        #[arg(long, default_value_t = 3)]
+        repeats: u32,
+        /// Worker threads.
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+        /// Folder for the reference EXRs and the charts.
+        #[arg(long, default_value = "out/bench-render")]
+        out: PathBuf,
+    },
     /// Internal to `bench instances`: loads one exported scene and builds its
     /// BVHs in this fresh process, and prints the resident bytes added.
     #[command(hide = true)]
@@ -67,6 +93,33 @@ pub fn run(bench: Bench) -> Result<()> {
             triangles,
             repeats,
         } => super::bench_instances::run(instances.max(1), triangles.max(8), repeats.max(1)),
+        Bench::Render {
+            scenes,
+            res,
+            reference_spp,
+            times,
+            repeats,
+            threads,
+            out,
+        } => {
+            let scenes = if scenes.is_empty() {
+                super::bench_render::default_scenes(&crate::scene::repo_root())
+            } else {
+                scenes
+            };
+            let bench = super::bench_render::RenderBench {
+                scenes,
+                resolution: res,
+                reference_spp,
+                times,
+                repeats,
+                out,
+            };
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads.max(1))
+                .build()?
+                .install(|| super::bench_render::run(&bench))
+        }
         Bench::InstancesMemory { scene } => super::bench_instances::print_memory(&scene),
     }
 }

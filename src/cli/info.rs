@@ -10,16 +10,10 @@ use anyhow::Result;
 use crate::scene::{self, Scene};
 use crate::volumes::{GridInfo, VdbFile};
 
-/// USD file extensions, exported into the cache before describing.
-const USD_EXTENSIONS: &[&str] = &["usd", "usda", "usdc", "usdz"];
-
 pub fn run(file: &Path) -> Result<()> {
-    let ext = file.extension().and_then(|e| e.to_str()).unwrap_or("");
-    if file.is_dir() || file.file_name().is_some_and(|n| n == scene::MANIFEST_FILE) {
-        print!("{}", scene_summary(&Scene::load(file)?));
-    } else if USD_EXTENSIONS.contains(&ext) {
-        let dir = scene::export_cached(file, None)?;
-        print!("{}", scene_summary(&Scene::load(&dir)?));
+    let is_scene = file.is_dir() || file.file_name().is_some_and(|n| n == scene::MANIFEST_FILE);
+    if is_scene || super::is_usd(file) {
+        print!("{}", scene_summary(&super::load_scene(file, None)?));
     } else {
         let vdb = VdbFile::open(file)?;
         print!("{}", grid_table(&vdb));

@@ -3,7 +3,9 @@
 
 mod bench;
 mod bench_instances;
+mod bench_render;
 mod info;
+mod render;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -41,6 +43,8 @@ enum Command {
         #[arg(long)]
         frame: Option<f64>,
     },
+    /// Render a scene to an EXR (and a PNG preview beside it).
+    Render(render::RenderArgs),
     /// Run a benchmark and print a Markdown table (machine, date, medians).
     #[command(subcommand)]
     Bench(bench::Bench),
@@ -60,6 +64,7 @@ pub fn run() -> ExitCode {
             output,
             frame,
         } => export(&input, &output, frame),
+        Command::Render(args) => render::run(args),
         Command::Bench(b) => bench::run(b),
     };
     match result {
@@ -68,6 +73,33 @@ pub fn run() -> ExitCode {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// USD file extensions: such inputs are exported (through the cache) first.
+const USD_EXTENSIONS: &[&str] = &["usd", "usda", "usdc", "usdz"];
+
+/// Whether `path` names a USD file by its extension.
+fn is_usd(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| USD_EXTENSIONS.contains(&e))
+}
+
+/// A scene from a USD file (exported through the cache at `frame`) or from
+/// an exported folder or its scene.json.
+fn load_scene(path: &Path, frame: Option<f64>) -> Result<Scene> {
+    if is_usd(path) {
+        let dir = crate::scene::export_cached(path, frame)?;
+        Ok(Scene::load(&dir)?)
+    } else {
+        if frame.is_some() {
+            anyhow::bail!(
+                "--frame applies to USD input only; {} is an exported scene",
+                path.display()
+            );
+        }
+        Ok(Scene::load(path)?)
     }
 }
 

@@ -13,7 +13,7 @@
 
 use std::ops::Range;
 
-use glam::{Affine3A, Mat3A, Vec2, Vec3A};
+use glam::{Affine3A, Vec2, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
@@ -26,7 +26,8 @@ use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
 use super::intersect::{TriangleHit, WatertightRay};
-use crate::scene::{Scene, Transform};
+use super::surface::{MeshShading, SurfacePoint};
+use crate::scene::{affine, Scene};
 
 /// Build quality for both levels: obvhs's balanced preset.
 const BUILD_PARAMS: BvhBuildParams = BvhBuildParams::medium_build();
@@ -53,10 +54,13 @@ const BOX_PADDING: f32 = 1e-6;
 /// few MB, large enough that the tree over the chunks stays small.
 const TOP_CHUNK: usize = 1 << 14;
 
-/// Acceleration structures over a scene's meshes, ready for closest-hit queries.
+/// Acceleration structures over a scene's meshes, ready for closest-hit and
+/// occlusion queries, with the per-vertex data that shading interpolates.
 pub struct Geometry {
     /// Per scene mesh; `None` for a mesh with no triangles.
     meshes: Vec<Option<MeshBvh>>,
+    /// Per scene mesh: vertices, normals, texture coordinates, materials.
+    shading: Vec<MeshShading>,
     /// Over `leaves`; `None` when nothing is placed.
     top: Option<TopLevel>,
     leaves: Vec<PlacedMesh>,
@@ -106,6 +110,8 @@ pub struct Hit {
     /// Weights of the triangle's second and third vertices (the first's is
     /// `1 - x - y`).
     pub barycentrics: Vec2,
+    /// The placed mesh hit (an index into `Geometry::leaves`).
+    leaf: u32,
 }
 
 impl Geometry {
@@ -118,6 +124,11 @@ impl Geometry {
             .meshes
             .par_iter()
             .map(|mesh| MeshBvh::build(scene.view(&mesh.points), scene.view(&mesh.triangles)))
+            .collect();
+        let shading = m
+            .meshes
+            .iter()
+            .map(|mesh| MeshShading::new(scene, mesh))
             .collect();
         // Boxes first, leaves after the top level is built: the two are
         // never held together (32 MB and 64 MB at a million instances).
@@ -138,6 +149,7 @@ impl Geometry {
         leaves.extend(placements(scene, &meshes).map(|(leaf, _)| leaf));
         Self {
             meshes,
+            shading,
             top,
             leaves,
         }
@@ -149,18 +161,9 @@ impl Geometry {
         let top = self.top.as_ref()?;
         let mut closest = None;
         let ray = traversal_ray(ray.origin, ray.direction, ray.tmin, ray.tmax);
-        top.traverse(ray, |ray, leaf| {
-            let leaf = &self.leaves[leaf];
-            let mesh = self.meshes[leaf.mesh as usize]
-                .as_ref()
-                .expect("placed meshes have triangles");
-            let local = traversal_ray(
-                leaf.mesh_from_world.transform_point3a(ray.origin),
-                leaf.mesh_from_world.transform_vector3a(ray.direction),
-                ray.tmin,
-                ray.tmax,
-            );
-            match mesh.intersect(&local) {
+        top.traverse(ray, |ray, index| {
+            let leaf = &self.leaves[index];
+            match self.mesh(leaf).intersect(&leaf.local_ray(ray)) {
                 Some((triangle, hit)) => {
                     closest = Some(Hit {
                         t: hit.t,
@@ -168,6 +171,7 @@ impl Geometry {
                         prototype_mesh: leaf.prototype_mesh,
                         triangle,
                         barycentrics: hit.barycentrics,
+                        leaf: index as u32,
                     });
                     hit.t
                 }
@@ -175,6 +179,52 @@ impl Geometry {
             }
         });
         closest
+    }
+
+    /// Whether anything blocks `ray` within `(ray.tmin, ray.tmax)`: a shadow
+    /// ray's query, which stops at the first hit found, nearest or not.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        let Some(top) = self.top.as_ref() else {
+            return false;
+        };
+        let ray = traversal_ray(ray.origin, ray.direction, ray.tmin, ray.tmax);
+        top.any(ray, |ray, index| {
+            let leaf = &self.leaves[index];
+            self.mesh(leaf).occluded(&leaf.local_ray(ray))
+        })
+    }
+
+    /// The shading data of `hit`, a hit of `ray` (see [`SurfacePoint`]): the
+    /// point from the barycentric weights of the mesh-space vertices (not the
+    /// ray parameter, which is less precise far from the origin), normals and
+    /// tangents through the placement's inverse transpose.
+    pub fn surface_point(&self, hit: &Hit) -> SurfacePoint {
+        let leaf = &self.leaves[hit.leaf as usize];
+        self.shading[leaf.mesh as usize].surface_point(
+            &leaf.mesh_from_world,
+            hit.triangle,
+            hit.barycentrics,
+            [hit.instance, hit.prototype_mesh],
+        )
+    }
+
+    fn mesh(&self, leaf: &PlacedMesh) -> &MeshBvh {
+        self.meshes[leaf.mesh as usize]
+            .as_ref()
+            .expect("placed meshes have triangles")
+    }
+}
+
+impl PlacedMesh {
+    /// A world traversal ray in this placement's mesh space, with the same
+    /// parameterisation (`t` means the same point in both spaces).
+    fn local_ray(&self, ray: &Ray) -> Ray {
+        traversal_ray(
+            self.mesh_from_world.transform_point3a(ray.origin),
+            self.mesh_from_world.transform_vector3a(ray.direction),
+            ray.tmin,
+            ray.tmax,
+        )
     }
 }
 
@@ -221,6 +271,17 @@ impl MeshBvh {
             }
         });
         closest
+    }
+
+    /// Whether any triangle is hit along a mesh-space ray.
+    fn occluded(&self, ray: &Ray) -> bool {
+        let watertight = WatertightRay::new(ray.origin, ray.direction);
+        !self.bvh.ray_traverse_miss(*ray, |ray, id| {
+            let tri = &self.triangles[id];
+            watertight
+                .intersect(tri.v0, tri.v1, tri.v2, ray.tmin, ray.tmax)
+                .map_or(f32::INFINITY, |hit| hit.t)
+        })
     }
 }
 
@@ -282,6 +343,18 @@ impl TopLevel {
             });
             nearest
         });
+    }
+
+    /// Whether `hit(ray, leaf)` is true for any top-level leaf whose box
+    /// `ray` enters; stops at the first.
+    fn any(&self, ray: Ray, mut hit: impl FnMut(&Ray, usize) -> bool) -> bool {
+        let found = |yes: bool| if yes { 0.0 } else { f32::INFINITY };
+        !self.root.ray_traverse_miss(ray, |ray, id| {
+            let chunk = &self.chunks[self.root.primitive_indices[id] as usize];
+            found(!chunk.ray_traverse_miss(*ray, |ray, id| {
+                found(hit(ray, chunk.primitive_indices[id] as usize))
+            }))
+        })
     }
 }
 
@@ -362,18 +435,6 @@ fn placements<'a>(
                 })
         },
     )
-}
-
-/// The format's 3x4 row-major `[R | t]` as a glam affine map.
-fn affine(m: &Transform) -> Affine3A {
-    Affine3A {
-        matrix3: Mat3A::from_cols(
-            Vec3A::new(m[0], m[4], m[8]),
-            Vec3A::new(m[1], m[5], m[9]),
-            Vec3A::new(m[2], m[6], m[10]),
-        ),
-        translation: Vec3A::new(m[3], m[7], m[11]),
-    }
 }
 
 /// A box containing the image of `b` under `m` (its eight corners' bounds).

@@ -16,7 +16,11 @@
 //! [`Scene`]: crate::scene::Scene
 
 mod bvh;
+mod frame;
 mod intersect;
+mod surface;
 
 pub use bvh::{Geometry, Hit};
+pub use frame::Frame;
 pub use obvhs::ray::Ray;
+pub use surface::SurfacePoint;

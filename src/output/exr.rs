@@ -10,6 +10,8 @@ use std::path::{Path, PathBuf};
 
 use bridge::ffi;
 
+use crate::scene::ColorSpace;
+
 /// Why an image could not be written or read.
 #[derive(Debug, thiserror::Error)]
 pub enum ImageError {
@@ -164,10 +166,12 @@ pub fn write_exr(path: &Path, image: &ExrImage) -> Result<(), ImageError> {
     written
 }
 
-/// Reads an image (png, jpg, tga, exr, ...) into linear f32: colour channels of
-/// sRGB-encoded files are decoded with the sRGB transfer function; alpha and
-/// files already linear are left as stored.
-pub fn read_image(path: &Path) -> Result<Image, ImageError> {
+/// Reads an image (png, jpg, tga, exr, ...) into linear f32. `color_space`
+/// is `UsdUVTexture`'s `sourceColorSpace`: `Auto` decodes colour channels with
+/// the sRGB transfer function when the file says it is sRGB (or is 8-bit and
+/// untagged), `Srgb` always decodes them, `Raw` never does (normal maps,
+/// roughness). Alpha is never decoded.
+pub fn read_image(path: &Path, color_space: ColorSpace) -> Result<Image, ImageError> {
     if let Err(e) = std::fs::metadata(path) {
         return Err(ImageError::Read {
             path: path.to_path_buf(),
@@ -179,7 +183,12 @@ pub fn read_image(path: &Path) -> Result<Image, ImageError> {
         message: e.what().to_owned(),
     })?;
     let mut pixels = data.pixels;
-    if data.is_srgb {
+    let decode = match color_space {
+        ColorSpace::Auto => data.is_srgb,
+        ColorSpace::Srgb => true,
+        ColorSpace::Raw => false,
+    };
+    if decode {
         let nc = data.channels as usize;
         for pixel in pixels.chunks_exact_mut(nc) {
             for (c, v) in pixel.iter_mut().enumerate() {

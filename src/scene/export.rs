@@ -54,7 +54,9 @@ pub fn export(input: &Path, out_dir: &Path, frame: Option<f64>) -> Result<(), Ex
 
 /// Exports `input` into the cache (`$XDG_CACHE_HOME/cirrus`, else
 /// `~/.cache/cirrus`) unless an export of the same absolute path, modification
-/// time and frame is already there, and returns the scene folder.
+/// time and frame, by the same exporter sources, is already there, and
+/// returns the scene folder. (Layers the file references are not part of the
+/// key: after editing only a sublayer, touch the top file or run `cirrus export`.)
 pub fn export_cached(input: &Path, frame: Option<f64>) -> Result<PathBuf, ExportError> {
     let io = |path: &Path| {
         let path = path.to_owned();
@@ -66,6 +68,7 @@ pub fn export_cached(input: &Path, frame: Option<f64>) -> Result<PathBuf, Export
         .map_err(io(&abs))?;
     let mut hasher = DefaultHasher::new();
     (&abs, mtime, frame.map(f64::to_bits)).hash(&mut hasher);
+    exporter_sources().hash(&mut hasher);
     let stem = abs.file_stem().unwrap_or_default().to_string_lossy();
     let cache = cache_root();
     let dir = cache.join(format!("{stem}-{:016x}", hasher.finish()));
@@ -78,6 +81,19 @@ pub fn export_cached(input: &Path, frame: Option<f64>) -> Result<PathBuf, Export
         Err(_) if dir.join(MANIFEST_FILE).is_file() => Ok(dir),
         result => result.map(|()| dir),
     }
+}
+
+/// The exporter's Python sources, so that a changed exporter re-exports.
+fn exporter_sources() -> Vec<Vec<u8>> {
+    let scenes = repo_root().join("scenes");
+    let package = std::fs::read_dir(scenes.join("cirrus_export"))
+        .into_iter()
+        .flatten()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "py"));
+    let mut files: Vec<PathBuf> = package.chain([scenes.join("export_usd.py")]).collect();
+    files.sort();
+    files.iter().filter_map(|f| std::fs::read(f).ok()).collect()
 }
 
 /// The Cirrus checkout holding `.venv` and `scenes/`: `$CIRRUS_HOME`, else the

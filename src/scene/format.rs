@@ -20,6 +20,20 @@ pub const FORMAT_NAME: &str = "cirrus-scene";
 /// `p' = M[:, :3] p + M[:, 3]`; composed in double precision by the exporter.
 pub type Transform = [f32; 12];
 
+/// A [`Transform`] as a glam affine map (`matrix3` columns are the 3x4's
+/// first three columns).
+pub fn affine(m: &Transform) -> glam::Affine3A {
+    use glam::{Mat3A, Vec3A};
+    glam::Affine3A {
+        matrix3: Mat3A::from_cols(
+            Vec3A::new(m[0], m[4], m[8]),
+            Vec3A::new(m[1], m[5], m[9]),
+            Vec3A::new(m[2], m[6], m[10]),
+        ),
+        translation: Vec3A::new(m[3], m[7], m[11]),
+    }
+}
+
 /// Linear Rec.709 RGB.
 pub type Rgb = [f32; 3];
 

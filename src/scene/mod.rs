@@ -23,10 +23,10 @@ use std::path::{Path, PathBuf};
 pub(crate) use export::repo_root;
 pub use export::{export, export_cached, ExportError};
 pub use format::{
-    Array, Bounds, Camera, Channel, ColorSpace, Element, Input, Instances, Light, LightShape,
-    Manifest, Material, Mesh, MeshPart, Projection, Prototype, Render, Rgb, Scalar, Source,
-    StTransform, Stage, Texture, TextureInput, Transform, UpAxis, Volume, VolumeField, VolumePart,
-    Wrap, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+    affine, Array, Bounds, Camera, Channel, ColorSpace, Element, Input, Instances, Light,
+    LightShape, Manifest, Material, Mesh, MeshPart, Projection, Prototype, Render, Rgb, Scalar,
+    Source, StTransform, Stage, Texture, TextureInput, Transform, UpAxis, Volume, VolumeField,
+    VolumePart, Wrap, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
 

@@ -1,0 +1,83 @@
+//! The film window: where a continuous film position lands on the camera's
+//! image plane, after conforming the aperture to the image aspect.
+
+use glam::{UVec2, Vec2};
+
+/// An affine map from film positions (pixels, y down) to a rectangle on a
+/// camera-space plane (x right, y up): the image plane at z = -1 for a
+/// perspective camera (so a point is a direction's tangents), the view
+/// rectangle in scene units for an orthographic one.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct FilmWindow {
+    /// Plane position of film (0, 0), the image's top-left corner.
+    top_left: Vec2,
+    /// Plane offset per pixel; its y is negative because rows run down.
+    per_pixel: Vec2,
+}
+
+impl FilmWindow {
+    /// The plane position of `film` (pixels from the top-left corner).
+    pub(super) fn at(&self, film: Vec2) -> Vec2 {
+        self.top_left + film * self.per_pixel
+    }
+
+    /// The window of apertures `aperture` centred at `offset` (both in the
+    /// same units, USD's tenths of a scene unit), conformed to `resolution`
+    /// and divided by `units_per_plane_unit` (the focal length for a
+    /// perspective camera, 10 for an orthographic one).
+    pub(super) fn new(
+        aperture: Vec2,
+        offset: Vec2,
+        resolution: UVec2,
+        units_per_plane_unit: f32,
+    ) -> Self {
+        let size = expand_aperture(aperture, resolution) / units_per_plane_unit;
+        let centre = offset / units_per_plane_unit;
+        Self {
+            top_left: centre + Vec2::new(-0.5, 0.5) * size,
+            per_pixel: Vec2::new(size.x, -size.y) / resolution.as_vec2(),
+        }
+    }
+}
+
+/// UsdRender's default `aspectRatioConformPolicy`, "expandAperture": grow the
+/// aperture's width or height, about its centre, until its aspect is the
+/// image's, so the image shows at least the authored aperture (square pixels).
+fn expand_aperture(aperture: Vec2, resolution: UVec2) -> Vec2 {
+    let image_aspect = resolution.x as f32 / resolution.y as f32;
+    if image_aspect > aperture.x / aperture.y {
+        Vec2::new(aperture.y * image_aspect, aperture.y)
+    } else {
+        Vec2::new(aperture.x, aperture.x / image_aspect)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn expand_aperture_grows_one_side_to_the_image_aspect() {
+        let aperture = Vec2::new(36.0, 24.0);
+        let wide = expand_aperture(aperture, UVec2::new(400, 100));
+        let tall = expand_aperture(aperture, UVec2::new(100, 200));
+        let same = expand_aperture(aperture, UVec2::new(300, 200));
+        assert!((wide - Vec2::new(96.0, 24.0)).abs().max_element() < 1e-4);
+        assert!((tall - Vec2::new(36.0, 72.0)).abs().max_element() < 1e-4);
+        assert!((same - aperture).abs().max_element() < 1e-4);
+    }
+
+    #[test]
+    fn corners_map_to_the_offset_window_with_y_up() {
+        let w = FilmWindow::new(
+            Vec2::new(20.0, 10.0),
+            Vec2::new(4.0, -2.0),
+            UVec2::new(200, 100),
+            2.0,
+        );
+        let close = |a: Vec2, b: Vec2| (a - b).abs().max_element() < 1e-5;
+        assert!(close(w.at(Vec2::ZERO), Vec2::new(-3.0, 1.5)));
+        assert!(close(w.at(Vec2::new(200.0, 100.0)), Vec2::new(7.0, -3.5)));
+        assert!(close(w.at(Vec2::new(100.0, 50.0)), Vec2::new(2.0, -1.0)));
+    }
+}

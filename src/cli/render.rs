@@ -1,0 +1,236 @@
+//! `cirrus render SCENE -o OUT.exr`: the renderer's command-line contract.
+//! SCENE is a USD file (exported through the cache first) or an exported
+//! scene; the beauty goes to OUT.exr (linear, float RGB) and a tone-mapped
+//! preview beside it (OUT.png).
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context, Result};
+use glam::UVec2;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::integrator::{self, Budget, PathSettings, RenderSettings, RenderStats, Strategy};
+use crate::output::filter::FilterKind;
+use crate::output::{write_exr, write_preview, Channel, Compression, ExrImage, PixelType};
+use crate::render_state::RenderState;
+use crate::sampling::SamplerKind;
+
+/// Samples per pixel when neither `--spp` nor `--time` is given.
+const DEFAULT_SPP: u32 = 64;
+
+/// `cirrus render` arguments.
+#[derive(clap::Args, Debug)]
+pub struct RenderArgs {
+    /// A USD file (.usd/.usda/.usdc/.usdz), a scene folder, or its scene.json.
+    scene: PathBuf,
+    /// The EXR to write; a tone-mapped PNG preview is written beside it.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Samples per pixel [default: 64].
+    #[arg(long, conflicts_with = "time")]
+    spp: Option<u32>,
+    /// Render for about this many seconds instead (whole passes; at least one sample).
+    #[arg(long)]
+    time: Option<f64>,
+    /// Image size WIDTHxHEIGHT (default: the stage's render settings, else 960 wide).
+    #[arg(long, value_parser = parse_resolution)]
+    res: Option<UVec2>,
+    /// Seed of every sample sequence: same seed and spp, same image.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Sample sequence.
+    #[arg(long, value_enum, default_value_t = SamplerKind::Sobol)]
+    sampler: SamplerKind,
+    /// Light transport estimator: MIS of light and BSDF sampling, or one alone.
+    #[arg(long, value_enum, default_value_t)]
+    strategy: Strategy,
+    /// Most bounces per path.
+    #[arg(long, default_value_t = 16)]
+    max_depth: u32,
+    /// Clamp each sample's RGB components to this radiance (biased; off by default).
+    #[arg(long)]
+    clamp: Option<f32>,
+    /// Pixel filter.
+    #[arg(long, value_enum, default_value_t)]
+    filter: FilterKind,
+    /// EXR compression.
+    #[arg(long, value_enum, default_value_t)]
+    compression: Compression,
+    /// USD time code to export (USD input only).
+    #[arg(long)]
+    frame: Option<f64>,
+}
+
+/// Parses `WIDTHxHEIGHT`.
+pub(super) fn parse_resolution(s: &str) -> Result<UVec2, String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("{s:?}: expected WIDTHxHEIGHT, e.g. 1280x720"))?;
+    let side = |v: &str| {
+        v.parse::<u32>()
+            .ok()
+            .filter(|&n| (1..=65536).contains(&n))
+            .ok_or_else(|| format!("{s:?}: {v:?} is not a size in 1..=65536"))
+    };
+    Ok(UVec2::new(side(w)?, side(h)?))
+}
+
+/// Runs `cirrus render`.
+pub fn run(args: RenderArgs) -> Result<()> {
+    let budget = match (args.spp, args.time) {
+        (_, Some(t)) if !(t.is_finite() && t > 0.0) => bail!("--time {t}: must be positive"),
+        (_, Some(t)) => Budget::Time(Duration::from_secs_f64(t)),
+        (Some(0), _) => bail!("--spp 0: at least one sample per pixel"),
+        (spp, None) => Budget::Samples(spp.unwrap_or(DEFAULT_SPP)),
+    };
+    if args.clamp.is_some_and(|c| c.is_nan() || c <= 0.0) {
+        bail!("--clamp must be positive");
+    }
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = args.threads {
+        pool = pool.num_threads(n);
+    }
+    let pool = pool.build().context("cannot start worker threads")?;
+    let start = Instant::now();
+    let scene = super::load_scene(&args.scene, args.frame)?;
+    let state = pool.install(|| RenderState::build(&scene, args.res))?;
+    drop(scene);
+    log::info!(
+        "{}: ready in {:.2} s, {}x{}",
+        args.scene.display(),
+        start.elapsed().as_secs_f64(),
+        state.resolution.x,
+        state.resolution.y
+    );
+    let settings = RenderSettings {
+        budget,
+        seed: args.seed,
+        sampler: args.sampler,
+        filter: args.filter,
+        path: PathSettings {
+            strategy: args.strategy,
+            max_depth: args.max_depth,
+            clamp: args.clamp,
+        },
+    };
+    let progress = Progress::new();
+    let (film, stats) =
+        pool.install(|| integrator::render(&state, &settings, &|f| progress.update(f)));
+    progress.finish();
+    let rgb = film.rgb();
+    let r = state.resolution;
+    write_beauty(&args.output, r, &rgb, args.compression, &settings, &stats)?;
+    let preview = args.output.with_extension("png");
+    write_preview(&preview, r.x, r.y, &rgb)?;
+    report(&args.output, &preview, &stats);
+    Ok(())
+}
+
+/// Writes the beauty EXR: float R, G, B with the render's settings as metadata.
+fn write_beauty(
+    path: &Path,
+    resolution: UVec2,
+    rgb: &[f32],
+    compression: Compression,
+    settings: &RenderSettings,
+    stats: &RenderStats,
+) -> Result<()> {
+    let channel = |name: &str| Channel {
+        name: name.into(),
+        pixel_type: PixelType::Float,
+    };
+    let attribute = |k: &str, v: String| (format!("cirrus/{k}"), v);
+    write_exr(
+        path,
+        &ExrImage {
+            width: resolution.x,
+            height: resolution.y,
+            channels: vec![channel("R"), channel("G"), channel("B")],
+            pixels: rgb,
+            compression,
+            strings: vec![
+                attribute("version", env!("CARGO_PKG_VERSION").into()),
+                attribute("spp", stats.samples_per_pixel.to_string()),
+                attribute("seed", settings.seed.to_string()),
+                attribute("sampler", format!("{:?}", settings.sampler)),
+                attribute("strategy", format!("{:?}", settings.path.strategy)),
+            ],
+            matrices: Vec::new(),
+        },
+    )?;
+    Ok(())
+}
+
+/// Prints what was written and how the render went; warns about dropped samples.
+fn report(exr: &Path, preview: &Path, stats: &RenderStats) {
+    let secs = stats.elapsed.as_secs_f64();
+    let rays = stats.rays.closest + stats.rays.shadow;
+    log::info!(
+        "{} spp in {secs:.2} s: {:.2} M rays/s ({} camera, {} closest-hit, {} shadow)",
+        stats.samples_per_pixel,
+        rays as f64 / secs.max(1e-9) / 1e6,
+        stats.rays.camera,
+        stats.rays.closest,
+        stats.rays.shadow,
+    );
+    if let Some((pixel, sample)) = stats.non_finite.first {
+        log::warn!(
+            "{} NaN/Inf sample(s) dropped; the first at pixel ({}, {}), sample {sample}",
+            stats.non_finite.count,
+            pixel.x,
+            pixel.y
+        );
+    }
+    println!("wrote {} and {}", exr.display(), preview.display());
+}
+
+/// A progress bar with ETA on a terminal; on anything else, a log line
+/// every 10%.
+struct Progress {
+    bar: Option<ProgressBar>,
+    logged: Mutex<u32>,
+}
+
+impl Progress {
+    fn new() -> Self {
+        let bar = std::io::stderr().is_terminal().then(|| {
+            let bar = ProgressBar::new(1000);
+            bar.set_style(
+                ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise} ETA {eta}")
+                    .expect("valid template"),
+            );
+            bar
+        });
+        Self {
+            bar,
+            logged: Mutex::new(0),
+        }
+    }
+
+    fn update(&self, fraction: f64) {
+        let fraction = fraction.clamp(0.0, 1.0);
+        match &self.bar {
+            Some(bar) => bar.set_position((fraction * 1000.0) as u64),
+            None => {
+                let tenth = (fraction * 10.0) as u32;
+                let mut logged = self.logged.lock().expect("progress lock");
+                if tenth > *logged {
+                    *logged = tenth;
+                    log::info!("{}% rendered", tenth * 10);
+                }
+            }
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}

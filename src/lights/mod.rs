@@ -1,0 +1,587 @@
+//! UsdLux lights and emissive meshes: sampling towards a shading point,
+//! finding them along rays, and picking one per sample.
+//!
+//! Every UsdLux type the exporter writes is a [`Light`] variant in its own
+//! file, each following CONVENTIONS.md "Lights (UsdLux, literally)":
+//! - `distant.rs`: a uniform cone of angular diameter `angle` (a delta
+//!   direction at angle 0), irradiance or disk radiance by `normalize`;
+//! - `sphere.rs`: sampled by subtended solid angle (pbrt-v4 `Sphere::Sample`);
+//!   `treatAsPoint` = a point light of the same power;
+//! - `rect.rs`, `disk.rs` (sharing `plane.rs`), `cylinder.rs`: uniformly by
+//!   area, converted to solid angle;
+//! - `dome.rs`: constant, or an OpenEXR lat-long image importance-sampled
+//!   by a piecewise-constant 2D distribution (pbrt-v4 `ImageInfiniteLight`);
+//! - `mesh.rs`: each placed mesh with emissive triangles, uniformly by area.
+//!
+//! One light is picked per sample (`select.rs`): infinite against bounded
+//! lights by power, infinite lights among themselves by power, bounded lights
+//! by a light BVH (`bvh.rs`, pbrt-v4's `BVHLightSampler`) that weighs power by
+//! distance and orientation from the shading point. Every pdf that leaves
+//! this module is per steradian and includes that selection probability.
+//!
+//! Area lights are not occluders and show no back faces: a ray passes
+//! through a light's back (or a one-sided light seen from behind) unseen.
+
+mod bvh;
+mod cylinder;
+mod disk;
+mod distant;
+mod dome;
+mod emission;
+mod image;
+mod mesh;
+mod plane;
+mod rect;
+mod select;
+mod sphere;
+#[cfg(test)]
+pub(crate) mod test_support;
+
+use std::collections::HashMap;
+
+use glam::{Mat3, Vec2, Vec3};
+use thiserror::Error;
+
+use self::bvh::LightBounds;
+use self::cylinder::CylinderLight;
+use self::disk::DiskLight;
+use self::distant::DistantLight;
+use self::dome::DomeLight;
+use self::mesh::MeshLight;
+use self::rect::RectLight;
+use self::select::LightSelection;
+use self::sphere::SphereLight;
+use crate::geometry::SurfacePoint;
+use crate::materials::Materials;
+use crate::scene::{Light as LightRecord, LightShape, Scene};
+
+/// Every light of a scene with the structure that picks one per sample.
+pub struct Lights {
+    /// UsdLux lights first (in manifest order, those with power), then
+    /// emissive meshes.
+    lights: Vec<Light>,
+    /// Picks a light per sample; `None` when there are none.
+    selection: Option<LightSelection>,
+    /// Indices of the analytic area lights (sphere, rect, disk, cylinder).
+    area: Vec<usize>,
+    /// Indices of the lights an escaping ray can see (dome, distant with a cone).
+    infinite: Vec<usize>,
+    /// Light index of each emissive placed mesh, by (instance, prototype mesh).
+    meshes: HashMap<(u32, u32), usize>,
+}
+
+/// A light that cannot be used.
+#[derive(Debug, Error)]
+pub enum LightError {
+    /// A value out of its domain (non-finite, negative, a degenerate shape
+    /// asked to normalize), with the light's prim path.
+    #[error("light {path}: {message}")]
+    Invalid {
+        /// Light prim path.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// A light sample seen from a shading point (pbrt's `LightLiSample`).
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Incident radiance along `-wi`, W/(m^2 sr). For a delta light (point,
+    /// or distant of angle 0) it is the irradiance on a surface facing the
+    /// light, W/m^2, so `radiance * |cos| / pdf` (or `bsdf.eval * radiance /
+    /// pdf`) is the right estimator there too.
+    pub radiance: Vec3,
+    /// Unit world direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Distance to the sampled point, scene units; infinite for infinite lights.
+    pub distance: f32,
+    /// Solid-angle density, the light selection probability included; for a
+    /// delta light, the selection probability alone.
+    pub pdf: f32,
+    /// Sampled from a Dirac distribution (point or zero-angle distant light): no MIS.
+    pub delta: bool,
+}
+
+/// Where a ray meets an analytic area light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightHit {
+    /// Ray parameter of the hit, scene units along the unit direction.
+    pub t: f32,
+    /// Emitted radiance towards the ray origin, W/(m^2 sr).
+    pub radiance: Vec3,
+    /// Solid-angle density with which `Lights::sample` would pick this point
+    /// from the ray origin, selection probability included.
+    pub pdf: f32,
+}
+
+/// One light, by type (a closed set: UsdLux's types plus emissive meshes).
+#[derive(Clone, Debug)]
+pub(crate) enum Light {
+    /// `DistantLight`.
+    Distant(DistantLight),
+    /// `SphereLight` (or a point light with `treatAsPoint`).
+    Sphere(SphereLight),
+    /// `RectLight`.
+    Rect(RectLight),
+    /// `DiskLight`.
+    Disk(DiskLight),
+    /// `CylinderLight`.
+    Cylinder(CylinderLight),
+    /// `DomeLight`.
+    Dome(DomeLight),
+    /// A placed mesh with emissive triangles.
+    Mesh(MeshLight),
+}
+
+impl Lights {
+    /// True when the scene has no light with power (nothing to sample).
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+
+    /// Picks a light with `u_select` (by power, and for bounded lights by
+    /// distance and orientation from `p` too), then a point or direction on
+    /// it with `u`, as seen from `p`. `None` when there is no light or the
+    /// sample carries nothing (the light faces away, `p` is inside a sphere).
+    pub fn sample(
+        &self,
+        materials: &Materials,
+        p: Vec3,
+        u_select: f32,
+        u: Vec2,
+    ) -> Option<LightSample> {
+        let pick = self.selection.as_ref()?.pick(p, u_select)?;
+        let mut s = self.lights[pick.light].sample(materials, p, u)?;
+        s.pdf *= pick.probability;
+        Some(s)
+    }
+
+    /// The nearest front-face hit with t in (0, t_max) of the ray from
+    /// `origin` along unit `direction` on the analytic area lights (sphere,
+    /// rect, disk, cylinder; emissive meshes are found by the geometry).
+    pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<LightHit> {
+        let mut nearest: Option<(usize, LightHit)> = None;
+        let mut t_max = t_max;
+        for &i in &self.area {
+            if let Some(hit) = self.lights[i].intersect(origin, direction, t_max) {
+                t_max = hit.t;
+                nearest = Some((i, hit));
+            }
+        }
+        // The selection probability of the nearest only: a BVH walk each.
+        nearest.map(|(i, mut hit)| {
+            hit.pdf *= self.probability(origin, i);
+            hit
+        })
+    }
+
+    /// Calls `radiance_pdf(radiance, pdf)` once for each infinite light a ray
+    /// escaping the scene along unit `direction` sees: the dome, and distant
+    /// lights of non-zero angle whose cone holds `direction`. `pdf` is what
+    /// [`Lights::sample`] gives that direction, selection included.
+    pub fn escaped(&self, direction: Vec3, mut radiance_pdf: impl FnMut(Vec3, f32)) {
+        for &i in &self.infinite {
+            if let Some(hit) = self.lights[i].escaped(direction) {
+                // Infinite lights are picked independently of the point.
+                radiance_pdf(hit.radiance, hit.pdf * self.probability(Vec3::ZERO, i));
+            }
+        }
+    }
+
+    /// Solid-angle density with which [`Lights::sample`] picks the emissive
+    /// mesh point `sp` from `origin`, selection included (for MIS when a BSDF
+    /// ray hits an emitter); 0 when `sp`'s mesh is not a light.
+    pub fn mesh_pdf(&self, sp: &SurfacePoint, origin: Vec3) -> f32 {
+        let Some(&i) = self.meshes.get(&(sp.instance, sp.prototype_mesh)) else {
+            return 0.0;
+        };
+        match &self.lights[i] {
+            Light::Mesh(mesh) => mesh.pdf(sp, origin) * self.probability(origin, i),
+            _ => unreachable!("the mesh map holds mesh lights only"),
+        }
+    }
+
+    /// Probability of picking light `index` from shading point `p`.
+    fn probability(&self, p: Vec3, index: usize) -> f32 {
+        self.selection
+            .as_ref()
+            .map_or(0.0, |s| s.probability(p, index))
+    }
+
+    /// Every UsdLux light of the scene and every placed mesh with emissive
+    /// triangles, then the power-based selection over them. Lights of zero
+    /// power (black, zero size without `normalize`) are left out with a
+    /// warning; unusable values are a [`LightError`].
+    pub fn build(scene: &Scene, materials: &Materials) -> Result<Self, LightError> {
+        let radius = select::scene_radius(&scene.manifest.bounds);
+        let mut lights = Vec::new();
+        for record in &scene.manifest.lights {
+            let light = Light::from_record(record)?;
+            if light.power(radius) > 0.0 {
+                lights.push(light);
+            } else {
+                log::warn!("light {} emits nothing; left out", record.path);
+            }
+        }
+        let mut meshes = HashMap::new();
+        for (key, mesh) in MeshLight::build_all(scene, materials) {
+            if mesh.power() > 0.0 {
+                meshes.insert(key, lights.len());
+                lights.push(Light::Mesh(mesh));
+            }
+        }
+        Ok(Self::from_lights(lights, meshes, &scene.manifest.bounds))
+    }
+
+    fn from_lights(
+        lights: Vec<Light>,
+        meshes: HashMap<(u32, u32), usize>,
+        bounds: &crate::scene::Bounds,
+    ) -> Self {
+        let indices = |keep: fn(&Light) -> bool| -> Vec<usize> {
+            (0..lights.len()).filter(|&i| keep(&lights[i])).collect()
+        };
+        let area = indices(|l| {
+            matches!(
+                l,
+                Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_)
+            )
+        });
+        let infinite = indices(|l| match l {
+            Light::Dome(_) => true,
+            Light::Distant(d) => !d.is_delta(),
+            _ => false,
+        });
+        let selection = (!lights.is_empty()).then(|| LightSelection::new(&lights, bounds));
+        Self {
+            lights,
+            selection,
+            area,
+            infinite,
+            meshes,
+        }
+    }
+}
+
+impl Light {
+    /// A sample of this light from `p`, its pdf without selection.
+    fn sample(&self, materials: &Materials, p: Vec3, u: Vec2) -> Option<LightSample> {
+        match self {
+            Self::Distant(l) => Some(l.sample(u)),
+            Self::Sphere(l) => l.sample(p, u),
+            Self::Rect(l) => l.sample(p, u),
+            Self::Disk(l) => l.sample(p, u),
+            Self::Cylinder(l) => l.sample(p, u),
+            Self::Dome(l) => l.sample(u),
+            Self::Mesh(l) => l.sample(materials, p, u),
+        }
+    }
+
+    /// The ray's front-face hit on an analytic area light, pdf without selection.
+    fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<LightHit> {
+        match self {
+            Self::Sphere(l) => l.intersect(origin, direction, t_max),
+            Self::Rect(l) => l.intersect(origin, direction, t_max),
+            Self::Disk(l) => l.intersect(origin, direction, t_max),
+            Self::Cylinder(l) => l.intersect(origin, direction, t_max),
+            Self::Distant(_) | Self::Dome(_) | Self::Mesh(_) => None,
+        }
+    }
+
+    /// What an escaping ray sees of an infinite light, pdf without selection.
+    fn escaped(&self, direction: Vec3) -> Option<LightHit> {
+        match self {
+            Self::Distant(l) => l.escaped(direction),
+            Self::Dome(l) => Some(l.escaped(direction)),
+            _ => None,
+        }
+    }
+
+    /// Position, power and emission directions for the light BVH; `None`
+    /// for infinite lights.
+    fn bounds(&self) -> Option<LightBounds> {
+        match self {
+            Self::Sphere(l) => Some(l.bounds()),
+            Self::Rect(l) => Some(l.bounds()),
+            Self::Disk(l) => Some(l.bounds()),
+            Self::Cylinder(l) => Some(l.bounds()),
+            Self::Mesh(l) => Some(l.bounds()),
+            Self::Distant(_) | Self::Dome(_) => None,
+        }
+    }
+
+    /// Luminance of the emitted power (W, up to the luminance weighting);
+    /// infinite lights through a disk of `scene_radius`.
+    fn power(&self, scene_radius: f32) -> f32 {
+        match self {
+            Self::Distant(l) => l.power(scene_radius),
+            Self::Sphere(l) => l.power(),
+            Self::Rect(l) => l.power(),
+            Self::Disk(l) => l.power(),
+            Self::Cylinder(l) => l.power(),
+            Self::Dome(l) => l.power(scene_radius),
+            Self::Mesh(l) => l.power(),
+        }
+    }
+
+    /// The light a manifest record describes.
+    fn from_record(record: &LightRecord) -> Result<Self, LightError> {
+        Ok(match &record.shape {
+            LightShape::Distant { angle_deg } => {
+                Self::Distant(DistantLight::from_record(record, *angle_deg)?)
+            }
+            LightShape::Sphere {
+                radius,
+                treat_as_point,
+            } => Self::Sphere(SphereLight::from_record(record, *radius, *treat_as_point)?),
+            LightShape::Rect {
+                width,
+                height,
+                texture,
+            } => Self::Rect(RectLight::from_record(
+                record,
+                *width,
+                *height,
+                texture.as_deref(),
+            )?),
+            LightShape::Disk { radius } => Self::Disk(DiskLight::from_record(record, *radius)?),
+            LightShape::Cylinder { radius, length } => {
+                Self::Cylinder(CylinderLight::from_record(record, *radius, *length)?)
+            }
+            LightShape::Dome { texture } => {
+                Self::Dome(DomeLight::from_record(record, texture.as_deref())?)
+            }
+        })
+    }
+}
+
+impl LightError {
+    /// An [`LightError::Invalid`] naming `record`'s prim.
+    pub(crate) fn invalid(record: &LightRecord, message: impl Into<String>) -> Self {
+        Self::Invalid {
+            path: record.path.clone(),
+            message: message.into(),
+        }
+    }
+}
+
+/// The record's world-from-light transform as (linear part, light origin in
+/// world space); non-finite entries are refused.
+pub(crate) fn world_from_light(record: &LightRecord) -> Result<(Mat3, Vec3), LightError> {
+    if !record.transform.iter().all(|v| v.is_finite()) {
+        return Err(LightError::invalid(record, "transform is not finite"));
+    }
+    let a = crate::scene::affine(&record.transform);
+    Ok((Mat3::from(a.matrix3), Vec3::from(a.translation)))
+}
+
+/// Mean length of the transform's three axes: the scale applied to a
+/// sphere's radius. Non-uniform scale (axes differing by more than 0.1%)
+/// cannot keep a sphere round and is warned about.
+pub(crate) fn mean_scale(record: &LightRecord, linear: Mat3) -> f32 {
+    let s = Vec3::new(
+        linear.x_axis.length(),
+        linear.y_axis.length(),
+        linear.z_axis.length(),
+    );
+    if s.max_element() - s.min_element() > 1e-3 * s.max_element() {
+        log::warn!(
+            "light {}: non-uniform scale {s} on a sphere; using their mean",
+            record.path
+        );
+    }
+    (s.x + s.y + s.z) / 3.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_support::{
+        assert_within_4_sigma, estimate, scene_with, sphere_json, translated,
+    };
+    use super::*;
+    use crate::sampling::Pcg32;
+
+    /// Two spheres of equal size on either side of the origin, the one on +X
+    /// nine times brighter, plus an emissive quad far below: the share of
+    /// samples towards each light follows its selection probability, the
+    /// two equidistant spheres' probabilities are in proportion to their
+    /// power, and each sample's pdf is what `intersect` reports.
+    #[test]
+    fn selection_picks_lights_by_power_and_distance() {
+        let far = translated(Vec3::new(-0.5, -0.5, -50.0));
+        let scene = scene_with(
+            "selection",
+            serde_json::json!([
+                sphere_json("/Dim", Vec3::new(-3.0, 0.0, 0.0), 0.5, 1.0),
+                sphere_json("/Bright", Vec3::new(3.0, 0.0, 0.0), 0.5, 9.0),
+            ]),
+            [1.0, 1.0, 1.0],
+            &[far],
+        );
+        let materials = Materials::build(&scene).unwrap();
+        let lights = Lights::build(&scene, &materials).unwrap();
+        assert_eq!(lights.lights.len(), 3);
+        let probabilities: Vec<f32> = (0..3).map(|i| lights.probability(Vec3::ZERO, i)).collect();
+        assert!((probabilities.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+        assert!(
+            (probabilities[1] / probabilities[0] - 9.0).abs() < 1e-3,
+            "{probabilities:?}"
+        );
+        // The quad, 50 units away, is picked far less than its power share
+        // (power pi x 0.5 against pi^2 x 10): the BVH weighs distance.
+        assert!(probabilities[2] < 1e-3, "{probabilities:?}");
+        let mut rng = Pcg32::new(21, 0);
+        let n = 20_000;
+        let mut counts = [0u32; 3];
+        for _ in 0..n {
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            let Some(s) = lights.sample(&materials, Vec3::ZERO, rng.next_f32(), u) else {
+                continue;
+            };
+            let which = if s.wi.x > 0.5 {
+                1
+            } else if s.wi.x < -0.5 {
+                0
+            } else {
+                2
+            };
+            counts[which] += 1;
+            if which < 2 {
+                let hit = lights.intersect(Vec3::ZERO, s.wi, f32::INFINITY).unwrap();
+                assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
+            }
+        }
+        for (i, &c) in counts.iter().enumerate() {
+            let p = f64::from(probabilities[i]);
+            let sigma = (f64::from(n) * p * (1.0 - p)).sqrt();
+            assert!(
+                (f64::from(c) - f64::from(n) * p).abs() < 4.0 * sigma,
+                "light {i}: {c} of {n}, expected p = {p}"
+            );
+        }
+    }
+
+    /// Irradiance at the origin (normal +Z) from the emissive triangle of a
+    /// quad turned to face down at height 1, against Lambert's exact formula
+    /// for a polygon; `mesh_pdf` at each sampled point equals the sample's pdf.
+    #[test]
+    fn emissive_mesh_irradiance_and_pdf() {
+        // Rotation by pi about X (front +z -> -z), then translation.
+        let placed = [1., 0., 0., -0.5, 0., -1., 0., 0.5, 0., 0., -1., 1.];
+        let scene = scene_with("mesh", serde_json::json!([]), [2.0, 2.0, 2.0], &[placed]);
+        let materials = Materials::build(&scene).unwrap();
+        let lights = Lights::build(&scene, &materials).unwrap();
+        let e = estimate(20_000, 22, |u| {
+            let s = lights.sample(&materials, Vec3::ZERO, 0.5, u)?;
+            let p = s.wi * s.distance;
+            // Triangle 0 of the quad is mesh-space x > y: world x + 0.5 > 0.5 - y.
+            let sp = SurfacePoint {
+                p,
+                ng: -Vec3::Z,
+                ns: -Vec3::Z,
+                dpdu: Vec3::X,
+                uv: Vec2::ZERO,
+                material: 0,
+                double_sided: false,
+                instance: 0,
+                prototype_mesh: 0,
+                triangle: if p.x > -p.y { 0 } else { 1 },
+            };
+            assert_eq!(sp.triangle, 0);
+            let pdf = lights.mesh_pdf(&sp, Vec3::ZERO);
+            assert!((pdf - s.pdf).abs() <= 1e-3 * s.pdf, "{pdf} vs {}", s.pdf);
+            Some(s.radiance.x * s.wi.z.max(0.0) / s.pdf)
+        });
+        // World vertices of triangle 0: mesh (0,0),(1,0),(1,1) placed.
+        let v = [
+            Vec3::new(-0.5, 0.5, 1.0),
+            Vec3::new(0.5, 0.5, 1.0),
+            Vec3::new(0.5, -0.5, 1.0),
+        ];
+        let lambert: f32 = (0..3)
+            .map(|i| {
+                let (a, b) = (v[i].normalize(), v[(i + 1) % 3].normalize());
+                a.dot(b).acos() * a.cross(b).normalize().z
+            })
+            .sum::<f32>()
+            .abs()
+            / 2.0;
+        assert_within_4_sigma(e, 2.0 * lambert, "emissive triangle");
+        // From above, the single-sided quad shows its back: nothing.
+        let above = Vec3::new(0.0, 0.0, 3.0);
+        assert!(lights
+            .sample(&materials, above, 0.5, Vec2::splat(0.4))
+            .is_none());
+    }
+
+    #[test]
+    fn unusable_lights_are_errors_naming_the_prim() {
+        let mut bad = sphere_json("/World/Bad", Vec3::ZERO, 0.0, 1.0);
+        bad["normalize"] = true.into();
+        let scene = scene_with("bad", serde_json::json!([bad]), [0.0; 3], &[]);
+        let materials = Materials::build(&scene).unwrap();
+        let err = Lights::build(&scene, &materials).err().unwrap();
+        assert!(err.to_string().contains("/World/Bad"), "{err}");
+        let empty = scene_with("empty", serde_json::json!([]), [0.0; 3], &[]);
+        let lights = Lights::build(&empty, &materials).unwrap();
+        assert!(lights.is_empty());
+        assert!(lights
+            .sample(&materials, Vec3::ZERO, 0.5, Vec2::ZERO)
+            .is_none());
+    }
+
+    /// A dome and a sphere: dome samples have the pdf `escaped` reports for
+    /// their direction, sphere samples the one `intersect` reports, and the
+    /// dome's share of samples is its selection probability.
+    #[test]
+    fn infinite_and_bounded_lights_share_the_selection() {
+        let dome = serde_json::json!({
+            "type": "dome", "path": "/Sky", "transform": translated(Vec3::ZERO),
+            "color": [1, 1, 1], "intensity": 0.2, "exposure": 0.0, "normalize": false,
+            "color_temperature": null, "texture": null
+        });
+        let scene = scene_with(
+            "dome",
+            serde_json::json!([
+                dome,
+                sphere_json("/Bulb", Vec3::new(0.0, 0.0, 4.0), 0.5, 5.0)
+            ]),
+            [0.0; 3],
+            &[],
+        );
+        let materials = Materials::build(&scene).unwrap();
+        let lights = Lights::build(&scene, &materials).unwrap();
+        let p_dome = lights.probability(Vec3::ZERO, 0);
+        assert!(p_dome > 0.0 && p_dome < 1.0);
+        assert!((p_dome + lights.probability(Vec3::ZERO, 1) - 1.0).abs() < 1e-6);
+        let mut rng = Pcg32::new(23, 0);
+        let n = 20_000;
+        let mut domes = 0u32;
+        for _ in 0..n {
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            let s = lights
+                .sample(&materials, Vec3::ZERO, rng.next_f32(), u)
+                .unwrap();
+            if s.distance.is_infinite() {
+                domes += 1;
+                let mut seen = 0;
+                lights.escaped(s.wi, |radiance, pdf| {
+                    seen += 1;
+                    assert_eq!(radiance, s.radiance);
+                    assert!((pdf - s.pdf).abs() <= 1e-5 * s.pdf);
+                });
+                assert_eq!(seen, 1);
+            } else {
+                let hit = lights.intersect(Vec3::ZERO, s.wi, f32::INFINITY).unwrap();
+                assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
+            }
+        }
+        let q = f64::from(p_dome);
+        let sigma = (f64::from(n) * q * (1.0 - q)).sqrt();
+        assert!(
+            (f64::from(domes) - f64::from(n) * q).abs() < 4.0 * sigma,
+            "{domes} of {n}"
+        );
+    }
+}

@@ -1,0 +1,401 @@
+//! A `UsdPreviewSurface` record with its inputs resolved to constants or
+//! texture lookups, evaluated at a hit into a [`Bsdf`]: workflow (metallic or
+//! specular), normal map, and the shading normal's correction.
+
+use glam::{Vec2, Vec3};
+
+use super::bsdf::{Bsdf, Layers};
+use super::fresnel;
+use super::microfacet::Ggx;
+use super::texture::Texture;
+use crate::geometry::{Frame, SurfacePoint};
+use crate::scene::{self, Channel, Input};
+
+/// How far above the geometric surface (as a cosine) the mirror direction of
+/// `wo` about a corrected shading normal is lifted (see [`bend_normal`]).
+const MIN_REFLECTION_COS: f32 = 0.01;
+
+/// Below this |ior - 1| the dielectric is index-matched: eta is taken as
+/// exactly 1, so it neither reflects nor bends light, and transmission is the
+/// thin sheet's straight pass-through (UsdPreviewSurface's common "opacity
+/// as presence" use, ior 1).
+const INDEX_MATCHED: f32 = 1e-3;
+
+/// An input of a material: a constant, or one output of a texture.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Param<T> {
+    /// The authored (or default) value.
+    Constant(T),
+    /// Index into [`Materials`](super::Materials)' textures and the output read.
+    Texture { texture: u32, channel: Channel },
+}
+
+/// One `UsdPreviewSurface`: every input the BSDF and emission read.
+#[derive(Clone, Debug)]
+pub(crate) struct PreviewSurface {
+    pub(crate) diffuse_color: Param<Vec3>,
+    pub(crate) emissive_color: Param<Vec3>,
+    pub(crate) metallic: Param<f32>,
+    pub(crate) roughness: Param<f32>,
+    pub(crate) specular_color: Param<Vec3>,
+    pub(crate) use_specular_workflow: bool,
+    pub(crate) ior: f32,
+    pub(crate) opacity: Param<f32>,
+    pub(crate) clearcoat: f32,
+    pub(crate) clearcoat_roughness: f32,
+    /// Tangent-space normal map: texture index.
+    pub(crate) normal: Option<u32>,
+}
+
+impl Param<Vec3> {
+    /// The colour at `uv`.
+    pub(crate) fn eval(&self, textures: &[Texture], uv: Vec2) -> Vec3 {
+        match *self {
+            Param::Constant(v) => v,
+            Param::Texture { texture, channel } => textures[texture as usize].eval_rgb(uv, channel),
+        }
+    }
+}
+
+impl Param<f32> {
+    /// The scalar at `uv`.
+    pub(crate) fn eval(&self, textures: &[Texture], uv: Vec2) -> f32 {
+        match *self {
+            Param::Constant(v) => v,
+            Param::Texture { texture, channel } => {
+                textures[texture as usize].eval_scalar(uv, channel)
+            }
+        }
+    }
+}
+
+impl PreviewSurface {
+    /// The BSDF at `sp` seen from `wo`: inputs evaluated at `sp.uv`, the
+    /// normal map applied, the shading frame turned to `wo`'s side of the
+    /// surface and bent so that `wo` lies above it.
+    ///
+    /// Workflows (UsdPreviewSurface specification): metallic: F0 =
+    /// lerp(((ior - 1) / (ior + 1))^2, diffuseColor, metallic), F90 =
+    /// lerp(white, diffuseColor, metallic), diffuse = diffuseColor (1 -
+    /// metallic); specular: F0 = specularColor, F90 white, diffuse =
+    /// diffuseColor. The white part of F90 fades to black as F0 goes to 0
+    /// (times min(1, 50 mean(F0)), Lagarde and de Rousiers 2014, "Moving
+    /// Frostbite to PBR", §4.4): no real material has F0 below 0.02, and
+    /// this keeps specularColor 0 (or ior 1) a pure Lambert surface.
+    ///
+    /// Transmission (weight 1 - opacity) is a thin sheet on double-sided
+    /// meshes (the same from both sides) and a solid interface otherwise,
+    /// entered when `wo` is on the front side of `ng` (eta = ior) and left
+    /// from the back (eta = 1 / ior).
+    pub(crate) fn bsdf(&self, textures: &[Texture], sp: &SurfacePoint, wo: Vec3) -> Bsdf {
+        let uv = sp.uv;
+        let diffuse_color = self.diffuse_color.eval(textures, uv).max(Vec3::ZERO);
+        let fade = |f0: Vec3| Vec3::splat((50.0 * (f0.x + f0.y + f0.z) / 3.0).min(1.0));
+        // `base`: the albedo AOV's colour, diffuse blended towards F0 by metallic.
+        let (diffuse, f0, f90, base) = if self.use_specular_workflow {
+            let f0 = self
+                .specular_color
+                .eval(textures, uv)
+                .clamp(Vec3::ZERO, Vec3::ONE);
+            (diffuse_color, f0, fade(f0), diffuse_color)
+        } else {
+            let metallic = self.metallic.eval(textures, uv).clamp(0.0, 1.0);
+            let dielectric = Vec3::splat(fresnel::f0_from_ior(self.ior));
+            let albedo = diffuse_color.min(Vec3::ONE);
+            let f0 = dielectric.lerp(albedo, metallic);
+            (
+                diffuse_color * (1.0 - metallic),
+                f0,
+                fade(dielectric).lerp(albedo, metallic),
+                diffuse_color.lerp(f0, metallic),
+            )
+        };
+        let opacity = self.opacity.eval(textures, uv).clamp(0.0, 1.0);
+        let index_matched = (self.ior - 1.0).abs() < INDEX_MATCHED;
+
+        let side = if sp.ng.dot(wo) >= 0.0 { 1.0 } else { -1.0 };
+        let ng = sp.ng * side;
+        let n = self.mapped_normal(textures, sp) * side;
+        let frame = Frame::from_normal_tangent(bend_normal(n, ng, wo), sp.dpdu);
+        let layers = Layers {
+            diffuse,
+            specular_f0: f0,
+            specular_f90: f90,
+            specular: Ggx::from_roughness(self.roughness.eval(textures, uv)),
+            clearcoat: self.clearcoat.clamp(0.0, 1.0),
+            clearcoat_f0: fresnel::f0_from_ior(self.ior),
+            clearcoat_ggx: Ggx::from_roughness(self.clearcoat_roughness),
+            opacity,
+            // A thin sheet has air on both sides: the same ior from either.
+            eta: if index_matched {
+                1.0
+            } else if side > 0.0 || sp.double_sided {
+                self.ior
+            } else {
+                1.0 / self.ior
+            },
+            thin: sp.double_sided || index_matched,
+            // White where the dielectric transmits, as denoisers expect for glass.
+            albedo: base * opacity + Vec3::splat(1.0 - opacity),
+        };
+        Bsdf::new(frame, ng, wo, layers)
+    }
+
+    /// The shading normal on the front side, with the tangent-space normal
+    /// map applied (x along `dpdu`, z along `ns`). UsdPreviewSurface expects
+    /// the texture's scale and bias to map texels to [-1, 1]; when they are
+    /// left at 1 and 0 (a common authoring slip), `2 v - 1` is applied here.
+    fn mapped_normal(&self, textures: &[Texture], sp: &SurfacePoint) -> Vec3 {
+        let Some(texture) = self.normal else {
+            return sp.ns;
+        };
+        let texture = &textures[texture as usize];
+        let mut v = texture.eval_rgb(sp.uv, Channel::Rgb);
+        if texture.keeps_stored_range() {
+            v = 2.0 * v - Vec3::ONE;
+        }
+        let tangent_space = Frame::from_normal_tangent(sp.ns, sp.dpdu);
+        let n = tangent_space.to_world(v).normalize_or_zero();
+        if n == Vec3::ZERO {
+            sp.ns
+        } else {
+            n
+        }
+    }
+
+    /// Whether the surface emits: `emissiveColor` is textured or non-black.
+    pub(crate) fn is_emissive(&self) -> bool {
+        match self.emissive_color {
+            Param::Constant(c) => c.max_element() > 0.0,
+            Param::Texture { .. } => true,
+        }
+    }
+
+    /// UsdPreviewSurface's defaults: grey 0.18 diffuse, roughness 0.5,
+    /// dielectric with ior 1.5, opaque, no emission: the look of a surface
+    /// without a bound material.
+    pub(crate) fn default_surface() -> Self {
+        Self {
+            diffuse_color: Param::Constant(Vec3::splat(0.18)),
+            emissive_color: Param::Constant(Vec3::ZERO),
+            metallic: Param::Constant(0.0),
+            roughness: Param::Constant(0.5),
+            specular_color: Param::Constant(Vec3::ZERO),
+            use_specular_workflow: false,
+            ior: 1.5,
+            opacity: Param::Constant(1.0),
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.01,
+            normal: None,
+        }
+    }
+
+    /// The record's inputs (texture indices were validated by the scene loader).
+    pub(crate) fn from_record(record: &scene::Material) -> Self {
+        Self {
+            diffuse_color: color(&record.diffuse_color),
+            emissive_color: color(&record.emissive_color),
+            metallic: scalar(&record.metallic),
+            roughness: scalar(&record.roughness),
+            specular_color: color(&record.specular_color),
+            use_specular_workflow: record.use_specular_workflow,
+            ior: record.ior,
+            opacity: scalar(&record.opacity),
+            clearcoat: record.clearcoat,
+            clearcoat_roughness: record.clearcoat_roughness,
+            normal: record.normal.as_ref().map(|t| t.texture),
+        }
+    }
+}
+
+/// The shading normal `n`, bent towards the geometric normal `ng` (both on
+/// `wo`'s side) when the mirror direction of `wo` about it would go below the
+/// surface (Keller et al. 2017, "The Iray Light Transport Simulation and
+/// Rendering System", §A.3): the mirror direction is lifted to cosine
+/// [`MIN_REFLECTION_COS`] above the surface and the normal becomes the half
+/// vector of `wo` and it. Then `wo` is always above the shading hemisphere.
+fn bend_normal(n: Vec3, ng: Vec3, wo: Vec3) -> Vec3 {
+    let r = 2.0 * n.dot(wo) * n - wo;
+    let cos_r = r.dot(ng);
+    if cos_r >= MIN_REFLECTION_COS {
+        return n;
+    }
+    let lifted = (r + (MIN_REFLECTION_COS - cos_r) * ng).normalize_or(ng);
+    (wo + lifted).normalize_or(ng)
+}
+
+fn color(input: &Input<scene::Rgb>) -> Param<Vec3> {
+    match input {
+        Input::Constant(c) => Param::Constant(Vec3::from(*c)),
+        Input::Texture(t) => Param::Texture {
+            texture: t.texture,
+            channel: t.channel,
+        },
+    }
+}
+
+fn scalar(input: &Input<f32>) -> Param<f32> {
+    match input {
+        Input::Constant(v) => Param::Constant(*v),
+        Input::Texture(t) => Param::Texture {
+            texture: t.texture,
+            channel: t.channel,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::f32::consts::FRAC_1_PI;
+
+    use super::*;
+    use crate::scene::{ColorSpace, Wrap};
+
+    /// A texture without an image: every lookup reads its fallback `value`.
+    fn constant_texture(value: [f32; 4]) -> Texture {
+        let record = scene::Texture {
+            file: "absent.exr".into(),
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+            scale: [1.0; 4],
+            bias: [0.0; 4],
+            fallback: value,
+            color_space: ColorSpace::Raw,
+            st_transform: None,
+        };
+        Texture::new(&record, None)
+    }
+
+    fn point() -> SurfacePoint {
+        SurfacePoint {
+            p: Vec3::ZERO,
+            ng: Vec3::Z,
+            ns: Vec3::Z,
+            dpdu: Vec3::X,
+            uv: Vec2::new(0.5, 0.5),
+            material: 0,
+            double_sided: false,
+            instance: 0,
+            prototype_mesh: 0,
+            triangle: 0,
+        }
+    }
+
+    fn white_lambert() -> PreviewSurface {
+        PreviewSurface {
+            use_specular_workflow: true,
+            diffuse_color: Param::Constant(Vec3::ONE),
+            ..PreviewSurface::default_surface()
+        }
+    }
+
+    /// A [0, 1]-encoded normal map texel (0.75, 0.5, 1) is (0.5, 0, 1) in
+    /// tangent space: the Lambert lobe peaks along it, tilted towards dpdu.
+    #[test]
+    fn normal_map_tilts_the_shading_normal_along_dpdu() {
+        let textures = [constant_texture([0.75, 0.5, 1.0, 1.0])];
+        let surface = PreviewSurface {
+            normal: Some(0),
+            ..white_lambert()
+        };
+        let wo = Vec3::Z;
+        let bsdf = surface.bsdf(&textures, &point(), wo);
+        let n = Vec3::new(0.5, 0.0, 1.0).normalize();
+        assert!(
+            (bsdf.eval(wo, n) - Vec3::splat(FRAC_1_PI))
+                .abs()
+                .max_element()
+                < 1e-5
+        );
+        let along_ng = bsdf.eval(wo, Vec3::Z).x;
+        assert!((along_ng - n.z * FRAC_1_PI).abs() < 1e-5, "{along_ng}");
+        // Scale and bias that already map to [-1, 1] are trusted as they are.
+        let signed = [constant_texture([0.5, 0.0, 1.0, 1.0])];
+        let bsdf = surface.bsdf(&signed, &point(), wo);
+        assert!(
+            (bsdf.eval(wo, n) - Vec3::splat(FRAC_1_PI))
+                .abs()
+                .max_element()
+                > 1e-3
+        );
+    }
+
+    /// Metallic workflow: F0 blends from the ior's reflectance to
+    /// diffuseColor, and the albedo AOV from diffuseColor to F0.
+    #[test]
+    fn metallic_workflow_blends_f0_and_albedo() {
+        let red = Vec3::new(0.9, 0.1, 0.1);
+        for metallic in [0.0f32, 0.5, 1.0] {
+            let surface = PreviewSurface {
+                diffuse_color: Param::Constant(red),
+                metallic: Param::Constant(metallic),
+                ..PreviewSurface::default_surface()
+            };
+            let bsdf = surface.bsdf(&[], &point(), Vec3::Z);
+            let f0 = Vec3::splat(0.04).lerp(red, metallic);
+            let albedo = red.lerp(f0, metallic);
+            assert!(
+                (bsdf.albedo() - albedo).abs().max_element() < 1e-6,
+                "{metallic}"
+            );
+            // Normal incidence and exit: the specular term is F0 times a grey
+            // factor, the diffuse term (1 - metallic) red (1 - F0)^2 /
+            // (1 - F_avg) / pi, with F90 = lerp(white, red, metallic).
+            let f = bsdf.eval(Vec3::Z, Vec3::Z);
+            let f90 = Vec3::ONE.lerp(red, metallic);
+            let through = (Vec3::ONE - f0) * (Vec3::ONE - f0)
+                / (Vec3::ONE - fresnel::schlick_average(f0, f90));
+            let diffuse = red * (1.0 - metallic) * through * FRAC_1_PI;
+            let spec = f - diffuse;
+            assert!(
+                (spec / f0 - Vec3::splat(spec.x / f0.x)).abs().max_element() < 1e-3,
+                "{spec}"
+            );
+        }
+    }
+
+    #[test]
+    fn emission_is_constant_or_textured() {
+        let textures = [constant_texture([2.0, 3.0, 4.0, 1.0])];
+        let lamp = PreviewSurface {
+            emissive_color: Param::Texture {
+                texture: 0,
+                channel: Channel::Rgb,
+            },
+            ..PreviewSurface::default_surface()
+        };
+        assert!(lamp.is_emissive());
+        assert_eq!(
+            lamp.emissive_color.eval(&textures, Vec2::ZERO),
+            Vec3::new(2.0, 3.0, 4.0)
+        );
+        assert!(!PreviewSurface::default_surface().is_emissive());
+        let glow = PreviewSurface {
+            emissive_color: Param::Constant(Vec3::new(0.0, 0.5, 0.0)),
+            ..PreviewSurface::default_surface()
+        };
+        assert!(glow.is_emissive());
+    }
+
+    /// Opposite the mirror direction a shading normal tilted 80 degrees
+    /// is bent until `wo`'s mirror image sits just above the surface.
+    #[test]
+    fn bent_normal_keeps_wo_and_its_mirror_above_the_surface() {
+        let n = Vec3::new(80f32.to_radians().sin(), 0.0, 80f32.to_radians().cos());
+        for wo in [
+            Vec3::new(-0.9, 0.0, 0.3).normalize(),
+            Vec3::new(0.2, 0.9, 0.1).normalize(),
+        ] {
+            let bent = bend_normal(n, Vec3::Z, wo);
+            assert!((bent.length() - 1.0).abs() < 1e-5);
+            assert!(bent.dot(wo) > 0.0 && bent.z > 0.0, "{bent}");
+            let mirror = 2.0 * bent.dot(wo) * bent - wo;
+            assert!(mirror.z >= MIN_REFLECTION_COS * 0.9, "{mirror}");
+        }
+        // A normal that does not need it is left alone.
+        assert_eq!(
+            bend_normal(Vec3::Z, Vec3::Z, Vec3::X * 0.6 + Vec3::Z * 0.8),
+            Vec3::Z
+        );
+    }
+}

@@ -1,0 +1,87 @@
+//! Everything a render reads, built once from a [`Scene`] in a fixed order
+//! (textures and materials, lights, geometry, camera) and never changed
+//! afterwards, so threads share it freely. The scene itself can be dropped.
+
+use glam::UVec2;
+use thiserror::Error;
+
+use crate::camera::{Camera, CameraError};
+use crate::geometry::Geometry;
+use crate::lights::{LightError, Lights};
+use crate::materials::{MaterialError, Materials};
+use crate::scene::Scene;
+
+/// Image width used when neither the command line nor the stage's render
+/// settings give a resolution; the height follows the camera's aperture aspect.
+pub const DEFAULT_WIDTH: u32 = 960;
+
+/// The immutable inputs of the integrator.
+pub struct RenderState {
+    /// BVHs and per-vertex shading data.
+    pub geometry: Geometry,
+    /// BSDF inputs and textures.
+    pub materials: Materials,
+    /// Lights and the structure that picks one.
+    pub lights: Lights,
+    /// The render camera.
+    pub camera: Camera,
+    /// Image size in pixels.
+    pub resolution: UVec2,
+}
+
+/// Why a scene cannot be rendered.
+#[derive(Debug, Error)]
+pub enum RenderStateError {
+    /// A material or texture.
+    #[error(transparent)]
+    Material(#[from] MaterialError),
+    /// A light.
+    #[error(transparent)]
+    Light(#[from] LightError),
+    /// The camera.
+    #[error(transparent)]
+    Camera(#[from] CameraError),
+    /// The requested resolution.
+    #[error("resolution {0}x{1}: both sides must be at least 1 pixel")]
+    Resolution(u32, u32),
+}
+
+impl RenderState {
+    /// Builds the render state; `resolution` overrides the stage's.
+    pub fn build(scene: &Scene, resolution: Option<UVec2>) -> Result<Self, RenderStateError> {
+        let resolution = resolution_for(scene, resolution);
+        if resolution.min_element() == 0 {
+            return Err(RenderStateError::Resolution(resolution.x, resolution.y));
+        }
+        let materials = Materials::build(scene)?;
+        let lights = Lights::build(scene, &materials)?;
+        let geometry = Geometry::build(scene);
+        let camera = Camera::new(&scene.manifest.camera, resolution)?;
+        Ok(Self {
+            geometry,
+            materials,
+            lights,
+            camera,
+            resolution,
+        })
+    }
+}
+
+/// The image size: the command line's, else the stage's render settings',
+/// else [`DEFAULT_WIDTH`] wide with the camera aperture's aspect.
+fn resolution_for(scene: &Scene, requested: Option<UVec2>) -> UVec2 {
+    let m = &scene.manifest;
+    requested
+        .or(m.render.resolution.map(UVec2::from))
+        .unwrap_or_else(|| {
+            let c = &m.camera;
+            let aspect = c.vertical_aperture / c.horizontal_aperture;
+            let height = (DEFAULT_WIDTH as f32 * aspect).round();
+            let height = if height.is_finite() {
+                height.max(1.0) as u32
+            } else {
+                DEFAULT_WIDTH
+            };
+            UVec2::new(DEFAULT_WIDTH, height)
+        })
+}
