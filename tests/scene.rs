@@ -182,17 +182,7 @@ fn valid_scene_loads_with_its_counts() {
 #[test]
 fn info_prints_scene_counts() {
     let dir = write_scene("scene_info", &scene_files(2, 6));
-    let out = Command::new(env!("CARGO_BIN_EXE_cirrus"))
-        .arg("info")
-        .arg(&dir)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = common::cirrus_ok(&["info".as_ref(), dir.as_os_str()]);
     for expected in [
         "prototypes   2",
         "instances    6 from 1 source prim(s)",
@@ -574,18 +564,12 @@ fn instances_and_copies_give_identical_hits() {
 fn exported_point_instancer_loads_and_intersects() {
     let input = common::asset("openusd/testUsdImagingGLPointInstancer/pi_basic.usda");
     let out = common::scratch("scene_export_pi_basic").join("pi_basic");
-    let export = Command::new(env!("CARGO_BIN_EXE_cirrus"))
-        .arg("export")
-        .arg(&input)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        export.status.success(),
-        "{}",
-        String::from_utf8_lossy(&export.stderr)
-    );
+    common::cirrus_ok(&[
+        "export".as_ref(),
+        input.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
     let scene = Scene::load(&out).unwrap();
     let m = &scene.manifest;
     assert_eq!(m.source.path, input.canonicalize().unwrap());

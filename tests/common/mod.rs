@@ -22,6 +22,21 @@ pub fn scratch(test: &str) -> PathBuf {
     dir
 }
 
+/// Runs the `cirrus` binary with `args` and returns its stdout; panics with
+/// its stderr when it fails.
+pub fn cirrus_ok(args: &[&std::ffi::OsStr]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "cirrus {args:?} failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
 /// The project's venv Python (usd-core, OpenEXR, numpy), made by `.ci/setup`.
 pub fn venv_python() -> PathBuf {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python");
