@@ -193,8 +193,12 @@ impl Texture {
 impl Texels {
     /// The image at `path`, decoded as `color_space` says. A missing or
     /// unreadable file is not an error: one warning names it, and its
-    /// textures return their fallback.
+    /// textures return their fallback. An empty path (no `inputs:file`
+    /// authored; the exporter already warned) reads nothing, silently.
     fn read(path: &Path, color_space: ColorSpace) -> Option<Self> {
+        if path.as_os_str().is_empty() {
+            return None;
+        }
         match read_image(path, color_space) {
             Ok(image) if image.width > 0 && image.height > 0 && image.channels > 0 => Some(Self {
                 width: image.width,
