@@ -699,3 +699,56 @@ fn renders_are_deterministic_across_thread_counts_and_follow_the_seed() {
         );
     }
 }
+
+/// Runs `cirrus` expecting failure; returns its stderr.
+fn cirrus_fails(args: &[&std::ffi::OsStr]) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "cirrus {args:?} succeeded");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// The command line refuses what it cannot honour with one clear line, and
+/// `--time` renders whole passes (at least one sample), recorded in the EXR.
+#[test]
+fn render_command_line_contract() {
+    let dir = common::scratch("render_cli");
+    let scene = exported("lambert_plane_dome");
+    let exr = dir.join("timed.exr");
+    fn os(s: &str) -> &std::ffi::OsStr {
+        s.as_ref()
+    }
+    let base = [os("render"), scene.as_os_str(), os("-o"), exr.as_os_str()];
+    let render = |extra: &[&'static std::ffi::OsStr]| [&base[..], extra].concat();
+    for (bad, expected) in [
+        (vec![os("--spp"), os("0")], "--spp 0"),
+        (vec![os("--res"), os("0x16")], "is not a size"),
+        (vec![os("--time"), os("0")], "--time 0"),
+        (
+            vec![os("--spp"), os("4"), os("--time"), os("1")],
+            "cannot be used with",
+        ),
+        (vec![os("--clamp"), os("0")], "--clamp must be positive"),
+    ] {
+        let stderr = cirrus_fails(&render(&bad));
+        assert!(stderr.contains(expected), "{bad:?}: {stderr}");
+    }
+    let missing = dir.join("missing.usda");
+    let stderr = cirrus_fails(&[os("render"), missing.as_os_str(), os("-o"), exr.as_os_str()]);
+    assert!(stderr.contains("missing.usda"), "{stderr}");
+    assert!(!exr.exists(), "a failed render wrote its output");
+
+    common::cirrus_ok(&render(&[os("--time"), os("0.3"), os("--res"), os("16x8")]));
+    let image = exr::prelude::read_all_flat_layers_from_file(&exr).unwrap();
+    let spp = image.layer_data[0]
+        .attributes
+        .other
+        .get(&exr::meta::attribute::Text::from("cirrus/spp"));
+    let Some(exr::meta::attribute::AttributeValue::Text(spp)) = spp else {
+        panic!("no cirrus/spp attribute: {spp:?}");
+    };
+    assert!(spp.to_string().parse::<u32>().unwrap() >= 1, "spp {spp}");
+    assert!(dir.join("timed.png").is_file(), "no preview beside the EXR");
+}

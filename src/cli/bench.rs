@@ -59,7 +59,7 @@ pub enum Bench {
         #[arg(long, default_value_t = 4096)]
         reference_spp: u32,
         /// Equal-time budgets in seconds.
-        #[arg(long, value_delimiter = ',', default_value = "0.5,1,2,4")]
+        #[arg(long, value_delimiter = ',', default_value = "0.5,1,2,4,8")]
         times: Vec<f64>,
         /// Seeds per measurement; the table shows medians.
         #[arg(long, default_value_t = 3)]

@@ -3,11 +3,11 @@
 //! equal-time mean squared error of every estimator (BSDF-only, NEE-only,
 //! MIS) with every sampler (Sobol, independent) against a high-spp MIS +
 //! Sobol reference, as a Markdown table and an SVG chart of error against
-//! time.
+//! time. References are kept in the output folder, named by scene,
+//! resolution and spp: delete them after changing the renderer.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 use anyhow::{Context, Result};
 use glam::UVec2;
@@ -190,54 +190,112 @@ fn mse(image: &[f32], reference: &[f32]) -> f64 {
     sum / image.len() as f64
 }
 
-/// The equal-time table and chart.
+/// One method's convergence: (seconds, MSE) after 1, 2, 4, ... spp, each a
+/// separate render, up to the first that takes longer than `max_seconds`.
+fn convergence(
+    state: &RenderState,
+    reference: &[f32],
+    (strategy, sampler): (Strategy, SamplerKind),
+    seed: u64,
+    max_seconds: f64,
+) -> Vec<(f64, f64)> {
+    let mut points = Vec::new();
+    let mut spp = 1;
+    loop {
+        let s = settings(Budget::Samples(spp), strategy, sampler, seed, MAX_DEPTH);
+        let (rgb, stats) = render(state, &s);
+        let seconds = stats.elapsed.as_secs_f64();
+        points.push((seconds, mse(&rgb, reference)));
+        if seconds > max_seconds || spp >= 1 << 16 {
+            return points;
+        }
+        spp *= 2;
+    }
+}
+
+/// log MSE interpolated linearly in log time between the two points of
+/// `curve` around `t` (extrapolated from the end segments).
+fn mse_at(curve: &[(f64, f64)], t: f64) -> f64 {
+    let logs: Vec<(f64, f64)> = curve.iter().map(|&(x, y)| (x.ln(), y.ln())).collect();
+    if logs.len() == 1 {
+        return curve[0].1;
+    }
+    let i = logs
+        .windows(2)
+        .position(|w| t.ln() <= w[1].0)
+        .unwrap_or(logs.len() - 2);
+    let ((x0, y0), (x1, y1)) = (logs[i], logs[i + 1]);
+    let f = if x1 > x0 {
+        (t.ln() - x0) / (x1 - x0)
+    } else {
+        0.0
+    };
+    (y0 + f * (y1 - y0)).exp()
+}
+
+/// The equal-time table and chart: every method renders at 1, 2, 4, ... spp
+/// (per seed) until one render exceeds the largest budget; its MSE at each
+/// budget is interpolated log-log between the renders around it, so the
+/// times are equal exactly rather than rounded to whole passes.
 fn equal_time(
     state: &RenderState,
     bench: &RenderBench,
     name: &str,
     reference: &[f32],
 ) -> Result<()> {
-    let mut header = String::from("| estimator | sampler |");
-    let mut rule = String::from("|---|---|");
+    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
+    let pixels = f64::from(state.resolution.x * state.resolution.y);
+    let mut header = String::from("| estimator | sampler | samples/s (M) |");
+    let mut rule = String::from("|---|---|---:|");
     for t in &bench.times {
-        write!(header, " MSE @ {t} s (spp) |")?;
+        write!(header, " MSE @ {t} s |")?;
         rule.push_str("---:|");
     }
     println!("{header}\n{rule}");
     let mut curves = Vec::new();
-    for (strategy, sampler) in METHODS {
-        let mut row = format!("| {strategy:?} | {sampler:?} |");
-        let mut curve = Vec::new();
-        for &t in &bench.times {
-            let mut errors = Vec::new();
-            let mut spp = Vec::new();
-            for seed in 0..bench.repeats.max(1) {
-                let budget = Budget::Time(Duration::from_secs_f64(t));
-                let (rgb, stats) = render(
-                    state,
-                    &settings(budget, strategy, sampler, u64::from(seed), MAX_DEPTH),
-                );
-                errors.push(mse(&rgb, reference));
-                spp.push(f64::from(stats.samples_per_pixel));
-            }
-            let e = median(errors);
-            write!(row, " {e:.3e} ({:.0}) |", median(spp))?;
-            curve.push((t, e));
+    let mut at_times = Vec::new();
+    for method in METHODS {
+        let runs: Vec<Vec<(f64, f64)>> = (0..bench.repeats.max(1))
+            .map(|seed| convergence(state, reference, method, u64::from(seed), max_time))
+            .collect();
+        let errors: Vec<f64> = bench
+            .times
+            .iter()
+            .map(|&t| median(runs.iter().map(|c| mse_at(c, t)).collect()))
+            .collect();
+        // Samples per second from each run's largest render.
+        let rate = median(
+            runs.iter()
+                .map(|c| {
+                    let &(seconds, _) = c.last().expect("one render at least");
+                    pixels * (1u64 << (c.len() - 1)) as f64 / seconds
+                })
+                .collect(),
+        );
+        let (strategy, sampler) = method;
+        let mut row = format!("| {strategy:?} | {sampler:?} | {:.3} |", rate / 1e6);
+        for e in &errors {
+            write!(row, " {e:.3e} |")?;
         }
         println!("{row}");
-        curves.push((format!("{strategy:?} + {sampler:?}"), curve));
+        // The chart shows the median run (by its final error).
+        let mut runs = runs;
+        runs.sort_by(|a, b| a.last().unwrap().1.total_cmp(&b.last().unwrap().1));
+        curves.push((
+            format!("{strategy:?} + {sampler:?}"),
+            runs.swap_remove(runs.len() / 2),
+        ));
+        at_times.push(errors);
     }
-    let ratio = |a: usize, b: usize| {
-        let (ea, eb) = (&curves[a].1, &curves[b].1);
-        ea.iter()
-            .zip(eb)
-            .map(|((_, x), (_, y))| format!("{:.2}", x / y))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
+    let ratios: Vec<String> = at_times[4]
+        .iter()
+        .zip(&at_times[5])
+        .map(|(independent, sobol)| format!("{:.2}", independent / sobol))
+        .collect();
     println!(
-        "\nMSE ratio MIS + independent / MIS + Sobol at each time: {}",
-        ratio(4, 5)
+        "\nEqual-time MSE ratio, MIS + independent / MIS + Sobol, at {:?} s: {}",
+        bench.times,
+        ratios.join(", ")
     );
     let chart = bench.out.join(format!("{name}-equal-time.svg"));
     std::fs::write(&chart, svg_chart(name, &curves))
@@ -306,6 +364,6 @@ pub fn default_scenes(repo: &Path) -> Vec<PathBuf> {
     let assets = repo.join("../shared/assets/usd-wg");
     vec![
         assets.join("full_assets/StandardShaderBall/standard_shader_ball_scene.usda"),
-        assets.join("intent-vfx/scenes/teapotScene_layout.usd"),
+        assets.join("intent-vfx/scenes/teapotScene.usd"),
     ]
 }

@@ -23,8 +23,10 @@ use crate::sampling::{Sampler, SamplerKind};
 /// enough that per-tile overhead vanishes.
 const TILE_SIZE: u32 = 16;
 
-/// Longest pass in samples per pixel under a time budget: passes grow from 1
-/// sample by doubling up to this, and the budget is checked between passes.
+/// Longest pass in samples per pixel under a time budget. Passes are 1, 1,
+/// 2, 4, 8, 16, 16, ... samples, so the total doubles (1, 2, 4 .. 32) and then
+/// grows by this much (48, 64, ...): Sobol points are best balanced at powers
+/// of two and multiples of this; the budget is checked between passes.
 const MAX_PASS_SAMPLES: u32 = 16;
 
 /// How light is found, for comparing the estimators (`--strategy`).
@@ -161,9 +163,9 @@ pub fn render(
         match settings.budget {
             Budget::Samples(_) => break,
             Budget::Time(limit) => {
-                // Stop when the next pass (twice as long, at most) would overrun.
+                // Stop when the next pass would overrun.
                 let elapsed = start.elapsed();
-                let next = (pass * 2).min(MAX_PASS_SAMPLES);
+                let next = done.min(MAX_PASS_SAMPLES);
                 let per_sample = elapsed.as_secs_f64() / f64::from(done);
                 if elapsed.as_secs_f64() + per_sample * f64::from(next) > limit.as_secs_f64() {
                     break;

@@ -231,6 +231,13 @@ impl Lights {
                 lights.push(Light::Mesh(mesh));
             }
         }
+        if lights.is_empty() && scene.manifest.lights.is_empty() {
+            log::warn!(
+                "the scene has no lights: lighting it with a white dome of radiance 1 \
+                 (add a DomeLight or any UsdLux light to choose)"
+            );
+            lights.push(Light::from_record(&default_dome())?);
+        }
         Ok(Self::from_lights(lights, meshes, &scene.manifest.bounds))
     }
 
@@ -261,6 +268,21 @@ impl Lights {
             infinite,
             meshes,
         }
+    }
+}
+
+/// The light of a scene that has none: a constant white dome of radiance 1,
+/// so a layout without lights (many assets ship without) renders visibly.
+fn default_dome() -> LightRecord {
+    LightRecord {
+        path: "(default dome)".into(),
+        transform: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        color: [1.0; 3],
+        intensity: 1.0,
+        exposure: 0.0,
+        normalize: false,
+        color_temperature: None,
+        shape: LightShape::Dome { texture: None },
     }
 }
 

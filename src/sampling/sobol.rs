@@ -44,8 +44,9 @@ pub struct Sampler {
 enum Sequence {
     /// Padded Sobol: each draw hashes its own dimension seed.
     Sobol {
-        /// `pixel` packed as `x << 32 | y`.
-        pixel_key: u64,
+        /// The hash of (pixel, user seed), computed once per pixel sample;
+        /// each dimension's seed mixes the dimension into it.
+        pixel_hash: u64,
         sample_index: u32,
         /// Dimensions consumed so far (a 2D draw consumes two).
         dimension: u32,
@@ -59,11 +60,11 @@ impl Sampler {
     pub fn next_1d(&mut self) -> f32 {
         match &mut self.sequence {
             Sequence::Sobol {
-                pixel_key,
+                pixel_hash,
                 sample_index,
                 dimension,
             } => {
-                let hash = dimension_hash(*pixel_key, *dimension, self.seed);
+                let hash = dimension_hash(*pixel_hash, *dimension);
                 *dimension += 1;
                 let index = owen_scramble(*sample_index, hash as u32);
                 unit_float(owen_scramble(sobol_0(index), (hash >> 32) as u32))
@@ -77,11 +78,11 @@ impl Sampler {
     pub fn next_2d(&mut self) -> Vec2 {
         match &mut self.sequence {
             Sequence::Sobol {
-                pixel_key,
+                pixel_hash,
                 sample_index,
                 dimension,
             } => {
-                let hash = dimension_hash(*pixel_key, *dimension, self.seed);
+                let hash = dimension_hash(*pixel_hash, *dimension);
                 *dimension += 2;
                 let index = owen_scramble(*sample_index, hash as u32);
                 let scramble_y = mix_bits(hash) as u32;
@@ -99,7 +100,7 @@ impl Sampler {
         let pixel_key = (u64::from(pixel.x) << 32) | u64::from(pixel.y);
         self.sequence = match self.sequence {
             Sequence::Sobol { .. } => Sequence::Sobol {
-                pixel_key,
+                pixel_hash: pixel_hash(pixel_key, self.seed),
                 sample_index,
                 dimension: 0,
             },
@@ -114,7 +115,7 @@ impl Sampler {
     pub fn new(kind: SamplerKind, seed: u64) -> Self {
         let sequence = match kind {
             SamplerKind::Sobol => Sequence::Sobol {
-                pixel_key: 0,
+                pixel_hash: pixel_hash(0, seed),
                 sample_index: 0,
                 dimension: 0,
             },
@@ -171,16 +172,22 @@ fn owen_scramble(v: u32, seed: u32) -> u32 {
     v.reverse_bits()
 }
 
-/// The scrambling seed of one dimension (or dimension pair) of one pixel:
-/// 64 well-mixed bits from (pixel, dimension, user seed).
-fn dimension_hash(pixel_key: u64, dimension: u32, seed: u64) -> u64 {
-    mix_bits(mix_bits(pixel_key ^ mix_bits(seed)) ^ u64::from(dimension))
+/// 64 well-mixed bits from (pixel, user seed): the per-pixel part of every
+/// dimension's scrambling seed.
+fn pixel_hash(pixel_key: u64, seed: u64) -> u64 {
+    mix_bits(pixel_key ^ mix_bits(seed))
+}
+
+/// The scrambling seed of one dimension (or dimension pair) of one pixel,
+/// from its [`pixel_hash`].
+fn dimension_hash(pixel_hash: u64, dimension: u32) -> u64 {
+    mix_bits(pixel_hash ^ u64::from(dimension))
 }
 
 /// The generator of one independent pixel sample, a pure function of
 /// (pixel, sample index, user seed).
 fn independent_rng(pixel_key: u64, sample_index: u32, seed: u64) -> Pcg32 {
-    let hash = mix_bits(mix_bits(pixel_key ^ mix_bits(seed)) ^ u64::from(sample_index));
+    let hash = mix_bits(pixel_hash(pixel_key, seed) ^ u64::from(sample_index));
     Pcg32::new(hash, mix_bits(hash))
 }
 
