@@ -7,7 +7,7 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use super::bvh::LightBounds;
-use super::emission::{emission, luminance};
+use super::emission::{area_radiance, luminance};
 use super::{world_from_light, LightError, LightHit, LightSample};
 use crate::geometry::Frame;
 use crate::sampling::warp::area_to_solid_angle;
@@ -128,7 +128,6 @@ impl CylinderLight {
             );
         }
         let axis = x.normalize_or_zero();
-        let mut e = emission(record)?;
         let mut light = Self {
             centre,
             frame: Frame::from_normal_tangent(if axis == Vec3::ZERO { Vec3::X } else { axis }, y),
@@ -136,17 +135,7 @@ impl CylinderLight {
             half_length: length * x.length() / 2.0,
             radiance: Vec3::ZERO,
         };
-        if record.normalize {
-            let area = light.area();
-            if area <= 0.0 {
-                return Err(LightError::invalid(
-                    record,
-                    "normalize on a cylinder of zero area",
-                ));
-            }
-            e /= area;
-        }
-        light.radiance = e;
+        light.radiance = area_radiance(record, light.area(), "cylinder")?;
         Ok(light)
     }
 }

@@ -7,7 +7,7 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use super::bvh::LightBounds;
-use super::emission::{emission, luminance};
+use super::emission::{area_radiance, luminance};
 use super::plane::Plane;
 use super::{LightError, LightHit, LightSample};
 use crate::sampling::warp::square_to_concentric_disk;
@@ -73,17 +73,7 @@ impl DiskLight {
         }
         let plane = Plane::from_record(record, radius, radius)?;
         let area = PI * plane.unit_area;
-        let e = emission(record)?;
-        let radiance = match (record.normalize, area > 0.0) {
-            (true, false) => {
-                return Err(LightError::invalid(
-                    record,
-                    "normalize on a disk of zero area",
-                ))
-            }
-            (true, true) => e / area,
-            (false, _) => e,
-        };
+        let radiance = area_radiance(record, area, "disk")?;
         Ok(Self {
             plane,
             area,

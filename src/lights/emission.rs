@@ -7,6 +7,28 @@ use glam::{DVec3, Vec3};
 use super::LightError;
 use crate::scene::Light as LightRecord;
 
+/// The radiance of an area light of world-space `area` (square scene units):
+/// its [`emission`], divided by the area when `normalize` is on
+/// (CONVENTIONS.md, "Lights"). `shape` names the type in the error that a
+/// zero area under `normalize` is.
+pub(crate) fn area_radiance(
+    record: &LightRecord,
+    area: f32,
+    shape: &str,
+) -> Result<Vec3, LightError> {
+    let e = emission(record)?;
+    if !record.normalize {
+        return Ok(e);
+    }
+    if area.is_nan() || area <= 0.0 {
+        return Err(LightError::invalid(
+            record,
+            format!("normalize on a {shape} of zero area"),
+        ));
+    }
+    Ok(e / area)
+}
+
 /// Rec.709 luminance weights (ITU-R BT.709): Y of linear RGB.
 pub(crate) fn luminance(rgb: Vec3) -> f32 {
     rgb.dot(Vec3::new(0.2126, 0.7152, 0.0722))

@@ -135,11 +135,6 @@ pub(crate) enum Light {
 }
 
 impl Lights {
-    /// True when the scene has no light with power (nothing to sample).
-    pub fn is_empty(&self) -> bool {
-        self.lights.is_empty()
-    }
-
     /// Picks a light with `u_select` (by power, and for bounded lights by
     /// distance and orientation from `p` too), then a point or direction on
     /// it with `u`, as seen from `p`. `None` when there is no light or the
@@ -545,12 +540,28 @@ mod tests {
         let materials = Materials::build(&scene).unwrap();
         let err = Lights::build(&scene, &materials).err().unwrap();
         assert!(err.to_string().contains("/World/Bad"), "{err}");
+    }
+
+    /// A scene without lights is lit by a white dome of radiance 1: every
+    /// escaping direction sees radiance 1, and light sampling finds it.
+    #[test]
+    fn a_scene_without_lights_gets_the_default_dome() {
         let empty = scene_with("empty", serde_json::json!([]), [0.0; 3], &[]);
+        let materials = Materials::build(&empty).unwrap();
         let lights = Lights::build(&empty, &materials).unwrap();
-        assert!(lights.is_empty());
-        assert!(lights
-            .sample(&materials, Vec3::ZERO, 0.5, Vec2::ZERO)
-            .is_none());
+        let mut seen = Vec::new();
+        lights.escaped(Vec3::new(0.3, -0.2, 0.9).normalize(), |radiance, pdf| {
+            seen.push((radiance, pdf))
+        });
+        assert_eq!(seen.len(), 1);
+        assert_eq!(seen[0].0, Vec3::ONE);
+        let sample = lights
+            .sample(&materials, Vec3::ZERO, 0.5, Vec2::splat(0.3))
+            .expect("the default dome is sampled");
+        assert_eq!(sample.radiance, Vec3::ONE);
+        // A constant dome is sampled uniformly over the sphere, both ways.
+        let uniform = 1.0 / (4.0 * std::f32::consts::PI);
+        assert!((sample.pdf - uniform).abs() < 1e-6 && (seen[0].1 - uniform).abs() < 1e-6);
     }
 
     /// A dome and a sphere: dome samples have the pdf `escaped` reports for

@@ -7,7 +7,7 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use super::bvh::LightBounds;
-use super::emission::{emission, luminance};
+use super::emission::{area_radiance, luminance};
 use super::image::LightImage;
 use super::plane::Plane;
 use super::{LightError, LightHit, LightSample};
@@ -93,17 +93,7 @@ impl RectLight {
         }
         let plane = Plane::from_record(record, width / 2.0, height / 2.0)?;
         let area = 4.0 * plane.unit_area;
-        let e = emission(record)?;
-        let radiance = match (record.normalize, area > 0.0) {
-            (true, false) => {
-                return Err(LightError::invalid(
-                    record,
-                    "normalize on a rectangle of zero area",
-                ))
-            }
-            (true, true) => e / area,
-            (false, _) => e,
-        };
+        let radiance = area_radiance(record, area, "rectangle")?;
         Ok(Self {
             plane,
             area,
