@@ -15,18 +15,28 @@ pub enum ExportError {
     /// The exporter could not be started (no `.venv`, no script).
     #[error("cannot run the USD exporter {python} {script}: {error} (set CIRRUS_HOME to the Cirrus checkout, and run .ci/setup there)", python = python.display(), script = script.display())]
     Spawn {
+        /// The interpreter tried (the project's `.venv` Python).
         python: PathBuf,
+        /// `scenes/export_usd.py`.
         script: PathBuf,
+        /// Why it did not start.
         error: std::io::Error,
     },
     /// The exporter ran and refused the input; `message` is its own message,
     /// without a Python traceback.
     #[error("{input}: export failed: {message}", input = input.display())]
-    Failed { input: PathBuf, message: String },
+    Failed {
+        /// The USD file.
+        input: PathBuf,
+        /// The exporter's `error:` line.
+        message: String,
+    },
     /// A file system step (input, cache or output folder) failed.
     #[error("{path}: {error}", path = path.display())]
     Io {
+        /// The file or folder.
         path: PathBuf,
+        /// What the OS said.
         error: std::io::Error,
     },
 }

@@ -23,26 +23,43 @@ pub enum SceneError {
     /// The file could not be opened or read (missing, truncated, permissions).
     #[error("{path}: {error}", path = path.display())]
     Io {
+        /// The file.
         path: PathBuf,
+        /// What the OS said.
         error: std::io::Error,
     },
     /// `scene.json` is not valid JSON.
     #[error("{path}: not JSON: {error}", path = path.display())]
     NotJson {
+        /// `scene.json`.
         path: PathBuf,
+        /// The parser's message, with line and column.
         error: serde_json::Error,
     },
     /// Valid JSON, but not a Cirrus scene manifest.
     #[error("{path}: not a Cirrus scene (\"format\" is {found}, expected \"{FORMAT_NAME}\")", path = path.display())]
-    NotScene { path: PathBuf, found: String },
+    NotScene {
+        /// `scene.json`.
+        path: PathBuf,
+        /// The `format` value found.
+        found: String,
+    },
     /// A manifest of another format version.
     #[error("{path}: scene format version {found}, but this Cirrus reads version {FORMAT_VERSION} only; re-export the scene with this checkout's exporter", path = path.display())]
-    Version { path: PathBuf, found: String },
+    Version {
+        /// `scene.json`.
+        path: PathBuf,
+        /// The `version` value found.
+        found: String,
+    },
     /// A field that is missing, of the wrong type or out of range.
     #[error("{path}: {field}: {message}", path = path.display())]
     Invalid {
+        /// `scene.json` (or `scene.bin` for array contents).
         path: PathBuf,
+        /// JSON path of the field, e.g. `meshes[3].triangles`.
         field: String,
+        /// What is wrong with it.
         message: String,
     },
 }
