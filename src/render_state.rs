@@ -1,5 +1,5 @@
 //! Everything a render reads, built once from a [`Scene`] in a fixed order
-//! (textures and materials, lights, geometry, camera) and never changed
+//! (volumes, textures and materials, lights, geometry, camera) and never changed
 //! afterwards, so threads share it freely. The scene itself can be dropped.
 
 use glam::UVec2;
@@ -10,6 +10,7 @@ use crate::geometry::Geometry;
 use crate::lights::{LightError, Lights};
 use crate::materials::{MaterialError, Materials};
 use crate::scene::Scene;
+use crate::volumes::{MajorantKind, Media, VolumeError};
 
 /// Image width used when neither the command line nor the stage's render
 /// settings give a resolution; the height follows the camera's aperture aspect.
@@ -25,6 +26,8 @@ pub struct RenderState {
     pub lights: Lights,
     /// The render camera.
     pub camera: Camera,
+    /// Participating media from the scene's volumes (empty when it has none).
+    pub media: Media,
     /// Image size in pixels.
     pub resolution: UVec2,
 }
@@ -41,18 +44,27 @@ pub enum RenderStateError {
     /// The camera.
     #[error(transparent)]
     Camera(#[from] CameraError),
+    /// A volume's grid.
+    #[error(transparent)]
+    Volume(#[from] VolumeError),
     /// The requested resolution.
     #[error("resolution {0}x{1}: both sides must be at least 1 pixel")]
     Resolution(u32, u32),
 }
 
 impl RenderState {
-    /// Builds the render state; `resolution` overrides the stage's.
-    pub fn build(scene: &Scene, resolution: Option<UVec2>) -> Result<Self, RenderStateError> {
+    /// Builds the render state; `resolution` overrides the stage's;
+    /// `majorant` chooses the media's majorant grids.
+    pub fn build(
+        scene: &Scene,
+        resolution: Option<UVec2>,
+        majorant: MajorantKind,
+    ) -> Result<Self, RenderStateError> {
         let resolution = resolution_for(scene, resolution);
         if resolution.min_element() == 0 {
             return Err(RenderStateError::Resolution(resolution.x, resolution.y));
         }
+        let media = Media::build(scene, majorant)?;
         let materials = Materials::build(scene)?;
         let lights = Lights::build(scene, &materials)?;
         let geometry = Geometry::build(scene);
@@ -62,6 +74,7 @@ impl RenderState {
             materials,
             lights,
             camera,
+            media,
             resolution,
         })
     }

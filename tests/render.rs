@@ -752,3 +752,107 @@ fn render_command_line_contract() {
     assert!(spp.to_string().parse::<u32>().unwrap() >= 1, "spp {spp}");
     assert!(dir.join("timed.png").is_file(), "no preview beside the EXR");
 }
+
+/// Every `--transmittance` estimator of shadow rays through media.
+const TRANSMITTANCE: [&str; 3] = ["ratio", "residual-ratio", "track-length"];
+
+/// Every `--majorant`: per-cell grid and the single global baseline.
+const MAJORANTS: [&str; 2] = ["grid", "global"];
+
+/// The mean of one channel of a grey image over all pixels, checked for a
+/// usable sigma and compared with `expected` within 4 sigma.
+fn assert_grey_image(what: &str, image: &Image, expected: f64) {
+    let e = estimate(&image.pixels(0, |_, _| true));
+    assert!(
+        4.0 * e.sigma < 0.04 * expected,
+        "{what}: sigma {} too large",
+        e.sigma
+    );
+    assert_within_4_sigma(what, e, expected);
+}
+
+/// A purely absorbing VDB box (scenes/tests/volume_absorber.usda: constant
+/// density 1, densityScale 1, albedo 0) in front of a dome of radiance 1:
+/// camera rays cross an optical depth of exactly 1 (the box's constant core
+/// spans 15 voxels and the trilinear ramps at its two faces add one more,
+/// at 1/16 unit each), so every pixel is exp(-1), the probability that
+/// delta tracking finds no collision; with either majorant.
+#[test]
+fn absorbing_volume_transmits_exp_minus_optical_depth() {
+    let dir = common::scratch("render_volume_absorber");
+    for (seed, majorant) in MAJORANTS.into_iter().enumerate() {
+        let image = Render {
+            scene: "volume_absorber",
+            res: (32, 32),
+            spp: 128,
+            seed: seed as u64,
+            extra: &["--majorant", majorant],
+        }
+        .run(&dir);
+        assert_grey_image(
+            &format!("absorber, {majorant} majorant"),
+            &image,
+            (-1.0f64).exp(),
+        );
+    }
+}
+
+/// Shadow rays through media (scenes/tests/volume_shadow.usda): a Lambert
+/// plane (albedo 0.5) under a normalized distant light of irradiance pi,
+/// behind an absorbing box of optical depth 0.5 on both the light's and the
+/// camera's side: 0.5 exp(-0.5) exp(-0.5) = 0.5/e, for every transmittance
+/// estimator.
+#[test]
+fn shadow_rays_through_a_volume_follow_every_transmittance_estimator() {
+    let dir = common::scratch("render_volume_shadow");
+    for (seed, estimator) in TRANSMITTANCE.into_iter().enumerate() {
+        let image = Render {
+            scene: "volume_shadow",
+            res: (32, 32),
+            spp: 128,
+            seed: seed as u64,
+            extra: &["--transmittance", estimator],
+        }
+        .run(&dir);
+        assert_grey_image(
+            &format!("shadowed plane, {estimator}"),
+            &image,
+            0.5 / std::f64::consts::E,
+        );
+    }
+}
+
+/// Volumetric white furnace (scenes/tests/volume_furnace.usda): a medium
+/// that scatters all it extinguishes (albedo 1, forward-scattering g = 0.6)
+/// inside a dome of radiance 1 has radiance 1 everywhere, whatever its
+/// density: through the box, around it, for every strategy and majorant.
+#[test]
+fn volumetric_white_furnace_is_one_everywhere() {
+    let dir = common::scratch("render_volume_furnace");
+    let mut seed = 0;
+    for strategy in STRATEGIES {
+        for majorant in MAJORANTS {
+            seed += 1;
+            let image = Render {
+                scene: "volume_furnace",
+                res: (32, 32),
+                spp: 128,
+                seed,
+                extra: &[
+                    "--strategy",
+                    strategy,
+                    "--majorant",
+                    majorant,
+                    "--max-depth",
+                    UNBOUNDED_DEPTH,
+                ],
+            }
+            .run(&dir);
+            assert_grey_image(
+                &format!("volume furnace, {strategy}, {majorant}"),
+                &image,
+                1.0,
+            );
+        }
+    }
+}

@@ -16,6 +16,9 @@ from .vdb_header import grid_bounds
 # USD field relationship name -> manifest field key; "heat" is the openusd assets' name.
 FIELD_KEYS = {"density": "density", "temperature": "temperature", "heat": "temperature"}
 
+# Emission parameters, reported as defaulted only for volumes with a temperature field.
+HEAT_PRIMVARS = {"heatScale", "temperatureOffset", "temperatureScale"}
+
 SHADING_PRIMVARS = [
     ("density_scale", "densityScale", 1.0),
     ("albedo", "albedo", [1.0, 1.0, 1.0]),
@@ -87,13 +90,15 @@ class VolumeTable:
         if "density" not in fields:
             self._report.warn(f"volume {prim.GetPath()}: no field:density; skipped")
             return None
-        record = {"path": key, "fields": fields, **self._shading(prim)}
+        record = {"path": key, "fields": fields, **self._shading(prim, "temperature" in fields)}
         self.records.append(record)
         self.boxes.append(self._bounds(prim, fields))
         return len(self.records) - 1
 
-    def _shading(self, prim: Usd.Prim) -> dict:
-        """Shading parameters from constant primvars, defaults reported once per volume."""
+    def _shading(self, prim: Usd.Prim, emits: bool) -> dict:
+        """Shading parameters from constant primvars, defaults reported once per volume.
+
+        Emission defaults are reported only when the volume has a temperature field."""
         material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
         if material:
             self._report.warn(f"volume {prim.GetPath()}: material {material.GetPath()} is not read "
@@ -106,7 +111,8 @@ class VolumeTable:
                 shading[key] = _shading_value(primvar, default, self._time)
             else:
                 shading[key] = default
-                defaulted.append(f"{name}={default}")
+                if emits or name not in HEAT_PRIMVARS:
+                    defaulted.append(f"{name}={default}")
         if defaulted:
             self._report.warn(f"volume {prim.GetPath()}: unauthored, defaults used: {', '.join(defaulted)}")
         return shading

@@ -18,6 +18,7 @@ use crate::output::filter::FilterKind;
 use crate::output::{read_image, write_exr, Channel, Compression, ExrImage, PixelType};
 use crate::render_state::RenderState;
 use crate::sampling::SamplerKind;
+use crate::volumes::{MajorantKind, TransmittanceEstimator};
 
 /// The estimator and sampler pairs compared at equal time.
 const METHODS: [(Strategy, SamplerKind); 6] = [
@@ -62,7 +63,7 @@ pub fn run(bench: &RenderBench) -> Result<()> {
     );
     for path in &bench.scenes {
         let scene = super::load_scene(path, None)?;
-        let state = RenderState::build(&scene, Some(bench.resolution))?;
+        let state = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Grid)?;
         drop(scene);
         let name = path
             .file_stem()
@@ -92,6 +93,7 @@ fn settings(
             strategy,
             max_depth,
             clamp: None,
+            transmittance: TransmittanceEstimator::Ratio,
         },
     }
 }

@@ -17,6 +17,7 @@ use crate::output::filter::FilterKind;
 use crate::output::{write_exr, write_preview, Channel, Compression, ExrImage, PixelType};
 use crate::render_state::RenderState;
 use crate::sampling::SamplerKind;
+use crate::volumes::{MajorantKind, TransmittanceEstimator};
 
 /// Samples per pixel when neither `--spp` nor `--time` is given.
 const DEFAULT_SPP: u32 = 64;
@@ -59,6 +60,12 @@ pub struct RenderArgs {
     /// Pixel filter.
     #[arg(long, value_enum, default_value_t)]
     filter: FilterKind,
+    /// Majorants of volume extinction: per 8^3-voxel cell (grid) or one per volume (global).
+    #[arg(long, value_enum, default_value_t = MajorantKind::Grid)]
+    majorant: MajorantKind,
+    /// Transmittance estimator of shadow rays through volumes.
+    #[arg(long, value_enum, default_value_t = TransmittanceEstimator::Ratio)]
+    transmittance: TransmittanceEstimator,
     /// EXR compression.
     #[arg(long, value_enum, default_value_t)]
     compression: Compression,
@@ -99,7 +106,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let pool = pool.build().context("cannot start worker threads")?;
     let start = Instant::now();
     let scene = super::load_scene(&args.scene, args.frame)?;
-    let state = pool.install(|| RenderState::build(&scene, args.res))?;
+    let state = pool.install(|| RenderState::build(&scene, args.res, args.majorant))?;
     drop(scene);
     log::info!(
         "{}: ready in {:.2} s, {}x{}",
@@ -117,6 +124,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             strategy: args.strategy,
             max_depth: args.max_depth,
             clamp: args.clamp,
+            transmittance: args.transmittance,
         },
     };
     let progress = Progress::new();
@@ -179,6 +187,21 @@ fn report(exr: &Path, preview: &Path, stats: &RenderStats) {
         stats.rays.closest,
         stats.rays.shadow,
     );
+    let t = &stats.tracking;
+    if t.density_lookups > 0 {
+        let collisions = (t.real_collisions + t.null_collisions).max(1);
+        log::info!(
+            "volumes: {:.1} density lookups per camera ray; {:.0}% of collisions null",
+            t.density_lookups as f64 / stats.rays.camera.max(1) as f64,
+            100.0 * t.null_collisions as f64 / collisions as f64,
+        );
+    }
+    if t.majorant_violations > 0 {
+        log::warn!(
+            "{} density lookups exceeded their majorant: delta tracking is biased there",
+            t.majorant_violations
+        );
+    }
     if let Some((pixel, sample)) = stats.non_finite.first {
         log::warn!(
             "{} NaN/Inf sample(s) dropped; the first at pixel ({}, {}), sample {sample}",

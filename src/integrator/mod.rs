@@ -17,7 +17,8 @@ use rayon::prelude::*;
 use crate::output::film::{Film, NonFiniteSamples, TileFilm};
 use crate::output::filter::{FilterKind, PixelFilter};
 use crate::render_state::RenderState;
-use crate::sampling::{Sampler, SamplerKind};
+use crate::sampling::{Pcg32, Sampler, SamplerKind};
+use crate::volumes::{TrackingStats, TransmittanceEstimator};
 
 /// Tile edge in pixels: enough tiles for load balance on many cores, big
 /// enough that per-tile overhead vanishes.
@@ -53,6 +54,8 @@ pub struct PathSettings {
     /// Largest value of any RGB component of one sample, W/(m^2 sr); `None`
     /// (the default) keeps the estimator unbiased.
     pub clamp: Option<f32>,
+    /// How shadow rays estimate transmittance through media.
+    pub transmittance: TransmittanceEstimator,
 }
 
 /// When to stop sampling.
@@ -109,6 +112,8 @@ pub struct RenderStats {
     pub rays: RayCounts,
     /// Samples dropped for being NaN or infinite.
     pub non_finite: NonFiniteSamples,
+    /// Density lookups and collisions in media.
+    pub tracking: TrackingStats,
 }
 
 /// Renders `state` into a film. `progress` is called after every tile with
@@ -123,6 +128,7 @@ pub fn render(
     let filter = PixelFilter::new(settings.filter);
     let start = Instant::now();
     let mut rays = RayCounts::default();
+    let mut tracking = TrackingStats::default();
     let mut done = 0u32;
     let mut pass = 1u32;
     loop {
@@ -131,18 +137,20 @@ pub fn render(
             Budget::Time(_) => pass,
         };
         let tiles_done = std::sync::atomic::AtomicUsize::new(0);
-        let results: Vec<(TileFilm, RayCounts)> = tiles
+        let results: Vec<(TileFilm, RayCounts, TrackingStats)> = tiles
             .par_iter()
             .map(|tile| {
                 let mut out = TileFilm::new(*tile);
                 let mut counts = RayCounts::default();
+                let mut media = TrackingStats::default();
+                let samples = done..done + count;
                 render_tile(
                     state,
                     settings,
                     &filter,
-                    done..done + count,
+                    samples,
                     &mut out,
-                    &mut counts,
+                    (&mut counts, &mut media),
                 );
                 let n = tiles_done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
                 progress(match settings.budget {
@@ -152,12 +160,13 @@ pub fn render(
                     }
                     Budget::Time(limit) => start.elapsed().as_secs_f64() / limit.as_secs_f64(),
                 });
-                (out, counts)
+                (out, counts, media)
             })
             .collect();
-        for (tile, counts) in &results {
+        for (tile, counts, media) in &results {
             film.merge(tile);
             rays.add(counts);
+            tracking.merge(media);
         }
         done += count;
         match settings.budget {
@@ -179,6 +188,7 @@ pub fn render(
         elapsed: start.elapsed(),
         rays,
         non_finite: film.non_finite,
+        tracking,
     };
     (film, stats)
 }
@@ -190,7 +200,7 @@ fn render_tile(
     filter: &PixelFilter,
     samples: std::ops::Range<u32>,
     out: &mut TileFilm,
-    counts: &mut RayCounts,
+    (rays, tracking): (&mut RayCounts, &mut TrackingStats),
 ) {
     let mut sampler = Sampler::new(settings.sampler, settings.seed);
     let tile = out.tile;
@@ -207,10 +217,32 @@ fn render_tile(
                     camera.t_min,
                     camera.t_max,
                 );
-                counts.camera += 1;
-                let radiance = path::radiance(state, ray, &mut sampler, &settings.path, counts);
+                rays.camera += 1;
+                let mut rng = Pcg32::new(sample_key(settings.seed, pixel, index), 0);
+                let random = path::PathRandom {
+                    sampler: &mut sampler,
+                    tracking: &mut rng,
+                };
+                let counts = path::PathCounts {
+                    rays: &mut *rays,
+                    tracking: &mut *tracking,
+                };
+                let radiance = path::radiance(state, ray, random, &settings.path, counts);
                 out.add(pixel, index, radiance);
             }
         }
     }
+}
+
+/// A 64-bit key of one pixel sample (splitmix64 of seed, pixel and index):
+/// seeds the tracking generator so media sampling is as deterministic as
+/// the sampler.
+fn sample_key(seed: u64, pixel: UVec2, index: u32) -> u64 {
+    let mut z = seed
+        ^ (u64::from(pixel.x) << 40)
+        ^ (u64::from(pixel.y) << 20)
+        ^ u64::from(index).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
 }

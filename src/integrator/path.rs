@@ -1,15 +1,28 @@
-//! The unidirectional path tracer for surfaces: next-event estimation and
-//! BSDF sampling combined by multiple importance sampling (Veach 1997, ch. 9,
+//! The unidirectional path tracer: next-event estimation and BSDF (or phase)
+//! sampling combined by multiple importance sampling (Veach 1997, ch. 9,
 //! power heuristic), Russian roulette, a maximum depth. See the radiance
 //! estimator of the path integral in `../shared/seeds/` and pbrt-v4's
-//! `PathIntegrator::Li` (§13.4), which this follows.
+//! `PathIntegrator::Li` (§13.4), which this follows for surfaces.
+//!
+//! Media: along every ray, delta tracking over the merged majorant segments
+//! (Woodcock tracking; Novák et al. 2018) samples the first real collision
+//! before the surface or light the ray would reach; there the path scatters
+//! by the medium's albedo and Henyey-Greenstein phase function, with light
+//! sampling MIS-combined with phase sampling. Shadow rays multiply the
+//! geometric visibility by an unbiased transmittance estimate (ratio
+//! tracking by default). Both strategies estimate the same transmittance
+//! factor, so the power heuristic on their directional densities stays a
+//! valid MIS weight.
 
 use glam::Vec3;
+use obvhs::ray::Ray;
 
 use super::{PathSettings, RayCounts, Strategy};
+use crate::lights::LightSample;
 use crate::render_state::RenderState;
 use crate::sampling::warp::power_heuristic;
-use crate::sampling::Sampler;
+use crate::sampling::{Pcg32, Sampler};
+use crate::volumes::{delta_tracking, transmittance, TrackingStats};
 
 /// Depth (bounces) from which Russian roulette may end a path.
 const ROULETTE_DEPTH: u32 = 3;
@@ -22,11 +35,28 @@ const MAX_SURVIVAL: f32 = 0.95;
 /// MIS weight of emission the ray finds.
 #[derive(Clone, Copy)]
 struct Bounce {
-    /// Solid-angle density of the BSDF sample that made the ray.
+    /// Solid-angle density of the BSDF or phase sample that made the ray.
     pdf: f32,
     /// The ray left the camera or a Dirac lobe: light sampling could not
     /// have found what it hits, so emission counts in full.
     specular: bool,
+}
+
+/// Per-sample random state beside the sampler: the tracking estimators draw
+/// an unbounded number of random numbers, so they use their own generator.
+pub struct PathRandom<'a> {
+    /// Dimensions of the pixel sample.
+    pub sampler: &'a mut Sampler,
+    /// The generator for free-flight and transmittance tracking.
+    pub tracking: &'a mut Pcg32,
+}
+
+/// Counters a path adds to.
+pub struct PathCounts<'a> {
+    /// Rays traced.
+    pub rays: &'a mut RayCounts,
+    /// Density lookups and collisions in media.
+    pub tracking: &'a mut TrackingStats,
 }
 
 /// Radiance arriving at the camera along a camera ray, W/(m^2 sr): one
@@ -36,11 +66,15 @@ struct Bounce {
 /// between pixel samples.
 pub fn radiance(
     state: &RenderState,
-    mut ray: obvhs::ray::Ray,
-    sampler: &mut Sampler,
+    mut ray: Ray,
+    random: PathRandom,
     settings: &PathSettings,
-    counts: &mut RayCounts,
+    mut counts: PathCounts,
 ) -> Vec3 {
+    let PathRandom {
+        sampler,
+        tracking: rng,
+    } = random;
     let (geometry, materials, lights) = (&state.geometry, &state.materials, &state.lights);
     let mut radiance = Vec3::ZERO;
     let mut throughput = Vec3::ONE;
@@ -48,8 +82,8 @@ pub fn radiance(
         pdf: 1.0,
         specular: true,
     };
-    // Weight of emission found by a BSDF-sampled ray whose light-sampling
-    // density at that point is `light_pdf`.
+    // Weight of emission found by a BSDF- or phase-sampled ray whose
+    // light-sampling density at that point is `light_pdf`.
     let emission_weight = |bounce: Bounce, light_pdf: f32| {
         if bounce.specular {
             return 1.0;
@@ -60,12 +94,63 @@ pub fn radiance(
             Strategy::Nee => 0.0,
         }
     };
+    // Weight of a light sample whose BSDF- or phase-sampling density is `pdf`.
+    let light_weight = |ls: &LightSample, pdf: f32| {
+        if ls.delta || settings.strategy == Strategy::Nee {
+            1.0
+        } else {
+            power_heuristic(ls.pdf, pdf)
+        }
+    };
     for depth in 0.. {
-        counts.closest += 1;
+        counts.rays.closest += 1;
         let hit = geometry.intersect(&ray);
         let (origin, direction) = (Vec3::from(ray.origin), Vec3::from(ray.direction));
         let t_surface = hit.map_or(ray.tmax, |h| h.t);
-        if let Some(light) = lights.intersect(origin, direction, t_surface) {
+        let light_hit = lights.intersect(origin, direction, t_surface);
+        let t_end = light_hit.map_or(t_surface, |l| l.t);
+        // A real collision in a medium before the surface or light.
+        let collision = (!state.media.is_empty())
+            .then(|| state.media.along(origin, direction, t_end))
+            .filter(|along| !along.is_empty())
+            .and_then(|along| {
+                let segments = along.segments(ray.tmin, t_end);
+                let t = delta_tracking(segments, |t| along.sigma_t(t), rng, counts.tracking)?;
+                Some((t, along.scattering(t)))
+            });
+        if let Some((t, (albedo, phase))) = collision {
+            throughput *= albedo;
+            if depth >= settings.max_depth {
+                break;
+            }
+            let p = origin + direction * t;
+            let wo = -direction;
+            let (u_light, u_light_2d) = (sampler.next_1d(), sampler.next_2d());
+            if settings.strategy != Strategy::Bsdf {
+                if let Some(ls) = lights.sample(materials, p, u_light, u_light_2d) {
+                    let f = phase.eval(wo, ls.wi);
+                    if ls.pdf > 0.0 && f > 0.0 {
+                        let shadow = Ray::new(p.into(), ls.wi.into(), 0.0, ls.distance);
+                        let tr = visibility(state, settings, &shadow, rng, &mut counts);
+                        radiance +=
+                            throughput * ls.radiance * (f * tr * light_weight(&ls, f) / ls.pdf);
+                    }
+                }
+            }
+            let (_, u_phase, u_roulette) =
+                (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
+            let ps = phase.sample(wo, u_phase);
+            bounce = Bounce {
+                pdf: ps.pdf,
+                specular: false,
+            };
+            if !roulette(&mut throughput, depth, u_roulette) {
+                break;
+            }
+            ray = Ray::new(p.into(), ps.wi.into(), 0.0, f32::INFINITY);
+            continue;
+        }
+        if let Some(light) = light_hit {
             radiance += throughput * light.radiance * emission_weight(bounce, light.pdf);
             break;
         }
@@ -91,14 +176,11 @@ pub fn radiance(
             if let Some(ls) = lights.sample(materials, sp.p, u_light, u_light_2d) {
                 let f = bsdf.eval(wo, ls.wi);
                 if ls.pdf > 0.0 && f != Vec3::ZERO {
-                    counts.shadow += 1;
-                    if !geometry.occluded(&sp.shadow_ray(ls.wi, ls.distance)) {
-                        let weight = if ls.delta || settings.strategy == Strategy::Nee {
-                            1.0
-                        } else {
-                            power_heuristic(ls.pdf, bsdf.pdf(wo, ls.wi))
-                        };
-                        radiance += throughput * f * ls.radiance * (weight / ls.pdf);
+                    let shadow = sp.shadow_ray(ls.wi, ls.distance);
+                    let tr = visibility(state, settings, &shadow, rng, &mut counts);
+                    if tr > 0.0 {
+                        let weight = light_weight(&ls, bsdf.pdf(wo, ls.wi));
+                        radiance += throughput * f * ls.radiance * (tr * weight / ls.pdf);
                     }
                 }
             }
@@ -114,12 +196,8 @@ pub fn radiance(
             pdf: bs.pdf,
             specular: bs.delta,
         };
-        if depth + 1 >= ROULETTE_DEPTH {
-            let survival = throughput.max_element().min(MAX_SURVIVAL);
-            if u_roulette >= survival {
-                break;
-            }
-            throughput /= survival;
+        if !roulette(&mut throughput, depth, u_roulette) {
+            break;
         }
         ray = sp.spawn_ray(bs.wi);
     }
@@ -129,4 +207,50 @@ pub fn radiance(
         Some(max) if radiance.is_finite() => radiance.min(Vec3::splat(max)),
         _ => radiance,
     }
+}
+
+/// Russian roulette from [`ROULETTE_DEPTH`]: false ends the path; a
+/// surviving path's throughput is divided by its survival probability.
+fn roulette(throughput: &mut Vec3, depth: u32, u: f32) -> bool {
+    if depth + 1 < ROULETTE_DEPTH {
+        return true;
+    }
+    let survival = throughput.max_element().min(MAX_SURVIVAL);
+    if u >= survival {
+        return false;
+    }
+    *throughput /= survival;
+    true
+}
+
+/// The fraction of light that arrives along a shadow ray: 0 when geometry
+/// blocks it, else the media's transmittance estimate (1 without media).
+fn visibility(
+    state: &RenderState,
+    settings: &PathSettings,
+    shadow: &Ray,
+    rng: &mut Pcg32,
+    counts: &mut PathCounts,
+) -> f32 {
+    counts.rays.shadow += 1;
+    if state.geometry.occluded(shadow) {
+        return 0.0;
+    }
+    if state.media.is_empty() {
+        return 1.0;
+    }
+    let along = state
+        .media
+        .along(shadow.origin.into(), shadow.direction.into(), shadow.tmax);
+    if along.is_empty() {
+        return 1.0;
+    }
+    let segments = along.segments(shadow.tmin, shadow.tmax);
+    transmittance(
+        settings.transmittance,
+        segments,
+        |t| along.sigma_t(t),
+        rng,
+        counts.tracking,
+    )
 }

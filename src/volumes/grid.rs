@@ -274,6 +274,87 @@ impl SparseGrid {
         (entry != EMPTY && entry & CONSTANT == 0).then_some(entry as usize)
     }
 
+    /// Calls `f` with every value a trilinear lookup at a point inside the 8^3
+    /// block `block` (index-space box `[8 block, 8 block + 8)`) can read: the
+    /// block's own voxels and the layer one voxel beyond it on +x, +y and +z
+    /// (the 9^3 footprint of [`Self::trilinear_index`]), each at least once;
+    /// a constant or empty region is reported once. Built for majorant grids:
+    /// min and max over these values bound every interpolated value in the block.
+    pub(crate) fn for_each_footprint_value(&self, block: IVec3, mut f: impl FnMut(f32)) {
+        let origin = block << BRICK_LOG2;
+        let e = self.entry(origin);
+        if let Some(b) = self.resolve(e) {
+            // The apron already holds the +1 layer.
+            self.bricks[b].iter().for_each(|&v| f(v));
+            return;
+        }
+        f(self.entry_value(e));
+        for n in 1..8 {
+            let d = IVec3::new(n >> 2, (n >> 1) & 1, n & 1);
+            let e = self.entry(origin + (d << BRICK_LOG2));
+            let Some(b) = self.resolve(e) else {
+                f(self.entry_value(e));
+                continue;
+            };
+            // Only the neighbour's layer touching this block: one voxel deep along each stepped axis.
+            let end = IVec3::select(d.cmpeq(IVec3::ONE), IVec3::ONE, IVec3::splat(8));
+            for x in 0..end.x {
+                for y in 0..end.y {
+                    for z in 0..end.z {
+                        f(self.bricks[b][Self::apron_offset(IVec3::new(x, y, z))]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Inclusive range of the 8^3 block coordinates (index >> 3) holding a leaf
+    /// or a tile, or `None` for a grid that stores nothing.
+    pub(crate) fn block_bounds(&self) -> Option<std::ops::RangeInclusive<IVec3>> {
+        let mut lo = IVec3::MAX;
+        let mut hi = IVec3::MIN;
+        let blocks_per_super = IVec3::splat(1 << NODE_LOG2);
+        for (slot, &top) in self.top.iter().enumerate() {
+            let slot = slot as i32;
+            let s = IVec3::new(
+                slot / (self.top_dims.y * self.top_dims.z),
+                slot / self.top_dims.z % self.top_dims.y,
+                slot % self.top_dims.z,
+            );
+            let first = (self.top_origin + s) << NODE_LOG2;
+            if top == EMPTY {
+                continue;
+            }
+            let Some(node) = self.resolve(top) else {
+                lo = lo.min(first);
+                hi = hi.max(first + blocks_per_super - IVec3::ONE);
+                continue;
+            };
+            let entries = &self.nodes[node * NODE_ENTRIES..(node + 1) * NODE_ENTRIES];
+            for (n, _) in entries.iter().enumerate().filter(|(_, &e)| e != EMPTY) {
+                let n = n as i32;
+                let b = first
+                    + IVec3::new(
+                        n >> (2 * NODE_LOG2),
+                        (n >> NODE_LOG2) & ((1 << NODE_LOG2) - 1),
+                        n & ((1 << NODE_LOG2) - 1),
+                    );
+                lo = lo.min(b);
+                hi = hi.max(b);
+            }
+        }
+        (lo.cmple(hi).all()).then_some(lo..=hi)
+    }
+
+    /// The value of an `EMPTY` or `CONSTANT` entry.
+    #[inline]
+    fn entry_value(&self, e: u32) -> f32 {
+        match e {
+            EMPTY => self.background,
+            e => self.constants[(e & !CONSTANT) as usize],
+        }
+    }
+
     /// The value outside every stored voxel and tile.
     pub fn background(&self) -> f32 {
         self.background

@@ -7,7 +7,18 @@
 //! `CONVENTIONS.md` for where voxel values sit and how density is scaled.
 
 mod grid;
+mod majorant;
+mod medium;
+mod phase;
+mod tracking;
 mod vdb;
 
 pub use grid::{GridAccessor, GridStats, GridTransform, LayoutError, SparseGrid, Tile};
+pub use majorant::{MajorantGrid, MajorantKind, MajorantSegment, MajorantSegments};
+pub use medium::{Media, MediaRay};
+pub use phase::{HenyeyGreenstein, PhaseSample};
+pub use tracking::{
+    delta_tracking, transmittance, TrackingStats, TransmittanceEstimator,
+    RUSSIAN_ROULETTE_THRESHOLD,
+};
 pub use vdb::{GridInfo, Space, VdbFile, VolumeError};

@@ -1,0 +1,270 @@
+//! The scene's volumes as participating media, in world space: each placed
+//! Volume (instance x prototype volume part) is a density grid seen through
+//! its world-from-index map, with its majorant grid and its shading
+//! (CONVENTIONS.md, "Volumes"). Grids and majorant grids are read once per
+//! (file, grid name, index) and shared by every placement, so instanced
+//! volumes cost one grid.
+//!
+//! Extinction is grey: sigma_t = densityScale x density per world unit;
+//! albedo is RGB (sigma_s = albedo x sigma_t). Overlapping media add their
+//! extinctions: along a ray, their majorant segments are merged and summed.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use glam::{Affine3A, DAffine3, Vec3};
+
+use super::{
+    HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment, SparseGrid, VdbFile, VolumeError,
+};
+use crate::scene::{affine, Scene};
+
+/// A density field's identity: file, grid name and occurrence index. Each is
+/// read (and its majorant grid built) once, whatever the placements.
+type FieldKey = (PathBuf, String, u32);
+
+/// One placed volume.
+pub struct Medium {
+    density: Arc<SparseGrid>,
+    majorant: Arc<MajorantGrid>,
+    /// World (scene units) to the grid's index space, the placement included.
+    index_from_world: Affine3A,
+    /// World-space box of the grid's stored data, for quick ray rejection.
+    world_min: Vec3,
+    world_max: Vec3,
+    /// `densityScale`: sigma_t per world unit per unit density.
+    density_scale: f32,
+    /// sigma_s / sigma_t per RGB channel.
+    albedo: Vec3,
+    /// Henyey-Greenstein phase function (`anisotropy`).
+    phase: HenyeyGreenstein,
+}
+
+/// Every medium of a scene; empty (and free) for scenes without volumes.
+#[derive(Default)]
+pub struct Media {
+    media: Vec<Medium>,
+}
+
+/// A ray prepared against the media it crosses: each medium's index-space
+/// ray, so density lookups along it are one multiply-add.
+pub struct MediaRay<'a> {
+    media: Vec<(&'a Medium, Vec3, Vec3)>,
+}
+
+impl Media {
+    /// True when the scene has no volume: the integrator skips all media work.
+    pub fn is_empty(&self) -> bool {
+        self.media.is_empty()
+    }
+
+    /// The media crossed by `origin + t direction` (unit `direction`, world
+    /// units) for t in `[0, t_max)`.
+    pub fn along(&self, origin: Vec3, direction: Vec3, t_max: f32) -> MediaRay<'_> {
+        let media = self
+            .media
+            .iter()
+            .filter(|m| box_hit(origin, direction, t_max, m.world_min, m.world_max))
+            .map(|m| {
+                (
+                    m,
+                    m.index_from_world.transform_point3(origin),
+                    m.index_from_world.transform_vector3(direction),
+                )
+            })
+            .collect();
+        MediaRay { media }
+    }
+}
+
+impl MediaRay<'_> {
+    /// True when the ray crosses no medium.
+    pub fn is_empty(&self) -> bool {
+        self.media.is_empty()
+    }
+
+    /// The majorant segments over `[t_min, t_max)`, front to back: with one
+    /// medium its own; with several, the union of their boundaries, each
+    /// piece carrying the sum of the majorants (and minorants) covering it.
+    pub fn segments(&self, t_min: f32, t_max: f32) -> Vec<MajorantSegment> {
+        let mut per_medium = self.media.iter().map(|(m, o, d)| {
+            m.majorant
+                .segments(*o, *d, t_min, t_max, m.density_scale)
+                .collect::<Vec<_>>()
+        });
+        match self.media.len() {
+            0 => Vec::new(),
+            1 => per_medium.next().unwrap_or_default(),
+            _ => merge(per_medium.collect()),
+        }
+    }
+
+    /// Extinction at ray parameter `t`, per world unit: the sum over media.
+    pub fn sigma_t(&self, t: f32) -> f32 {
+        self.media
+            .iter()
+            .map(|(m, o, d)| m.density_scale * m.density.trilinear_index(*o + *d * t).max(0.0))
+            .sum()
+    }
+
+    /// Scattering albedo and phase function at `t`: those of the medium with
+    /// the largest extinction there (overlaps mix albedos by extinction).
+    pub fn scattering(&self, t: f32) -> (Vec3, HenyeyGreenstein) {
+        let mut total = 0.0;
+        let mut albedo = Vec3::ZERO;
+        let mut phase = HenyeyGreenstein { g: 0.0 };
+        let mut strongest = 0.0;
+        for (m, o, d) in &self.media {
+            let sigma = m.density_scale * m.density.trilinear_index(*o + *d * t).max(0.0);
+            total += sigma;
+            albedo += m.albedo * sigma;
+            if sigma > strongest {
+                strongest = sigma;
+                phase = m.phase;
+            }
+        }
+        (
+            if total > 0.0 {
+                albedo / total
+            } else {
+                Vec3::ZERO
+            },
+            phase,
+        )
+    }
+}
+
+/// Merges per-medium segment lists into one list whose pieces carry the sums.
+fn merge(lists: Vec<Vec<MajorantSegment>>) -> Vec<MajorantSegment> {
+    let mut cuts: Vec<f32> = lists
+        .iter()
+        .flatten()
+        .flat_map(|s| [s.t_min, s.t_max])
+        .collect();
+    cuts.sort_by(f32::total_cmp);
+    cuts.dedup();
+    let mut out: Vec<MajorantSegment> = Vec::new();
+    for w in cuts.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let mid = 0.5 * (a + b);
+        let (mut maj, mut min) = (0.0, 0.0);
+        for s in lists
+            .iter()
+            .flatten()
+            .filter(|s| s.t_min <= mid && mid < s.t_max)
+        {
+            maj += s.sigma_maj;
+            min += s.sigma_min;
+        }
+        if maj > 0.0 {
+            out.push(MajorantSegment {
+                t_min: a,
+                t_max: b,
+                sigma_maj: maj,
+                sigma_min: min,
+            });
+        }
+    }
+    out
+}
+
+/// Whether the ray meets the box within `[0, t_max)` (slab test).
+fn box_hit(origin: Vec3, direction: Vec3, t_max: f32, lo: Vec3, hi: Vec3) -> bool {
+    let inv = direction.recip();
+    let (t0, t1) = ((lo - origin) * inv, (hi - origin) * inv);
+    let near = t0.min(t1).max_element().max(0.0);
+    let far = t0.max(t1).min_element().min(t_max);
+    near <= far
+}
+
+impl Media {
+    /// Reads every placed volume's density grid (once per file, grid and
+    /// index), builds its majorant grid of `kind`, and places it.
+    pub fn build(scene: &Scene, kind: MajorantKind) -> Result<Self, VolumeError> {
+        let m = &scene.manifest;
+        let mut grids: HashMap<FieldKey, (Arc<SparseGrid>, Arc<MajorantGrid>)> = HashMap::new();
+        let prototypes = scene.view(&m.instances.prototype);
+        let transforms = scene.view(&m.instances.transform);
+        let mut media = Vec::new();
+        for (world_from_prototype, &prototype) in transforms.iter().zip(prototypes) {
+            for part in &m.prototypes[prototype as usize].volumes {
+                let volume = &m.volumes[part.volume as usize];
+                let Some(field) = volume.fields.get("density") else {
+                    continue;
+                };
+                let key = (field.file.clone(), field.grid.clone(), field.index);
+                let (density, majorant) = match grids.get(&key) {
+                    Some(found) => found.clone(),
+                    None => {
+                        let grid = VdbFile::open(&field.file)?
+                            .read_float_grid(&field.grid, field.index as usize)?;
+                        let majorant = MajorantGrid::build(&grid, kind);
+                        let entry = (Arc::new(grid), Arc::new(majorant));
+                        grids.insert(key, entry.clone());
+                        entry
+                    }
+                };
+                let world_from_volume = affine(world_from_prototype) * affine(&part.transform);
+                let world_from_index =
+                    to_f64(&world_from_volume) * density.transform().world_from_index;
+                let index_from_world = world_from_index.inverse();
+                if !index_from_world.is_finite() {
+                    log::warn!(
+                        "volume {}: its placement collapses it; skipped",
+                        volume.path
+                    );
+                    continue;
+                }
+                let (lo, hi) = majorant.index_box();
+                let (world_min, world_max) = world_box(&world_from_index, lo, hi);
+                media.push(Medium {
+                    density,
+                    majorant,
+                    index_from_world: to_f32(&index_from_world),
+                    world_min,
+                    world_max,
+                    density_scale: volume.density_scale,
+                    albedo: Vec3::from(volume.albedo),
+                    phase: HenyeyGreenstein {
+                        g: volume.anisotropy,
+                    },
+                });
+            }
+        }
+        Ok(Self { media })
+    }
+}
+
+fn to_f64(a: &Affine3A) -> DAffine3 {
+    DAffine3 {
+        matrix3: a.matrix3.as_dmat3(),
+        translation: a.translation.as_dvec3(),
+    }
+}
+
+fn to_f32(a: &DAffine3) -> Affine3A {
+    Affine3A {
+        matrix3: a.matrix3.as_mat3().into(),
+        translation: a.translation.as_vec3().into(),
+    }
+}
+
+/// World box of the index-space box `[lo, hi]`.
+fn world_box(world_from_index: &DAffine3, lo: Vec3, hi: Vec3) -> (Vec3, Vec3) {
+    let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+    let mut min = Vec3::splat(f32::INFINITY);
+    let mut max = Vec3::splat(f32::NEG_INFINITY);
+    for corner in 0..8 {
+        let pick = |bit: usize, a: f64, b: f64| if corner & bit == 0 { a } else { b };
+        let p = glam::DVec3::new(
+            pick(1, lo.x, hi.x),
+            pick(2, lo.y, hi.y),
+            pick(4, lo.z, hi.z),
+        );
+        let w = world_from_index.transform_point3(p).as_vec3();
+        min = min.min(w);
+        max = max.max(w);
+    }
+    (min, max)
+}

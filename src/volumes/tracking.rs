@@ -1,0 +1,477 @@
+//! Null-collision tracking along a ray through heterogeneous media (Novák et
+//! al. 2018, "Monte Carlo Methods for Volumetric Light Transport Simulation",
+//! §3-§5): free-flight sampling by delta tracking and unbiased transmittance
+//! estimates by track-length, ratio and residual ratio tracking.
+//!
+//! Every estimator walks a ray's majorant segments (from the majorant grid's
+//! DDA) and places tentative collisions with rate `sigma_maj`; the extinction
+//! `sigma_t(t)` is looked up only there. Restarting the exponential walk at
+//! each segment boundary is exact because the exponential distribution is
+//! memoryless. Segments must be finite (the DDA clips them to the volume's
+//! bounds): an empty infinite segment with `sigma_maj > 0` never ends.
+
+use super::MajorantSegment;
+use crate::sampling::Pcg32;
+
+/// Weights of ratio tracking below this are Russian-rouletted: they survive
+/// with probability `|weight| / RUSSIAN_ROULETTE_THRESHOLD` and then carry
+/// `±RUSSIAN_ROULETTE_THRESHOLD`, so the expectation is unchanged while long
+/// rays through dense media stop after a few lookups.
+pub const RUSSIAN_ROULETTE_THRESHOLD: f32 = 0.1;
+
+/// Per-render counters of the tracking estimators, summed over threads by
+/// the caller and reported beside the film (issue 5, "guards").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TrackingStats {
+    /// Evaluations of `sigma_t`, one per tentative collision.
+    pub density_lookups: u64,
+    /// Tentative collisions that delta tracking accepted as real.
+    pub real_collisions: u64,
+    /// Tentative collisions that delta tracking rejected as null.
+    pub null_collisions: u64,
+    /// Lookups where `sigma_t` exceeded the segment's `sigma_maj`: delta
+    /// tracking is biased then (its acceptance probability is clamped to 1);
+    /// ratio tracking stays unbiased but its weights turn negative.
+    pub majorant_violations: u64,
+}
+
+impl TrackingStats {
+    /// Adds another thread's counters to these.
+    pub fn merge(&mut self, other: &TrackingStats) {
+        self.density_lookups += other.density_lookups;
+        self.real_collisions += other.real_collisions;
+        self.null_collisions += other.null_collisions;
+        self.majorant_violations += other.majorant_violations;
+    }
+}
+
+/// How [`transmittance`] estimates `T = exp(-∫ sigma_t dt)`; the
+/// `--volume-estimator` choice for shadow rays.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransmittanceEstimator {
+    /// Track-length estimation: delta tracking, 1 if the ray leaves the
+    /// segments without a real collision, else 0 (Novák et al. 2018, §4.1).
+    TrackLength,
+    /// Ratio tracking: the product of `1 - sigma_t / sigma_maj` over all
+    /// tentative collisions (Novák et al. 2014, §3).
+    Ratio,
+    /// Residual ratio tracking with each segment's `sigma_min` as control:
+    /// `exp(-sigma_min * length)` analytically times ratio tracking of the
+    /// residual `sigma_t - sigma_min` against `sigma_maj - sigma_min`
+    /// (Novák et al. 2014, §4).
+    ResidualRatio,
+}
+
+/// Delta (Woodcock) tracking (Novák et al. 2018, §3, Alg. 1): the distance
+/// `t` of the first real collision along `segments`, distributed with density
+/// `sigma_t(t) exp(-∫_0^t sigma_t)`, or `None` if the ray leaves them
+/// (probability `T`). `sigma_t(t)` (per scene unit) is evaluated only at
+/// tentative collisions, which are accepted with probability
+/// `sigma_t / sigma_maj`; a value above `sigma_maj` counts a violation and is
+/// accepted with probability 1 (biased).
+pub fn delta_tracking(
+    segments: impl IntoIterator<Item = MajorantSegment>,
+    mut sigma_t: impl FnMut(f32) -> f32,
+    rng: &mut Pcg32,
+    stats: &mut TrackingStats,
+) -> Option<f32> {
+    for segment in segments {
+        if segment.sigma_maj <= 0.0 {
+            continue;
+        }
+        let mut t = segment.t_min;
+        while let Some(next) = next_tentative_collision(t, segment.sigma_maj, segment.t_max, rng) {
+            t = next;
+            let sigma = look_up(&mut sigma_t, t, segment.sigma_maj, stats);
+            if rng.next_f32() * segment.sigma_maj < sigma {
+                stats.real_collisions += 1;
+                return Some(t);
+            }
+            stats.null_collisions += 1;
+        }
+    }
+    None
+}
+
+/// An unbiased estimate of the transmittance `exp(-∫ sigma_t dt)` along
+/// `segments` by `estimator`. Ratio-tracking weights below
+/// [`RUSSIAN_ROULETTE_THRESHOLD`] are Russian-rouletted at tentative
+/// collisions, which keeps the estimate unbiased. With a majorant violation
+/// the ratio estimators stay unbiased but may return a negative weight.
+pub fn transmittance(
+    estimator: TransmittanceEstimator,
+    segments: impl IntoIterator<Item = MajorantSegment>,
+    sigma_t: impl FnMut(f32) -> f32,
+    rng: &mut Pcg32,
+    stats: &mut TrackingStats,
+) -> f32 {
+    match estimator {
+        TransmittanceEstimator::TrackLength => {
+            match delta_tracking(segments, sigma_t, rng, stats) {
+                Some(_) => 0.0,
+                None => 1.0,
+            }
+        }
+        TransmittanceEstimator::Ratio => ratio_tracking(segments, sigma_t, false, rng, stats),
+        TransmittanceEstimator::ResidualRatio => {
+            ratio_tracking(segments, sigma_t, true, rng, stats)
+        }
+    }
+}
+
+/// Ratio tracking, optionally of the residual against each segment's
+/// control extinction `sigma_c = sigma_min` (`use_control`). Tentative
+/// collisions follow a Poisson process of rate `sigma_maj - sigma_c`; each
+/// multiplies the weight by `1 - (sigma_t - sigma_c) / (sigma_maj - sigma_c)`,
+/// whose expected product is `exp(-∫ (sigma_t - sigma_c))`, and the control
+/// part `exp(-sigma_c * length)` is exact. With `sigma_c = 0` this is plain
+/// ratio tracking.
+fn ratio_tracking(
+    segments: impl IntoIterator<Item = MajorantSegment>,
+    mut sigma_t: impl FnMut(f32) -> f32,
+    use_control: bool,
+    rng: &mut Pcg32,
+    stats: &mut TrackingStats,
+) -> f32 {
+    let mut weight = 1.0f32;
+    for segment in segments {
+        let sigma_c = if use_control {
+            segment.sigma_min.clamp(0.0, segment.sigma_maj.max(0.0))
+        } else {
+            0.0
+        };
+        if sigma_c > 0.0 {
+            weight *= (-sigma_c * (segment.t_max - segment.t_min)).exp();
+        }
+        let residual_maj = segment.sigma_maj - sigma_c;
+        if residual_maj <= 0.0 {
+            continue;
+        }
+        let mut t = segment.t_min;
+        while let Some(next) = next_tentative_collision(t, residual_maj, segment.t_max, rng) {
+            t = next;
+            let sigma = look_up(&mut sigma_t, t, segment.sigma_maj, stats);
+            weight *= (segment.sigma_maj - sigma) / residual_maj;
+            weight = russian_roulette(weight, rng);
+            if weight == 0.0 {
+                return 0.0;
+            }
+        }
+    }
+    weight
+}
+
+/// The next tentative collision after `t` of a Poisson process with `rate`
+/// per scene unit, `t - ln(1 - u) / rate`, or `None` once it reaches
+/// `t_max`. A NaN anywhere also gives `None`, so a corrupt segment ends the
+/// walk instead of hanging it.
+#[inline]
+fn next_tentative_collision(t: f32, rate: f32, t_max: f32, rng: &mut Pcg32) -> Option<f32> {
+    let next = t - (-rng.next_f32()).ln_1p() / rate;
+    (next < t_max).then_some(next)
+}
+
+/// `sigma_t(t)`, counted as a lookup and, above `sigma_maj`, as a violation.
+#[inline]
+fn look_up(
+    sigma_t: &mut impl FnMut(f32) -> f32,
+    t: f32,
+    sigma_maj: f32,
+    stats: &mut TrackingStats,
+) -> f32 {
+    let sigma = sigma_t(t);
+    stats.density_lookups += 1;
+    if sigma > sigma_maj {
+        stats.majorant_violations += 1;
+    }
+    sigma
+}
+
+/// Russian roulette on a small ratio-tracking weight: below
+/// [`RUSSIAN_ROULETTE_THRESHOLD`] in magnitude it survives with probability
+/// `q = |weight| / threshold` as `weight / q`, otherwise it becomes 0.
+#[inline]
+fn russian_roulette(weight: f32, rng: &mut Pcg32) -> f32 {
+    if weight == 0.0 || weight.abs() >= RUSSIAN_ROULETTE_THRESHOLD {
+        return weight;
+    }
+    if rng.next_f32() * RUSSIAN_ROULETTE_THRESHOLD < weight.abs() {
+        RUSSIAN_ROULETTE_THRESHOLD.copysign(weight)
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ESTIMATORS: [TransmittanceEstimator; 3] = [
+        TransmittanceEstimator::TrackLength,
+        TransmittanceEstimator::Ratio,
+        TransmittanceEstimator::ResidualRatio,
+    ];
+
+    /// Sample mean and its standard error (sigma estimated from the samples).
+    struct MeanEstimate {
+        mean: f64,
+        std_error: f64,
+        variance: f64,
+    }
+
+    fn estimate(samples: impl IntoIterator<Item = f64>) -> MeanEstimate {
+        let (mut n, mut sum, mut sum_sq) = (0.0f64, 0.0f64, 0.0f64);
+        for x in samples {
+            n += 1.0;
+            sum += x;
+            sum_sq += x * x;
+        }
+        let mean = sum / n;
+        let variance = ((sum_sq - n * mean * mean) / (n - 1.0)).max(0.0);
+        MeanEstimate {
+            mean,
+            std_error: (variance / n).sqrt(),
+            variance,
+        }
+    }
+
+    /// Asserts `|mean - expected| < 4 sigma`, plus a rounding floor for
+    /// estimators that are exact in the case at hand (zero variance).
+    fn assert_within_4_sigma(e: &MeanEstimate, expected: f64, what: &str) {
+        let bound = 4.0 * e.std_error + 1e-5 * expected.abs().max(1e-3);
+        assert!(
+            (e.mean - expected).abs() < bound,
+            "{what}: mean {} vs expected {expected} (bound {bound})",
+            e.mean
+        );
+    }
+
+    fn segment(t_min: f32, t_max: f32, sigma_maj: f32, sigma_min: f32) -> MajorantSegment {
+        MajorantSegment {
+            t_min,
+            t_max,
+            sigma_maj,
+            sigma_min,
+        }
+    }
+
+    /// `n` transmittance estimates along `segments` with extinction `sigma_t`.
+    fn transmittance_estimate(
+        estimator: TransmittanceEstimator,
+        segments: &[MajorantSegment],
+        sigma_t: impl Fn(f32) -> f32,
+        n: usize,
+        seed: u64,
+    ) -> (MeanEstimate, TrackingStats) {
+        let mut rng = Pcg32::new(seed, estimator as u64);
+        let mut stats = TrackingStats::default();
+        let e = estimate((0..n).map(|_| {
+            transmittance(
+                estimator,
+                segments.iter().copied(),
+                &sigma_t,
+                &mut rng,
+                &mut stats,
+            ) as f64
+        }));
+        (e, stats)
+    }
+
+    /// A linear ramp `sigma_t(t) = a + b t` on [0, length) split into
+    /// `pieces` segments with exact per-segment bounds, and its optical depth.
+    fn ramp(a: f32, b: f32, length: f32, pieces: usize) -> (Vec<MajorantSegment>, f64) {
+        let sigma = |t: f32| a + b * t;
+        let segments = (0..pieces)
+            .map(|i| {
+                let t0 = length * i as f32 / pieces as f32;
+                let t1 = length * (i + 1) as f32 / pieces as f32;
+                segment(t0, t1, sigma(t0).max(sigma(t1)), sigma(t0).min(sigma(t1)))
+            })
+            .collect();
+        let depth = a as f64 * length as f64 + 0.5 * b as f64 * (length as f64).powi(2);
+        (segments, depth)
+    }
+
+    #[test]
+    fn homogeneous_slab_transmittance_matches_exp_for_every_estimator() {
+        let sigma = 1.5f32;
+        for estimator in ESTIMATORS {
+            for maj_factor in [1.0f32, 2.0, 5.0] {
+                for sigma_min in [0.0, sigma] {
+                    for d in [0.1f32, 0.7, 2.0] {
+                        let segments = [segment(0.0, d, maj_factor * sigma, sigma_min)];
+                        let (e, _) =
+                            transmittance_estimate(estimator, &segments, |_| sigma, 20_000, 11);
+                        let what = format!("{estimator:?} maj x{maj_factor} min {sigma_min} d {d}");
+                        assert_within_4_sigma(&e, (-(sigma * d) as f64).exp(), &what);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn delta_tracking_collision_distances_are_exponential() {
+        let sigma = 1.5f32;
+        for maj_factor in [1.0f32, 2.0, 5.0] {
+            for d in [0.5f32, 2.0] {
+                // Split the slab so the walk also restarts at a boundary, with a
+                // different majorant on each side.
+                let segments = [
+                    segment(0.0, d / 3.0, maj_factor * sigma, 0.0),
+                    segment(d / 3.0, d, maj_factor * sigma * 1.5, 0.0),
+                ];
+                let mut rng = Pcg32::new(5, maj_factor as u64);
+                let mut stats = TrackingStats::default();
+                let n = 40_000;
+                let ts: Vec<Option<f32>> = (0..n)
+                    .map(|_| delta_tracking(segments, |_| sigma, &mut rng, &mut stats))
+                    .collect();
+                let what = format!("maj x{maj_factor} d {d}");
+                let escaped = estimate(ts.iter().map(|t| t.is_none() as u8 as f64));
+                let transmittance = (-(sigma * d) as f64).exp();
+                assert_within_4_sigma(&escaped, transmittance, &what);
+                // E[t | t < d] for an exponential with rate sigma.
+                let s = sigma as f64;
+                let d = d as f64;
+                let mean_t = 1.0 / s - d * transmittance / (1.0 - transmittance);
+                let collided = estimate(ts.iter().flatten().map(|&t| t as f64));
+                assert_within_4_sigma(&collided, mean_t, &what);
+                assert!(ts.iter().flatten().all(|&t| (0.0..d as f32).contains(&t)));
+                assert_eq!(
+                    stats.density_lookups,
+                    stats.real_collisions + stats.null_collisions
+                );
+                assert_eq!(stats.real_collisions, ts.iter().flatten().count() as u64);
+                // The second segment's majorant is loose, so some collisions are null.
+                assert!(stats.null_collisions > 0, "{what}");
+                assert_eq!(stats.majorant_violations, 0);
+            }
+        }
+    }
+
+    #[test]
+    fn piecewise_constant_segments_match_exp_of_optical_depth() {
+        // Densities 2, 0, 0.7 over [0, 0.5), [0.5, 1.2), [1.2, 2): depth 1.56.
+        let sigma_t = |t: f32| match t {
+            t if t < 0.5 => 2.0,
+            t if t < 1.2 => 0.0,
+            _ => 0.7,
+        };
+        let segments = [
+            segment(0.0, 0.5, 3.0, 2.0),
+            segment(0.5, 1.2, 0.5, 0.0),
+            segment(1.2, 2.0, 0.7, 0.3),
+        ];
+        let expected = (-1.56f64).exp();
+        for estimator in ESTIMATORS {
+            let (e, stats) = transmittance_estimate(estimator, &segments, sigma_t, 40_000, 3);
+            assert_within_4_sigma(&e, expected, &format!("{estimator:?}"));
+            assert_eq!(stats.majorant_violations, 0);
+        }
+    }
+
+    #[test]
+    fn linear_ramp_matches_exp_of_analytic_integral() {
+        for (a, b) in [(0.2f32, 1.5f32), (3.0, -1.4)] {
+            let (segments, depth) = ramp(a, b, 2.0, 8);
+            let expected = (-depth).exp();
+            for estimator in ESTIMATORS {
+                let (e, stats) =
+                    transmittance_estimate(estimator, &segments, |t| a + b * t, 40_000, 9);
+                assert_within_4_sigma(&e, expected, &format!("{estimator:?} ramp {a}+{b}t"));
+                assert_eq!(stats.majorant_violations, 0);
+            }
+            // Delta tracking's collision CDF at the midpoint: 1 - exp(-depth(1)).
+            let mut rng = Pcg32::new(17, 0);
+            let mut stats = TrackingStats::default();
+            let before_midpoint = estimate((0..40_000).map(|_| {
+                let t = delta_tracking(
+                    segments.iter().copied(),
+                    |t| a + b * t,
+                    &mut rng,
+                    &mut stats,
+                );
+                t.is_some_and(|t| t < 1.0) as u8 as f64
+            }));
+            let depth_to_midpoint = a as f64 + 0.5 * b as f64;
+            assert_within_4_sigma(&before_midpoint, 1.0 - (-depth_to_midpoint).exp(), "CDF(1)");
+        }
+    }
+
+    #[test]
+    fn residual_ratio_tracking_has_lower_variance_with_a_tight_control() {
+        let (a, b) = (2.0f32, 1.0f32);
+        let (segments, depth) = ramp(a, b, 1.5, 16);
+        let sigma_t = |t: f32| a + b * t;
+        let (ratio, _) = transmittance_estimate(
+            TransmittanceEstimator::Ratio,
+            &segments,
+            sigma_t,
+            20_000,
+            23,
+        );
+        let (residual, residual_stats) = transmittance_estimate(
+            TransmittanceEstimator::ResidualRatio,
+            &segments,
+            sigma_t,
+            20_000,
+            23,
+        );
+        assert_within_4_sigma(&residual, (-depth).exp(), "residual");
+        let variance_ratio = residual.variance / ratio.variance;
+        assert!(variance_ratio < 0.1, "variance ratio {variance_ratio}");
+        // The residual majorant is small, so few lookups are needed.
+        assert!(
+            residual_stats.density_lookups < 20_000,
+            "{residual_stats:?}"
+        );
+    }
+
+    #[test]
+    fn majorant_violations_are_counted() {
+        let segments = [segment(0.0, 1.0, 1.0, 0.0)];
+        for estimator in ESTIMATORS {
+            let (_, stats) = transmittance_estimate(estimator, &segments, |_| 2.0, 1000, 1);
+            assert!(stats.majorant_violations > 0, "{estimator:?}: {stats:?}");
+            assert!(stats.majorant_violations <= stats.density_lookups);
+            let (_, stats) = transmittance_estimate(estimator, &segments, |_| 1.0, 1000, 1);
+            assert_eq!(stats.majorant_violations, 0, "{estimator:?}");
+        }
+    }
+
+    #[test]
+    fn russian_roulette_keeps_thick_media_unbiased_and_stops_early() {
+        // Optical depth 8 under a majorant of 16: 16 lookups per ray without
+        // roulette, and weights halve on average at each.
+        let sigma = 8.0f32;
+        let segments = [segment(0.0, 1.0, 2.0 * sigma, 0.0)];
+        let expected = (-8.0f64).exp();
+        let n = 200_000;
+        for estimator in ESTIMATORS {
+            let (e, stats) = transmittance_estimate(estimator, &segments, |_| sigma, n, 31);
+            assert_within_4_sigma(&e, expected, &format!("{estimator:?}"));
+            let lookups_per_ray = stats.density_lookups as f64 / n as f64;
+            assert!(lookups_per_ray < 8.0, "{estimator:?}: {lookups_per_ray}");
+        }
+        // A nearly tight control leaves a small residual, still unbiased.
+        let segments = [segment(0.0, 1.0, 2.0 * sigma, 0.75 * sigma)];
+        let (e, _) = transmittance_estimate(
+            TransmittanceEstimator::ResidualRatio,
+            &segments,
+            |_| sigma,
+            n,
+            37,
+        );
+        assert_within_4_sigma(&e, expected, "residual with control");
+    }
+
+    #[test]
+    fn russian_roulette_preserves_the_expected_weight() {
+        let mut rng = Pcg32::new(2, 0);
+        for weight in [0.03f32, -0.06, 0.1, 0.5] {
+            let e = estimate((0..100_000).map(|_| russian_roulette(weight, &mut rng) as f64));
+            assert_within_4_sigma(&e, weight as f64, &format!("weight {weight}"));
+        }
+    }
+}

@@ -1,0 +1,18 @@
+"""Writes a constant-density VDB box for the volume render tests (Debian's pyopenvdb, run by /usr/bin/python3).
+
+usage: make_volume_box.py OUT.vdb N VOXEL_SIZE
+One float grid 'density': value 1 at every index point (0..N-1)^3, voxel size VOXEL_SIZE,
+index (0,0,0) at the world origin. Trilinear density is then 1 over [0, N-1]^3 (index
+space) and falls linearly to 0 over one voxel beyond, so a ray along an axis through
+the box's interior sees an optical depth of densityScale * N * VOXEL_SIZE exactly.
+"""
+import sys
+
+import pyopenvdb as vdb
+
+out, n, voxel = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
+grid = vdb.FloatGrid()
+grid.name = "density"
+grid.fill((0, 0, 0), (n - 1, n - 1, n - 1), 1.0)
+grid.transform = vdb.createLinearTransform(voxelSize=voxel)
+vdb.write(out, grids=[grid])
