@@ -5,6 +5,16 @@
 //! renderer samples (nearest or trilinear, index or world space) without
 //! crossing the FFI. Sampling follows OpenVDB's `BoxSampler` exactly; see
 //! `CONVENTIONS.md` for where voxel values sit and how density is scaled.
+//!
+//! Rendering: [`Media`] places every Volume in the world; a [`MajorantGrid`]
+//! per grid bounds its trilinear density per 8^3-voxel cell and is walked by
+//! a 3D DDA (Amanatides and Woo 1987) into [`MajorantSegment`]s; over those,
+//! [`delta_tracking`] samples free flights and [`transmittance`] estimates
+//! shadow-ray transmittance by ratio, residual ratio (Novák et al. 2014,
+//! "Residual Ratio Tracking for Estimating Attenuation in Participating
+//! Media") or track-length estimation (Novák, Georgiev, Hanika and Jarosz
+//! 2018, "Monte Carlo Methods for Volumetric Light Transport Simulation");
+//! scattering uses the Henyey-Greenstein (1941) phase function.
 
 mod grid;
 mod majorant;
