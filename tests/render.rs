@@ -856,3 +856,36 @@ fn volumetric_white_furnace_is_one_everywhere() {
         }
     }
 }
+
+/// Emission (scenes/tests/volume_emission.usda): an absorbing box (albedo 0,
+/// optical depth 1) at 1500 K everywhere it has density, heatScale 2, in
+/// front of a dome of radiance 1. The RTE along a camera ray through it is
+/// L = Le (1 - e^-1) + 1 e^-1, with Le of luminance heatScale at the
+/// reference 1500 K: luminance 2 (1 - 1/e) + 1/e. The blue channel, where a
+/// 1500 K blackbody has almost nothing, is close to the dome's e^-1 alone.
+#[test]
+fn emitting_volume_adds_its_blackbody_radiance() {
+    let dir = common::scratch("render_volume_emission");
+    let image = Render {
+        scene: "volume_emission",
+        res: (32, 32),
+        spp: 128,
+        seed: 3,
+        extra: &[],
+    }
+    .run(&dir);
+    let n = image.width * image.height;
+    let luminance: Vec<f64> = (0..n)
+        .map(|i| {
+            0.2126 * f64::from(image.rgb[0][i])
+                + 0.7152 * f64::from(image.rgb[1][i])
+                + 0.0722 * f64::from(image.rgb[2][i])
+        })
+        .collect();
+    let e = estimate(&luminance);
+    assert!(4.0 * e.sigma < 0.02, "sigma {} too large", e.sigma);
+    let inv_e = (-1.0f64).exp();
+    assert_within_4_sigma("emitting box luminance", e, 2.0 * (1.0 - inv_e) + inv_e);
+    let blue = estimate(&image.pixels(2, |_, _| true));
+    assert!((blue.mean - inv_e).abs() < 0.01, "blue {}", blue.mean);
+}

@@ -116,10 +116,14 @@ pub fn radiance(
             .and_then(|along| {
                 let segments = along.segments(ray.tmin, t_end);
                 let t = delta_tracking(segments, |t| along.sigma_t(t), rng, counts.tracking)?;
-                Some((t, along.scattering(t)))
+                Some((t, along.collision(t)))
             });
-        if let Some((t, (albedo, phase))) = collision {
-            throughput *= albedo;
+        if let Some((t, collision)) = collision {
+            // Emission seen from here counts in full: no light sampling
+            // strategy could have found it.
+            radiance += throughput * collision.emission;
+            throughput *= collision.albedo;
+            let phase = collision.phase;
             if depth >= settings.max_depth {
                 break;
             }

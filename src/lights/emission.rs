@@ -64,30 +64,42 @@ pub(crate) fn emission(record: &LightRecord) -> Result<Vec3, LightError> {
 }
 
 /// Linear Rec.709 colour of a blackbody at `temperature_k`, scaled to
-/// luminance 1 as UsdLux's `enableColorTemperature` asks: Planck's law
-/// integrated against the CIE 1931 2-degree observer (the multi-lobe fit of
-/// Wyman, Sloan and Shirley 2013, "Simple Analytic Approximations to the CIE
-/// XYZ Color Matching Functions") over 360-830 nm, then XYZ to Rec.709 (D65).
-/// Out-of-gamut (negative) components are clipped before normalising.
+/// luminance 1 as UsdLux's `enableColorTemperature` asks (see
+/// [`blackbody_radiance`] for the unscaled colour).
 pub(crate) fn blackbody_rgb(temperature_k: f32) -> Vec3 {
+    let rgb = blackbody_radiance(temperature_k);
+    rgb / luminance(rgb)
+}
+
+/// Linear Rec.709 radiance of a blackbody at `temperature_k`, up to one
+/// constant factor common to all temperatures (so ratios between
+/// temperatures are Planck's): Planck's law integrated against the CIE 1931
+/// 2-degree observer (the multi-lobe fit of Wyman, Sloan and Shirley 2013,
+/// "Simple Analytic Approximations to the CIE XYZ Color Matching Functions")
+/// over 360-830 nm, then XYZ to Rec.709 (D65). Out-of-gamut (negative)
+/// components are clipped. Zero at 0 K and below.
+pub fn blackbody_radiance(temperature_k: f32) -> Vec3 {
     // Second radiation constant hc/k, in nm K.
     const C2: f64 = 1.438_776_9e7;
+    if !(temperature_k > 0.0) {
+        return Vec3::ZERO;
+    }
     let t = f64::from(temperature_k);
     let mut xyz = DVec3::ZERO;
     for nm in 360..=830 {
         let l = f64::from(nm);
-        // Planck's spectral radiance up to a constant factor.
-        let planck = 1.0 / (l.powi(5) * ((C2 / (l * t)).exp_m1()));
+        // Planck's spectral radiance up to a constant factor (scaled by 1e15
+        // so the sums stay far from f32's smallest normals when narrowed).
+        let planck = 1e15 / (l.powi(5) * ((C2 / (l * t)).exp_m1()));
         xyz += planck * cie_xyz(l);
     }
-    let rgb = DVec3::new(
+    DVec3::new(
         3.240_454_2 * xyz.x - 1.537_138_5 * xyz.y - 0.498_531_4 * xyz.z,
         -0.969_266_0 * xyz.x + 1.876_010_8 * xyz.y + 0.041_556_0 * xyz.z,
         0.055_643_4 * xyz.x - 0.204_025_9 * xyz.y + 1.057_225_2 * xyz.z,
     )
     .max(DVec3::ZERO)
-    .as_vec3();
-    rgb / luminance(rgb)
+    .as_vec3()
 }
 
 /// CIE 1931 colour matching functions at `nm` (Wyman et al. 2013, multi-lobe fit).

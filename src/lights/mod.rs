@@ -34,6 +34,8 @@ mod plane;
 mod rect;
 mod select;
 mod sphere;
+
+pub use emission::blackbody_radiance;
 #[cfg(test)]
 pub(crate) mod test_support;
 

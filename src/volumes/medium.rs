@@ -6,7 +6,9 @@
 //! volumes cost one grid.
 //!
 //! Extinction is grey: sigma_t = densityScale x density per world unit;
-//! albedo is RGB (sigma_s = albedo x sigma_t). Overlapping media add their
+//! albedo is RGB (sigma_s = albedo x sigma_t, sigma_a = sigma_t - sigma_s);
+//! a temperature field with a positive `heatScale` emits blackbody radiance
+//! (`emission.rs`). Overlapping media add their
 //! extinctions: along a ray, their majorant segments are merged and summed.
 
 use std::collections::HashMap;
@@ -16,7 +18,8 @@ use std::sync::Arc;
 use glam::{Affine3A, DAffine3, Vec3};
 
 use super::{
-    HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment, SparseGrid, VdbFile, VolumeError,
+    BlackbodyTable, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment, SparseGrid,
+    VdbFile, VolumeError,
 };
 use crate::scene::{affine, Scene};
 
@@ -39,18 +42,51 @@ pub struct Medium {
     albedo: Vec3,
     /// Henyey-Greenstein phase function (`anisotropy`).
     phase: HenyeyGreenstein,
+    /// Blackbody emission, when the volume has a temperature field and a
+    /// positive `heatScale` (otherwise no temperature lookups at all).
+    emission: Option<Emission>,
+}
+
+/// A medium's emission: its temperature grid and how to read it.
+struct Emission {
+    temperature: Arc<SparseGrid>,
+    /// World to the temperature grid's index space (its own transform).
+    index_from_world: Affine3A,
+    /// `heatScale`: luminance of gas at 1500 K, W/(m^2 sr).
+    heat_scale: f32,
+    /// `temperatureOffset` (K) and `temperatureScale`: T = offset + scale x value.
+    temperature_offset: f32,
+    temperature_scale: f32,
 }
 
 /// Every medium of a scene; empty (and free) for scenes without volumes.
 #[derive(Default)]
 pub struct Media {
     media: Vec<Medium>,
+    /// Blackbody radiance by temperature, built only when a medium emits.
+    blackbody: Option<BlackbodyTable>,
 }
 
 /// A ray prepared against the media it crosses: each medium's index-space
 /// ray, so density lookups along it are one multiply-add.
 pub struct MediaRay<'a> {
     media: Vec<(&'a Medium, Vec3, Vec3)>,
+    blackbody: Option<&'a BlackbodyTable>,
+    origin: Vec3,
+    direction: Vec3,
+}
+
+/// What happens at a real collision at one point of the media.
+#[derive(Clone, Copy, Debug)]
+pub struct MediumCollision {
+    /// sigma_s / sigma_t of the media mix there, per RGB channel.
+    pub albedo: Vec3,
+    /// The phase function of the medium with the largest extinction there.
+    pub phase: HenyeyGreenstein,
+    /// Emitted radiance per collision, sum of sigma_a Le / sigma_t, W/(m^2 sr):
+    /// a collision estimator of the RTE's emission term (its density is
+    /// sigma_t T, so this weight makes it sigma_a Le T).
+    pub emission: Vec3,
 }
 
 impl Media {
@@ -74,7 +110,12 @@ impl Media {
                 )
             })
             .collect();
-        MediaRay { media }
+        MediaRay {
+            media,
+            blackbody: self.blackbody.as_ref(),
+            origin,
+            direction,
+        }
     }
 }
 
@@ -108,30 +149,46 @@ impl MediaRay<'_> {
             .sum()
     }
 
-    /// Scattering albedo and phase function at `t`: those of the medium with
-    /// the largest extinction there (overlaps mix albedos by extinction).
-    pub fn scattering(&self, t: f32) -> (Vec3, HenyeyGreenstein) {
+    /// Albedo, phase function and emission at `t`, where delta tracking
+    /// found a real collision: overlapping media mix albedos and emission by
+    /// their extinctions there.
+    pub fn collision(&self, t: f32) -> MediumCollision {
         let mut total = 0.0;
         let mut albedo = Vec3::ZERO;
+        let mut emission = Vec3::ZERO;
         let mut phase = HenyeyGreenstein { g: 0.0 };
         let mut strongest = 0.0;
         for (m, o, d) in &self.media {
             let sigma = m.density_scale * m.density.trilinear_index(*o + *d * t).max(0.0);
             total += sigma;
             albedo += m.albedo * sigma;
+            if let (Some(e), Some(table)) = (&m.emission, self.blackbody) {
+                let p = e
+                    .index_from_world
+                    .transform_point3(self.origin + self.direction * t);
+                let kelvin =
+                    e.temperature_offset + e.temperature_scale * e.temperature.trilinear_index(p);
+                let sigma_a = (Vec3::ONE - m.albedo).max(Vec3::ZERO) * sigma;
+                emission += sigma_a * table.radiance(kelvin) * e.heat_scale;
+            }
             if sigma > strongest {
                 strongest = sigma;
                 phase = m.phase;
             }
         }
-        (
-            if total > 0.0 {
-                albedo / total
-            } else {
-                Vec3::ZERO
-            },
-            phase,
-        )
+        if total > 0.0 {
+            MediumCollision {
+                albedo: albedo / total,
+                phase,
+                emission: emission / total,
+            }
+        } else {
+            MediumCollision {
+                albedo: Vec3::ZERO,
+                phase,
+                emission: Vec3::ZERO,
+            }
+        }
     }
 }
 
@@ -184,6 +241,7 @@ impl Media {
     pub fn build(scene: &Scene, kind: MajorantKind) -> Result<Self, VolumeError> {
         let m = &scene.manifest;
         let mut grids: HashMap<FieldKey, (Arc<SparseGrid>, Arc<MajorantGrid>)> = HashMap::new();
+        let mut temperatures: HashMap<FieldKey, Arc<SparseGrid>> = HashMap::new();
         let prototypes = scene.view(&m.instances.prototype);
         let transforms = scene.view(&m.instances.transform);
         let mut media = Vec::new();
@@ -216,6 +274,32 @@ impl Media {
                     );
                     continue;
                 }
+                let emission = match volume.fields.get("temperature") {
+                    Some(field) if volume.heat_scale > 0.0 => {
+                        let key = (field.file.clone(), field.grid.clone(), field.index);
+                        let temperature = match temperatures.get(&key) {
+                            Some(found) => Arc::clone(found),
+                            None => {
+                                let grid = Arc::new(
+                                    VdbFile::open(&field.file)?
+                                        .read_float_grid(&field.grid, field.index as usize)?,
+                                );
+                                temperatures.insert(key, Arc::clone(&grid));
+                                grid
+                            }
+                        };
+                        let world_from_temperature =
+                            to_f64(&world_from_volume) * temperature.transform().world_from_index;
+                        Some(Emission {
+                            index_from_world: to_f32(&world_from_temperature.inverse()),
+                            temperature,
+                            heat_scale: volume.heat_scale,
+                            temperature_offset: volume.temperature_offset,
+                            temperature_scale: volume.temperature_scale,
+                        })
+                    }
+                    _ => None,
+                };
                 let (lo, hi) = majorant.index_box();
                 let (world_min, world_max) = world_box(&world_from_index, lo, hi);
                 media.push(Medium {
@@ -229,10 +313,15 @@ impl Media {
                     phase: HenyeyGreenstein {
                         g: volume.anisotropy,
                     },
+                    emission,
                 });
             }
         }
-        Ok(Self { media })
+        let blackbody = media
+            .iter()
+            .any(|m| m.emission.is_some())
+            .then(BlackbodyTable::new);
+        Ok(Self { media, blackbody })
     }
 }
 

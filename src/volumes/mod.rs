@@ -16,6 +16,7 @@
 //! 2018, "Monte Carlo Methods for Volumetric Light Transport Simulation");
 //! scattering uses the Henyey-Greenstein (1941) phase function.
 
+mod emission;
 mod grid;
 mod majorant;
 mod medium;
@@ -23,9 +24,10 @@ mod phase;
 mod tracking;
 mod vdb;
 
+pub use emission::{BlackbodyTable, REFERENCE_TEMPERATURE_K};
 pub use grid::{GridAccessor, GridStats, GridTransform, LayoutError, SparseGrid, Tile};
 pub use majorant::{MajorantGrid, MajorantKind, MajorantSegment, MajorantSegments};
-pub use medium::{Media, MediaRay};
+pub use medium::{Media, MediaRay, MediumCollision};
 pub use phase::{HenyeyGreenstein, PhaseSample};
 pub use tracking::{
     delta_tracking, transmittance, TrackingStats, TransmittanceEstimator,

@@ -1,10 +1,12 @@
 """Writes a constant-density VDB box for the volume render tests (Debian's pyopenvdb, run by /usr/bin/python3).
 
 usage: make_volume_box.py OUT.vdb N VOXEL_SIZE
-One float grid 'density': value 1 at every index point (0..N-1)^3, voxel size VOXEL_SIZE,
-index (0,0,0) at the world origin. Trilinear density is then 1 over [0, N-1]^3 (index
-space) and falls linearly to 0 over one voxel beyond, so a ray along an axis through
-the box's interior sees an optical depth of densityScale * N * VOXEL_SIZE exactly.
+Grid 'density': value 1 at every index point (0..N-1)^3, voxel size VOXEL_SIZE, index
+(0,0,0) at the world origin. Trilinear density is then 1 over [0, N-1]^3 (index space)
+and falls linearly to 0 over one voxel beyond, so a ray along an axis through the box's
+interior sees an optical depth of densityScale * N * VOXEL_SIZE exactly.
+Grid 'temperature': 1500 (kelvin) over (-2..N+1)^3, same transform: constant wherever
+the density is not zero, so emission is uniform over the whole medium.
 """
 import sys
 
@@ -15,4 +17,8 @@ grid = vdb.FloatGrid()
 grid.name = "density"
 grid.fill((0, 0, 0), (n - 1, n - 1, n - 1), 1.0)
 grid.transform = vdb.createLinearTransform(voxelSize=voxel)
-vdb.write(out, grids=[grid])
+temperature = vdb.FloatGrid()
+temperature.name = "temperature"
+temperature.fill((-2, -2, -2), (n + 1, n + 1, n + 1), 1500.0)
+temperature.transform = vdb.createLinearTransform(voxelSize=voxel)
+vdb.write(out, grids=[grid, temperature])
