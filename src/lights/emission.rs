@@ -81,7 +81,7 @@ pub(crate) fn blackbody_rgb(temperature_k: f32) -> Vec3 {
 pub fn blackbody_radiance(temperature_k: f32) -> Vec3 {
     // Second radiation constant hc/k, in nm K.
     const C2: f64 = 1.438_776_9e7;
-    if !(temperature_k > 0.0) {
+    if temperature_k.is_nan() || temperature_k <= 0.0 {
         return Vec3::ZERO;
     }
     let t = f64::from(temperature_k);
