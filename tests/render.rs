@@ -907,6 +907,11 @@ fn block_estimates(image: &Image, block: usize, mirror: bool) -> Vec<Estimate> {
     out
 }
 
+/// How many combined standard errors apart two estimates are.
+fn z(a: &Estimate, b: &Estimate) -> f64 {
+    (a.mean - b.mean).abs() / a.sigma.hypot(b.sigma).max(1e-6)
+}
+
 /// A negatively scaled volume renders mirrored (scenes/tests/
 /// teapot_cloud_mirrored.usda: the asymmetric teapot cloud under a parent
 /// scale of (-1, 1, 1)): every 4x4 block of its image matches the mirrored
@@ -928,7 +933,6 @@ fn negatively_scaled_volume_renders_mirrored() {
     };
     let plain = render("teapot_cloud", 1);
     let mirrored = render("teapot_cloud_mirrored", 2);
-    let z = |a: &Estimate, b: &Estimate| (a.mean - b.mean).abs() / a.sigma.hypot(b.sigma).max(1e-6);
     let expected = block_estimates(&plain, 4, true);
     let found = block_estimates(&mirrored, 4, false);
     for (i, (a, b)) in expected.iter().zip(&found).enumerate() {
@@ -983,6 +987,64 @@ fn instanced_volumes_render_as_their_copies() {
             .pixels(0, |x, _| x >= x0 && x < x0 + 21)
             .into_iter()
             .fold(f64::INFINITY, f64::min);
-        assert!(darkest < 0.7, "teapot {third} missing: darkest pixel {darkest}");
+        assert!(
+            darkest < 0.7,
+            "teapot {third} missing: darkest pixel {darkest}"
+        );
+    }
+}
+
+/// The volumetric white furnace seen from inside the medium
+/// (scenes/tests/volume_furnace_inside.usda: a wide perspective camera at the
+/// centre of the scattering box): every pixel still expects 1, so rays that
+/// start inside a volume are tracked from their origin.
+#[test]
+fn camera_inside_a_volume_sees_the_furnace_radiance() {
+    let dir = common::scratch("render_volume_inside");
+    let image = Render {
+        scene: "volume_furnace_inside",
+        res: (32, 32),
+        spp: 128,
+        seed: 21,
+        extra: &["--max-depth", UNBOUNDED_DEPTH],
+    }
+    .run(&dir);
+    assert_grey_image("furnace from inside", &image, 1.0);
+}
+
+/// The transmittance estimators and both majorants agree on a real,
+/// heterogeneous cloud (scenes/tests/teapot_cloud_lit.usda: the teapot cloud
+/// scattering a sun and a dome): every 4x4 block of each render is within 4
+/// combined sigma of the ratio-tracking, grid-majorant render.
+#[test]
+fn volume_estimators_agree_on_the_teapot_cloud() {
+    let dir = common::scratch("render_volume_agree");
+    let render = |seed, extra: &'static [&'static str]| {
+        let image = Render {
+            scene: "teapot_cloud_lit",
+            res: (48, 24),
+            spp: 64,
+            seed,
+            extra,
+        }
+        .run(&dir);
+        block_estimates(&image, 4, false)
+    };
+    let reference = render(1, &["--transmittance", "ratio"]);
+    let others: [&'static [&'static str]; 3] = [
+        &["--transmittance", "residual-ratio"],
+        &["--transmittance", "track-length"],
+        &["--majorant", "global"],
+    ];
+    for (seed, extra) in others.into_iter().enumerate() {
+        let blocks = render(seed as u64 + 2, extra);
+        for (i, (a, b)) in reference.iter().zip(&blocks).enumerate() {
+            assert!(
+                z(a, b) < 4.0,
+                "{extra:?} block {i}: {} vs {} (ratio)",
+                b.mean,
+                a.mean
+            );
+        }
     }
 }
