@@ -35,17 +35,8 @@ impl CylinderLight {
         let phi = 2.0 * PI * u.y;
         let normal = self.frame.to_world(Vec3::new(phi.cos(), phi.sin(), 0.0));
         let along = (2.0 * u.x - 1.0) * self.half_length;
-        let offset = self.centre + along * self.frame.n + self.radius * normal - p;
-        let distance = offset.length();
-        let wi = offset / distance;
-        let pdf = self.solid_angle_pdf(distance, -wi.dot(normal));
-        (pdf > 0.0 && pdf.is_finite()).then_some(LightSample {
-            radiance: self.radiance,
-            wi,
-            distance,
-            pdf,
-            delta: false,
-        })
+        let point = self.centre + along * self.frame.n + self.radius * normal;
+        LightSample::one_sided_area(p, point, normal, 1.0 / self.area(), || self.radiance)
     }
 
     /// The ray's nearest hit on the outside of the side with t in (0, t_max).

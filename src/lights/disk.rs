@@ -28,16 +28,9 @@ impl DiskLight {
     /// A point uniformly over the area (concentric map), as seen from `p`;
     /// `None` when `p` is behind the emitting face.
     pub fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
-        let offset = self.plane.point(square_to_concentric_disk(u)) - p;
-        let distance = offset.length();
-        let wi = offset / distance;
-        let pdf = self.plane.solid_angle_pdf(self.area, distance, wi);
-        (pdf > 0.0 && pdf.is_finite()).then_some(LightSample {
-            radiance: self.radiance,
-            wi,
-            distance,
-            pdf,
-            delta: false,
+        let point = self.plane.point(square_to_concentric_disk(u));
+        LightSample::one_sided_area(p, point, self.plane.normal, 1.0 / self.area, || {
+            self.radiance
         })
     }
 

@@ -105,6 +105,38 @@ pub struct LightSample {
     pub delta: bool,
 }
 
+impl LightSample {
+    /// The sample of `point` on a one-sided emitter whose unit `normal`
+    /// points to its emitting side, drawn with area density `pdf_area` (per
+    /// square scene unit), seen from `p`: the density becomes a solid-angle
+    /// one, pdf_area d^2 / cos. `None` when the point faces away from `p` or
+    /// the density is not finite (grazing or coincident); `radiance` is
+    /// evaluated only for a sample that is kept.
+    pub(crate) fn one_sided_area(
+        p: Vec3,
+        point: Vec3,
+        normal: Vec3,
+        pdf_area: f32,
+        radiance: impl FnOnce() -> Vec3,
+    ) -> Option<Self> {
+        let offset = point - p;
+        let distance = offset.length();
+        let wi = offset / distance;
+        let cos_light = -wi.dot(normal);
+        if cos_light <= 0.0 {
+            return None;
+        }
+        let pdf = crate::sampling::warp::area_to_solid_angle(pdf_area, distance, cos_light);
+        (pdf > 0.0 && pdf.is_finite()).then(|| Self {
+            radiance: radiance(),
+            wi,
+            distance,
+            pdf,
+            delta: false,
+        })
+    }
+}
+
 /// Where a ray meets an analytic area light.
 #[derive(Clone, Copy, Debug)]
 pub struct LightHit {

@@ -32,16 +32,9 @@ impl RectLight {
     /// behind the emitting face.
     pub fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         let local = 2.0 * u - Vec2::ONE;
-        let offset = self.plane.point(local) - p;
-        let distance = offset.length();
-        let wi = offset / distance;
-        let pdf = self.plane.solid_angle_pdf(self.area, distance, wi);
-        (pdf > 0.0 && pdf.is_finite()).then(|| LightSample {
-            radiance: self.radiance_at(local),
-            wi,
-            distance,
-            pdf,
-            delta: false,
+        let point = self.plane.point(local);
+        LightSample::one_sided_area(p, point, self.plane.normal, 1.0 / self.area, || {
+            self.radiance_at(local)
         })
     }
 
