@@ -14,15 +14,17 @@
 //! factor, so the power heuristic on their directional densities stays a
 //! valid MIS weight.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use obvhs::ray::Ray;
 
 use super::{PathSettings, RayCounts, Strategy};
+use crate::geometry::SurfacePoint;
 use crate::lights::LightSample;
+use crate::materials::Bsdf;
 use crate::render_state::RenderState;
 use crate::sampling::warp::power_heuristic;
 use crate::sampling::{Pcg32, Sampler};
-use crate::volumes::{delta_tracking, transmittance, TrackingStats};
+use crate::volumes::{delta_tracking, transmittance, HenyeyGreenstein, TrackingStats};
 
 /// Depth (bounces) from which Russian roulette may end a path.
 const ROULETTE_DEPTH: u32 = 3;
@@ -94,14 +96,6 @@ pub fn radiance(
             Strategy::Nee => 0.0,
         }
     };
-    // Weight of a light sample whose BSDF- or phase-sampling density is `pdf`.
-    let light_weight = |ls: &LightSample, pdf: f32| {
-        if ls.delta || settings.strategy == Strategy::Nee {
-            1.0
-        } else {
-            power_heuristic(ls.pdf, pdf)
-        }
-    };
     for depth in 0.. {
         counts.rays.closest += 1;
         let hit = geometry.intersect(&ray);
@@ -129,17 +123,11 @@ pub fn radiance(
             }
             let p = origin + direction * t;
             let wo = -direction;
-            let (u_light, u_light_2d) = (sampler.next_1d(), sampler.next_2d());
+            let u_light = (sampler.next_1d(), sampler.next_2d());
             if settings.strategy != Strategy::Bsdf {
-                if let Some(ls) = lights.sample(materials, p, u_light, u_light_2d) {
-                    let f = phase.eval(wo, ls.wi);
-                    if ls.pdf > 0.0 && f > 0.0 {
-                        let shadow = Ray::new(p.into(), ls.wi.into(), 0.0, ls.distance);
-                        let tr = visibility(state, settings, &shadow, rng, &mut counts);
-                        radiance +=
-                            throughput * ls.radiance * (f * tr * light_weight(&ls, f) / ls.pdf);
-                    }
-                }
+                let vertex = Vertex::Medium { p, phase, wo };
+                radiance +=
+                    throughput * next_event(state, settings, &vertex, u_light, rng, &mut counts);
             }
             let (_, u_phase, u_roulette) =
                 (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
@@ -175,19 +163,15 @@ pub fn radiance(
         }
         let bsdf = materials.bsdf(&sp, wo);
         // Next-event estimation: one light sample.
-        let (u_light, u_light_2d) = (sampler.next_1d(), sampler.next_2d());
+        let u_light = (sampler.next_1d(), sampler.next_2d());
         if settings.strategy != Strategy::Bsdf && !bsdf.is_delta() {
-            if let Some(ls) = lights.sample(materials, sp.p, u_light, u_light_2d) {
-                let f = bsdf.eval(wo, ls.wi);
-                if ls.pdf > 0.0 && f != Vec3::ZERO {
-                    let shadow = sp.shadow_ray(ls.wi, ls.distance);
-                    let tr = visibility(state, settings, &shadow, rng, &mut counts);
-                    if tr > 0.0 {
-                        let weight = light_weight(&ls, bsdf.pdf(wo, ls.wi));
-                        radiance += throughput * f * ls.radiance * (tr * weight / ls.pdf);
-                    }
-                }
-            }
+            let vertex = Vertex::Surface {
+                sp: &sp,
+                bsdf: &bsdf,
+                wo,
+            };
+            radiance +=
+                throughput * next_event(state, settings, &vertex, u_light, rng, &mut counts);
         }
         // BSDF sampling continues the path.
         let (u_lobe, u_bsdf, u_roulette) =
@@ -211,6 +195,90 @@ pub fn radiance(
         Some(max) if radiance.is_finite() => radiance.min(Vec3::splat(max)),
         _ => radiance,
     }
+}
+
+/// A scattering vertex of a path, where next-event estimation samples a
+/// light: a surface point with its BSDF, or a real collision in a medium
+/// with its phase function; `wo` points back along the path.
+enum Vertex<'a> {
+    Surface {
+        sp: &'a SurfacePoint,
+        bsdf: &'a Bsdf,
+        wo: Vec3,
+    },
+    Medium {
+        p: Vec3,
+        phase: HenyeyGreenstein,
+        wo: Vec3,
+    },
+}
+
+impl Vertex<'_> {
+    fn position(&self) -> Vec3 {
+        match self {
+            Self::Surface { sp, .. } => sp.p,
+            Self::Medium { p, .. } => *p,
+        }
+    }
+
+    /// The BSDF (cosine included) or phase function towards `wi`.
+    fn f(&self, wi: Vec3) -> Vec3 {
+        match self {
+            Self::Surface { bsdf, wo, .. } => bsdf.eval(*wo, wi),
+            Self::Medium { phase, wo, .. } => Vec3::splat(phase.eval(*wo, wi)),
+        }
+    }
+
+    /// The density with which this vertex samples `wi` itself.
+    fn pdf(&self, wi: Vec3) -> f32 {
+        match self {
+            Self::Surface { bsdf, wo, .. } => bsdf.pdf(*wo, wi),
+            Self::Medium { phase, wo, .. } => phase.eval(*wo, wi),
+        }
+    }
+
+    /// The shadow ray towards a light sample: off the surface (see
+    /// `SurfacePoint::shadow_ray`), or straight from a point in a medium.
+    fn shadow_ray(&self, ls: &LightSample) -> Ray {
+        match self {
+            Self::Surface { sp, .. } => sp.shadow_ray(ls.wi, ls.distance),
+            Self::Medium { p, .. } => Ray::new((*p).into(), ls.wi.into(), 0.0, ls.distance),
+        }
+    }
+}
+
+/// Next-event estimation at `vertex`: one light sample (`u`: selection and
+/// position), its contribution f Le tr w / pdf, to be multiplied by the
+/// path throughput; w is the power heuristic against the vertex's own
+/// sampling (1 for delta lights and in NEE-only mode).
+fn next_event(
+    state: &RenderState,
+    settings: &PathSettings,
+    vertex: &Vertex,
+    (u_select, u): (f32, Vec2),
+    rng: &mut Pcg32,
+    counts: &mut PathCounts,
+) -> Vec3 {
+    let Some(ls) = state
+        .lights
+        .sample(&state.materials, vertex.position(), u_select, u)
+    else {
+        return Vec3::ZERO;
+    };
+    let f = vertex.f(ls.wi);
+    if ls.pdf.is_nan() || ls.pdf <= 0.0 || f == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    let tr = visibility(state, settings, &vertex.shadow_ray(&ls), rng, counts);
+    if tr == 0.0 {
+        return Vec3::ZERO;
+    }
+    let weight = if ls.delta || settings.strategy == Strategy::Nee {
+        1.0
+    } else {
+        power_heuristic(ls.pdf, vertex.pdf(ls.wi))
+    };
+    f * ls.radiance * (tr * weight / ls.pdf)
 }
 
 /// Russian roulette from [`ROULETTE_DEPTH`]: false ends the path; a
