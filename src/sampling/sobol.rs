@@ -43,30 +43,48 @@ pub struct Sampler {
 #[derive(Clone, Debug)]
 enum Sequence {
     /// Padded Sobol: each draw hashes its own dimension seed.
-    Sobol {
-        /// The hash of (pixel, user seed), computed once per pixel sample;
-        /// each dimension's seed mixes the dimension into it.
-        pixel_hash: u64,
-        sample_index: u32,
-        /// Dimensions consumed so far (a 2D draw consumes two).
-        dimension: u32,
-    },
+    Sobol(SobolState),
     /// A generator seeded from (pixel, sample index, seed).
     Independent(Pcg32),
+}
+
+/// One pixel sample's position in its padded Sobol sequence.
+#[derive(Clone, Debug)]
+struct SobolState {
+    /// The hash of (pixel, user seed), computed once per pixel sample;
+    /// each dimension's seed mixes the dimension into it.
+    pixel_hash: u64,
+    sample_index: u32,
+    /// Dimensions consumed so far (a 2D draw consumes two).
+    dimension: u32,
+}
+
+impl SobolState {
+    /// Consumes `count` dimensions and returns the Owen-shuffled sample
+    /// index and the 64-bit seed of those dimensions (its high half
+    /// scrambles the first Sobol dimension).
+    fn draw(&mut self, count: u32) -> (u32, u64) {
+        let hash = dimension_hash(self.pixel_hash, self.dimension);
+        self.dimension += count;
+        (owen_scramble(self.sample_index, hash as u32), hash)
+    }
+
+    /// At `sample_index` of the pixel whose hash is `pixel_hash`, dimension 0.
+    fn start(pixel_hash: u64, sample_index: u32) -> Self {
+        Self {
+            pixel_hash,
+            sample_index,
+            dimension: 0,
+        }
+    }
 }
 
 impl Sampler {
     /// The next dimension, in [0, 1).
     pub fn next_1d(&mut self) -> f32 {
         match &mut self.sequence {
-            Sequence::Sobol {
-                pixel_hash,
-                sample_index,
-                dimension,
-            } => {
-                let hash = dimension_hash(*pixel_hash, *dimension);
-                *dimension += 1;
-                let index = owen_scramble(*sample_index, hash as u32);
+            Sequence::Sobol(state) => {
+                let (index, hash) = state.draw(1);
                 unit_float(owen_scramble(sobol_0(index), (hash >> 32) as u32))
             }
             Sequence::Independent(rng) => rng.next_f32(),
@@ -77,18 +95,11 @@ impl Sampler {
     /// (0,2)-sequence, stratified in every elementary interval.
     pub fn next_2d(&mut self) -> Vec2 {
         match &mut self.sequence {
-            Sequence::Sobol {
-                pixel_hash,
-                sample_index,
-                dimension,
-            } => {
-                let hash = dimension_hash(*pixel_hash, *dimension);
-                *dimension += 2;
-                let index = owen_scramble(*sample_index, hash as u32);
-                let scramble_y = mix_bits(hash) as u32;
+            Sequence::Sobol(state) => {
+                let (index, hash) = state.draw(2);
                 Vec2::new(
                     unit_float(owen_scramble(sobol_0(index), (hash >> 32) as u32)),
-                    unit_float(owen_scramble(sobol_1(index), scramble_y)),
+                    unit_float(owen_scramble(sobol_1(index), mix_bits(hash) as u32)),
                 )
             }
             Sequence::Independent(rng) => Vec2::new(rng.next_f32(), rng.next_f32()),
@@ -99,11 +110,10 @@ impl Sampler {
     pub fn start_pixel_sample(&mut self, pixel: UVec2, sample_index: u32) {
         let pixel_key = (u64::from(pixel.x) << 32) | u64::from(pixel.y);
         self.sequence = match self.sequence {
-            Sequence::Sobol { .. } => Sequence::Sobol {
-                pixel_hash: pixel_hash(pixel_key, self.seed),
+            Sequence::Sobol(_) => Sequence::Sobol(SobolState::start(
+                pixel_hash(pixel_key, self.seed),
                 sample_index,
-                dimension: 0,
-            },
+            )),
             Sequence::Independent(_) => {
                 Sequence::Independent(independent_rng(pixel_key, sample_index, self.seed))
             }
@@ -114,11 +124,7 @@ impl Sampler {
     /// sample 0 of pixel (0, 0).
     pub fn new(kind: SamplerKind, seed: u64) -> Self {
         let sequence = match kind {
-            SamplerKind::Sobol => Sequence::Sobol {
-                pixel_hash: pixel_hash(0, seed),
-                sample_index: 0,
-                dimension: 0,
-            },
+            SamplerKind::Sobol => Sequence::Sobol(SobolState::start(pixel_hash(0, seed), 0)),
             SamplerKind::Independent => Sequence::Independent(independent_rng(0, 0, seed)),
         };
         Self { seed, sequence }
