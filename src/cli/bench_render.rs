@@ -15,7 +15,7 @@ use glam::UVec2;
 use super::bench::{machine_line, median};
 use crate::integrator::{self, Budget, PathSettings, RenderSettings, RenderStats, Strategy};
 use crate::output::filter::FilterKind;
-use crate::output::{read_image, write_exr, Channel, Compression, ExrImage, PixelType};
+use crate::output::{read_image, Compression};
 use crate::render_state::RenderState;
 use crate::sampling::SamplerKind;
 use crate::volumes::{MajorantKind, TransmittanceEstimator};
@@ -163,22 +163,7 @@ fn reference(state: &RenderState, bench: &RenderBench, name: &str) -> Result<Vec
         path.display(),
         stats.elapsed.as_secs_f64()
     );
-    let channel = |n: &str| Channel {
-        name: n.into(),
-        pixel_type: PixelType::Float,
-    };
-    write_exr(
-        &path,
-        &ExrImage {
-            width: r.x,
-            height: r.y,
-            channels: vec![channel("R"), channel("G"), channel("B")],
-            pixels: &rgb,
-            compression: Compression::Zip,
-            strings: Vec::new(),
-            matrices: Vec::new(),
-        },
-    )?;
+    super::render::write_beauty(&path, r, &rgb, Compression::Zip, &s, &stats)?;
     Ok(rgb)
 }
 

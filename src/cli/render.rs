@@ -141,7 +141,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
 }
 
 /// Writes the beauty EXR: float R, G, B with the render's settings as metadata.
-fn write_beauty(
+pub(super) fn write_beauty(
     path: &Path,
     resolution: UVec2,
     rgb: &[f32],
