@@ -194,26 +194,10 @@ impl Checker<'_> {
             self.mesh(i, mesh)?;
         }
         for (i, proto) in m.prototypes.iter().enumerate() {
-            for (j, part) in proto.meshes.iter().enumerate() {
-                let field = format!("prototypes[{i}].meshes[{j}]");
-                self.index(
-                    &format!("{field}.mesh"),
-                    part.mesh,
-                    m.meshes.len(),
-                    "meshes",
-                )?;
-                self.finite(&format!("{field}.transform"), &part.transform)?;
-            }
-            for (j, part) in proto.volumes.iter().enumerate() {
-                let field = format!("prototypes[{i}].volumes[{j}]");
-                self.index(
-                    &format!("{field}.volume"),
-                    part.volume,
-                    m.volumes.len(),
-                    "volumes",
-                )?;
-                self.finite(&format!("{field}.transform"), &part.transform)?;
-            }
+            let meshes = proto.meshes.iter().map(|p| (p.mesh, &p.transform));
+            self.parts(i, ("meshes", "mesh"), meshes, m.meshes.len())?;
+            let volumes = proto.volumes.iter().map(|p| (p.volume, &p.transform));
+            self.parts(i, ("volumes", "volume"), volumes, m.volumes.len())?;
         }
         self.instances()?;
         for (i, mat) in m.materials.iter().enumerate() {
@@ -348,6 +332,24 @@ impl Checker<'_> {
                 format!("count {got}, expected one per {of} ({want})"),
             ))
         }
+    }
+
+    /// Prototype `prototype`'s parts of one kind (`(list, key)` name the
+    /// manifest fields, e.g. `("meshes", "mesh")`): each an index below
+    /// `len` into the top-level list of that name, with a finite transform.
+    fn parts<'t>(
+        &self,
+        prototype: usize,
+        (list, key): (&str, &str),
+        parts: impl Iterator<Item = (u32, &'t [f32; 12])>,
+        len: usize,
+    ) -> Result<(), SceneError> {
+        for (j, (index, transform)) in parts.enumerate() {
+            let field = format!("prototypes[{prototype}].{list}[{j}]");
+            self.index(&format!("{field}.{key}"), index, len, list)?;
+            self.finite(&format!("{field}.transform"), transform)?;
+        }
+        Ok(())
     }
 
     fn index(&self, field: &str, index: u32, len: usize, of: &str) -> Result<(), SceneError> {
