@@ -244,12 +244,22 @@ impl Media {
         let mut temperatures: HashMap<FieldKey, Arc<SparseGrid>> = HashMap::new();
         let prototypes = scene.view(&m.instances.prototype);
         let transforms = scene.view(&m.instances.transform);
+        for volume in m
+            .volumes
+            .iter()
+            .filter(|v| !v.fields.contains_key("density"))
+        {
+            log::warn!(
+                "volume {} has no density field; it is not rendered",
+                volume.path
+            );
+        }
         let mut media = Vec::new();
         for (world_from_prototype, &prototype) in transforms.iter().zip(prototypes) {
             for part in &m.prototypes[prototype as usize].volumes {
                 let volume = &m.volumes[part.volume as usize];
                 let Some(field) = volume.fields.get("density") else {
-                    continue;
+                    continue; // warned above, once per volume
                 };
                 let key = (field.file.clone(), field.grid.clone(), field.index);
                 let (density, majorant) = match grids.get(&key) {
