@@ -16,6 +16,7 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
+use common::{estimate, Estimate};
 use exr::prelude::{read_all_flat_layers_from_file, FlatSamples};
 
 /// Every `--sampler`: the furnace runs through each with each strategy.
@@ -149,25 +150,6 @@ impl Image {
     }
 }
 
-/// The mean of independent values and its standard error.
-#[derive(Clone, Copy, Debug)]
-struct Estimate {
-    mean: f64,
-    sigma: f64,
-}
-
-/// Mean of `values` and its standard error std / sqrt(n) (std with n - 1).
-fn estimate(values: &[f64]) -> Estimate {
-    let n = values.len() as f64;
-    assert!(n >= 2.0, "too few pixels for a statistic");
-    let mean = values.iter().sum::<f64>() / n;
-    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    Estimate {
-        mean,
-        sigma: (var / n).sqrt(),
-    }
-}
-
 /// Asserts `measured` is within 4 sigma of `expected`, where sigma also
 /// counts f32 rounding of the pixel sums (1e-5 relative) so that a
 /// noise-free region is not asked for more digits than f32 accumulation has.
@@ -218,9 +200,9 @@ fn white_furnace_diffuse_is_one_everywhere() {
             }
             .run(&dir);
             for (c, name) in ["R", "G", "B"].iter().enumerate() {
-                let whole = estimate(&image.pixels(c, |_, _| true));
+                let whole = estimate(image.pixels(c, |_, _| true));
                 let sphere = estimate(
-                    &image.pixels(c, |x, y| (20..44).contains(&x) && (20..44).contains(&y)),
+                    image.pixels(c, |x, y| (20..44).contains(&x) && (20..44).contains(&y)),
                 );
                 for (region, e) in [("image", whole), ("sphere", sphere)] {
                     assert!(
@@ -270,7 +252,7 @@ fn white_furnace_specular_loses_energy_only_to_single_scattering() {
         .run(&dir);
         for (c, name) in ["R", "G", "B"].iter().enumerate() {
             for (k, &expected) in albedo.iter().enumerate() {
-                let e = estimate(&image.pixels(c, |x, y| pure_band(x, y) == Some(Some(k))));
+                let e = estimate(image.pixels(c, |x, y| pure_band(x, y) == Some(Some(k))));
                 let what = format!("specular furnace roughness {roughness} band {k} {name}");
                 assert!(
                     e.mean <= 1.0 + 4.0 * e.sigma,
@@ -332,7 +314,7 @@ fn lambert_plane_under_a_dome_reflects_albedo_times_radiance() {
     .run(&dir);
     for (c, (name, dome)) in [("R", 0.5), ("G", 1.0), ("B", 2.0)].iter().enumerate() {
         let expected = 0.5 * dome * 1.5 * 2.0;
-        let e = estimate(&image.pixels(c, |_, _| true));
+        let e = estimate(image.pixels(c, |_, _| true));
         assert!(
             4.0 * e.sigma < 0.02 * expected,
             "{name}: sigma {} too large",
@@ -450,7 +432,7 @@ fn lambert_sphere_under_a_distant_light_follows_the_cosine_law() {
     for (c, name) in ["R", "G", "B"].iter().enumerate() {
         let radiance_per_cos = albedo / PI * irradiance[c];
         for k in 0..RINGS / 2 {
-            let e = estimate(&image.pixels(c, |x, y| pure_band(x, y) == Some(Some(k))));
+            let e = estimate(image.pixels(c, |x, y| pure_band(x, y) == Some(Some(k))));
             assert_within_4_sigma(
                 &format!("distant sphere band {k} {name}"),
                 e,
@@ -468,7 +450,7 @@ fn lambert_sphere_under_a_distant_light_follows_the_cosine_law() {
             / POLYHEDRON_VIEW.powi(2);
         assert_within_4_sigma(
             &format!("distant sphere image {name}"),
-            estimate(&image.pixels(c, |_, _| true)),
+            estimate(image.pixels(c, |_, _| true)),
             exact_mean,
         );
     }
@@ -649,7 +631,7 @@ fn instanced_and_copied_meshes_render_identically() {
             );
             // Not a blank image: the blocks and the ground are lit.
             let e = estimate(
-                &instanced.rgb[c]
+                instanced.rgb[c]
                     .iter()
                     .map(|&v| f64::from(v))
                     .collect::<Vec<_>>(),
@@ -753,8 +735,13 @@ fn render_command_line_contract() {
     assert!(dir.join("timed.png").is_file(), "no preview beside the EXR");
 }
 
-/// Every `--transmittance` estimator of shadow rays through media.
-const TRANSMITTANCE: [&str; 3] = ["ratio", "residual-ratio", "track-length"];
+/// Every `--volume-estimator` of shadow rays through media.
+const TRANSMITTANCE: [&str; 4] = [
+    "null-scattering-mis",
+    "ratio",
+    "residual-ratio",
+    "track-length",
+];
 
 /// Every `--majorant`: per-cell grid and the single global baseline.
 const MAJORANTS: [&str; 2] = ["grid", "global"];
@@ -762,7 +749,7 @@ const MAJORANTS: [&str; 2] = ["grid", "global"];
 /// The mean of one channel of a grey image over all pixels, checked for a
 /// usable sigma and compared with `expected` within 4 sigma.
 fn assert_grey_image(what: &str, image: &Image, expected: f64) {
-    let e = estimate(&image.pixels(0, |_, _| true));
+    let e = estimate(image.pixels(0, |_, _| true));
     assert!(
         4.0 * e.sigma < 0.04 * expected,
         "{what}: sigma {} too large",
@@ -811,7 +798,7 @@ fn shadow_rays_through_a_volume_follow_every_transmittance_estimator() {
             res: (32, 32),
             spp: 128,
             seed: seed as u64,
-            extra: &["--transmittance", estimator],
+            extra: &["--volume-estimator", estimator],
         }
         .run(&dir);
         assert_grey_image(
@@ -886,7 +873,7 @@ fn emitting_volume_adds_its_blackbody_radiance() {
     assert!(4.0 * e.sigma < 0.02, "sigma {} too large", e.sigma);
     let inv_e = (-1.0f64).exp();
     assert_within_4_sigma("emitting box luminance", e, 2.0 * (1.0 - inv_e) + inv_e);
-    let blue = estimate(&image.pixels(2, |_, _| true));
+    let blue = estimate(image.pixels(2, |_, _| true));
     assert!((blue.mean - inv_e).abs() < 0.01, "blue {}", blue.mean);
 }
 
@@ -905,6 +892,17 @@ fn block_estimates(image: &Image, block: usize, mirror: bool) -> Vec<Estimate> {
         }
     }
     out
+}
+
+/// How many standard errors the image-wide mean of the per-pixel
+/// differences `a - b` (red channel) lies from zero. Pixels of independent
+/// renders are independent, and the scene's own variation cancels in each
+/// difference, so this sees a bias far below what blocks of pixels can.
+fn paired_z(a: &Image, b: &Image) -> f64 {
+    let (a, b) = (a.pixels(0, |_, _| true), b.pixels(0, |_, _| true));
+    let differences: Vec<f64> = a.iter().zip(&b).map(|(x, y)| x - y).collect();
+    let d = estimate(&differences);
+    d.mean.abs() / d.sigma.max(1e-12)
 }
 
 /// How many combined standard errors apart two estimates are.
@@ -1012,10 +1010,10 @@ fn camera_inside_a_volume_sees_the_furnace_radiance() {
     assert_grey_image("furnace from inside", &image, 1.0);
 }
 
-/// The transmittance estimators and both majorants agree on a real,
-/// heterogeneous cloud (scenes/tests/teapot_cloud_lit.usda: the teapot cloud
-/// scattering a sun and a dome): every 4x4 block of each render is within 4
-/// combined sigma of the ratio-tracking, grid-majorant render.
+/// The volume estimators and both majorants agree on a real, heterogeneous
+/// cloud (scenes/tests/teapot_cloud_lit.usda: the teapot cloud scattering a
+/// sun and a dome): every 4x4 block of each render is within 4 combined
+/// sigma of the null-scattering-MIS, grid-majorant render.
 #[test]
 fn volume_estimators_agree_on_the_teapot_cloud() {
     let dir = common::scratch("render_volume_agree");
@@ -1030,10 +1028,11 @@ fn volume_estimators_agree_on_the_teapot_cloud() {
         .run(&dir);
         block_estimates(&image, 4, false)
     };
-    let reference = render(1, &["--transmittance", "ratio"]);
-    let others: [&'static [&'static str]; 3] = [
-        &["--transmittance", "residual-ratio"],
-        &["--transmittance", "track-length"],
+    let reference = render(1, &["--volume-estimator", "null-scattering-mis"]);
+    let others: [&'static [&'static str]; 4] = [
+        &["--volume-estimator", "ratio"],
+        &["--volume-estimator", "residual-ratio"],
+        &["--volume-estimator", "track-length"],
         &["--majorant", "global"],
     ];
     for (seed, extra) in others.into_iter().enumerate() {
@@ -1041,7 +1040,52 @@ fn volume_estimators_agree_on_the_teapot_cloud() {
         for (i, (a, b)) in reference.iter().zip(&blocks).enumerate() {
             assert!(
                 z(a, b) < 4.0,
-                "{extra:?} block {i}: {} vs {} (ratio)",
+                "{extra:?} block {i}: {} vs {} (null-scattering MIS)",
+                b.mean,
+                a.mean
+            );
+        }
+    }
+}
+
+/// Light sampling, phase sampling and their MIS agree around a sphere light
+/// inside the teapot cloud (scenes/tests/volume_sphere_light.usda): every
+/// 4x4 block of the NEE-only, phase-only and directional-MIS renders, and
+/// their image-wide paired difference, are within 4 sigma of the default
+/// null-scattering MIS render, so the null-scattering MIS weights sum to one
+///.
+#[test]
+fn volume_light_sampling_strategies_agree_around_a_sphere_light() {
+    let dir = common::scratch("render_volume_sphere_light");
+    let render = |seed, extra: &'static [&'static str]| {
+        Render {
+            scene: "volume_sphere_light",
+            res: (48, 24),
+            spp: 64,
+            seed,
+            extra,
+        }
+        .run(&dir)
+    };
+    let reference = render(1, &[]);
+    let reference_blocks = block_estimates(&reference, 4, false);
+    let others: [&'static [&'static str]; 3] = [
+        &["--strategy", "nee"],
+        &["--strategy", "bsdf"],
+        &["--volume-estimator", "ratio"],
+    ];
+    for (seed, extra) in others.into_iter().enumerate() {
+        let image = render(seed as u64 + 2, extra);
+        let paired = paired_z(&reference, &image);
+        assert!(
+            paired < 4.0,
+            "{extra:?}: image-wide difference at {paired:.1} sigma"
+        );
+        let blocks = block_estimates(&image, 4, false);
+        for (i, (a, b)) in reference_blocks.iter().zip(&blocks).enumerate() {
+            assert!(
+                z(a, b) < 4.0,
+                "{extra:?} block {i}: {} vs {} (null-scattering MIS)",
                 b.mean,
                 a.mean
             );

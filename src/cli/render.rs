@@ -12,12 +12,14 @@ use anyhow::{bail, Context, Result};
 use glam::UVec2;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::integrator::{self, Budget, PathSettings, RenderSettings, RenderStats, Strategy};
+use crate::integrator::{
+    self, Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
+};
 use crate::output::filter::FilterKind;
 use crate::output::{write_exr, write_preview, Channel, Compression, ExrImage, PixelType};
 use crate::render_state::RenderState;
 use crate::sampling::SamplerKind;
-use crate::volumes::{MajorantKind, TransmittanceEstimator};
+use crate::volumes::MajorantKind;
 
 /// Samples per pixel when neither `--spp` nor `--time` is given.
 const DEFAULT_SPP: u32 = 64;
@@ -63,9 +65,10 @@ pub struct RenderArgs {
     /// Majorants of volume extinction: per 8^3-voxel cell (grid) or one per volume (global).
     #[arg(long, value_enum, default_value_t = MajorantKind::Grid)]
     majorant: MajorantKind,
-    /// Transmittance estimator of shadow rays through volumes.
-    #[arg(long, value_enum, default_value_t = TransmittanceEstimator::Ratio)]
-    transmittance: TransmittanceEstimator,
+    /// Volume estimator: null-scattering MIS (default) or directional MIS
+    /// with ratio, residual-ratio or track-length shadow transmittance.
+    #[arg(long, value_enum, default_value_t = VolumeEstimator::NullScatteringMis)]
+    volume_estimator: VolumeEstimator,
     /// EXR compression.
     #[arg(long, value_enum, default_value_t)]
     compression: Compression,
@@ -124,7 +127,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             strategy: args.strategy,
             max_depth: args.max_depth,
             clamp: args.clamp,
-            transmittance: args.transmittance,
+            volume_estimator: args.volume_estimator,
         },
     };
     let progress = Progress::new();

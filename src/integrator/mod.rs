@@ -54,8 +54,42 @@ pub struct PathSettings {
     /// Largest value of any RGB component of one sample, W/(m^2 sr); `None`
     /// (the default) keeps the estimator unbiased.
     pub clamp: Option<f32>,
-    /// How shadow rays estimate transmittance through media.
-    pub transmittance: TransmittanceEstimator,
+    /// How paths through media are estimated (`--volume-estimator`).
+    pub volume_estimator: VolumeEstimator,
+}
+
+/// The volume estimators compared in the charts (`--volume-estimator`).
+/// Every one samples free flights by delta tracking; they differ in how
+/// shadow rays estimate transmittance and how light and phase sampling are
+/// weighted against each other.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum VolumeEstimator {
+    /// Null-scattering path MIS (Miller, Georgiev & Jarosz 2019; pbrt-v4's
+    /// `VolPathIntegrator`): ratio tracking on shadow rays, and MIS weights
+    /// that include each strategy's probability of the null collisions
+    /// along the way, so dense media favour light sampling (the default).
+    #[default]
+    NullScatteringMis,
+    /// Ratio tracking on shadow rays (Novák et al. 2014, §3), MIS on
+    /// directions only.
+    Ratio,
+    /// Residual ratio tracking on shadow rays, control = each majorant
+    /// cell's minimum (Novák et al. 2014, §4), MIS on directions only.
+    ResidualRatio,
+    /// Track-length (delta tracking) transmittance on shadow rays (Novák et
+    /// al. 2018, §4.1), MIS on directions only.
+    TrackLength,
+}
+
+impl VolumeEstimator {
+    /// The shadow-ray transmittance estimator this uses.
+    pub fn transmittance(self) -> TransmittanceEstimator {
+        match self {
+            Self::NullScatteringMis | Self::Ratio => TransmittanceEstimator::Ratio,
+            Self::ResidualRatio => TransmittanceEstimator::ResidualRatio,
+            Self::TrackLength => TransmittanceEstimator::TrackLength,
+        }
+    }
 }
 
 /// When to stop sampling.

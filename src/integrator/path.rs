@@ -5,26 +5,35 @@
 //! `PathIntegrator::Li` (§13.4), which this follows for surfaces.
 //!
 //! Media: along every ray, delta tracking over the merged majorant segments
-//! (Woodcock tracking; Novák et al. 2018) samples the first real collision
-//! before the surface or light the ray would reach; there the path scatters
-//! by the medium's albedo and Henyey-Greenstein phase function, with light
+//! (Woodcock tracking; Novák et al. 2018) walks tentative collisions up to the
+//! surface or light the ray would reach, adding volume emission at each and
+//! ending in absorption, a real scattering event or nothing (`free_flight`).
+//! Real scattering samples the Henyey-Greenstein phase function, with light
 //! sampling MIS-combined with phase sampling. Shadow rays multiply the
-//! geometric visibility by an unbiased transmittance estimate (ratio
-//! tracking by default). Both strategies estimate the same transmittance
-//! factor, so the power heuristic on their directional densities stays a
-//! valid MIS weight.
+//! geometric visibility by an unbiased transmittance estimate. Under the
+//! default null-scattering MIS (Miller, Georgiev & Jarosz 2019; pbrt-v4's
+//! `VolPathIntegrator`) shadow rays use ratio tracking and the MIS weights
+//! compare the densities of whole null-scattering paths: each strategy's
+//! directional density times its probability of the null collisions along
+//! the way (sigma_n / sigma_maj per collision for delta tracking, 1 for ratio
+//! tracking), so where a medium is dense light sampling takes over. The other
+//! `--volume-estimator`s weight by directional densities alone, which is
+//! also unbiased since both strategies estimate the same transmittance.
 
 use glam::{Vec2, Vec3};
 use obvhs::ray::Ray;
 
-use super::{PathSettings, RayCounts, Strategy};
+use super::{PathSettings, RayCounts, Strategy, VolumeEstimator};
 use crate::geometry::SurfacePoint;
 use crate::lights::LightSample;
 use crate::materials::Bsdf;
 use crate::render_state::RenderState;
 use crate::sampling::warp::power_heuristic;
 use crate::sampling::{Pcg32, Sampler};
-use crate::volumes::{delta_tracking, transmittance, HenyeyGreenstein, TrackingStats};
+use crate::volumes::{
+    ratio_tracking_with_null_ratio, transmittance, walk_tentative_collisions, HenyeyGreenstein,
+    MediaRay, TrackingStats,
+};
 
 /// Depth (bounces) from which Russian roulette may end a path.
 const ROULETTE_DEPTH: u32 = 3;
@@ -85,13 +94,15 @@ pub fn radiance(
         specular: true,
     };
     // Weight of emission found by a BSDF- or phase-sampled ray whose
-    // light-sampling density at that point is `light_pdf`.
-    let emission_weight = |bounce: Bounce, light_pdf: f32| {
-        if bounce.specular {
+    // light-sampling density at that point is `light_pdf`; `null_ratio`
+    // turns that into the light strategy's density of the null-scattering
+    // path relative to this one's (1 without media).
+    let emission_weight = |bounce: Bounce, light_pdf: f32, null_ratio: f32| {
+        if bounce.specular || light_pdf <= 0.0 {
             return 1.0;
         }
         match settings.strategy {
-            Strategy::Mis => power_heuristic(bounce.pdf, light_pdf),
+            Strategy::Mis => power_heuristic(bounce.pdf, light_pdf * null_ratio),
             Strategy::Bsdf => 1.0,
             Strategy::Nee => 0.0,
         }
@@ -103,59 +114,65 @@ pub fn radiance(
         let t_surface = hit.map_or(ray.tmax, |h| h.t);
         let light_hit = lights.intersect(origin, direction, t_surface);
         let t_end = light_hit.map_or(t_surface, |l| l.t);
-        // A real collision in a medium before the surface or light.
-        let collision = (!state.media.is_empty())
+        // The free flight through media up to the surface or light: it may
+        // end in absorption or a real scattering event on the way.
+        let mut null_ratio = 1.0;
+        let along = (!state.media.is_empty())
             .then(|| state.media.along(origin, direction, t_end))
-            .filter(|along| !along.is_empty())
-            .and_then(|along| {
-                let segments = along.segments(ray.tmin, t_end);
-                let t = delta_tracking(segments, |t| along.sigma_t(t), rng, counts.tracking)?;
-                Some((t, along.collision(t)))
-            });
-        if let Some((t, collision)) = collision {
-            // Emission seen from here counts in full: no light sampling
-            // strategy could have found it.
-            radiance += throughput * collision.emission;
-            throughput *= collision.albedo;
-            let phase = collision.phase;
-            if depth >= settings.max_depth {
-                break;
+            .filter(|along| !along.is_empty());
+        if let Some(along) = along {
+            let flight = free_flight(&along, ray.tmin, t_end, rng, counts.tracking);
+            radiance += throughput * flight.emission;
+            if settings.volume_estimator == VolumeEstimator::NullScatteringMis {
+                null_ratio = flight.null_ratio;
             }
-            let p = origin + direction * t;
-            let wo = -direction;
-            let u_light = (sampler.next_1d(), sampler.next_2d());
-            if settings.strategy != Strategy::Bsdf {
-                let vertex = Vertex::Medium { p, phase, wo };
-                radiance +=
-                    throughput * next_event(state, settings, &vertex, u_light, rng, &mut counts);
+            match flight.end {
+                FlightEnd::Left => {}
+                FlightEnd::Absorbed => break,
+                FlightEnd::Scattered { t, weight } => {
+                    throughput *= weight;
+                    if depth >= settings.max_depth {
+                        break;
+                    }
+                    let phase = along.phase(t, rng.next_f32());
+                    let p = origin + direction * t;
+                    let wo = -direction;
+                    let u_light = (sampler.next_1d(), sampler.next_2d());
+                    if settings.strategy != Strategy::Bsdf {
+                        let vertex = Vertex::Medium { p, phase, wo };
+                        radiance += throughput
+                            * next_event(state, settings, &vertex, u_light, rng, &mut counts);
+                    }
+                    let (_, u_phase, u_roulette) =
+                        (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
+                    let ps = phase.sample(wo, u_phase);
+                    bounce = Bounce {
+                        pdf: ps.pdf,
+                        specular: false,
+                    };
+                    if !roulette(&mut throughput, depth, u_roulette) {
+                        break;
+                    }
+                    ray = Ray::new(p.into(), ps.wi.into(), 0.0, f32::INFINITY);
+                    continue;
+                }
             }
-            let (_, u_phase, u_roulette) =
-                (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
-            let ps = phase.sample(wo, u_phase);
-            bounce = Bounce {
-                pdf: ps.pdf,
-                specular: false,
-            };
-            if !roulette(&mut throughput, depth, u_roulette) {
-                break;
-            }
-            ray = Ray::new(p.into(), ps.wi.into(), 0.0, f32::INFINITY);
-            continue;
         }
         if let Some(light) = light_hit {
-            radiance += throughput * light.radiance * emission_weight(bounce, light.pdf);
+            radiance +=
+                throughput * light.radiance * emission_weight(bounce, light.pdf, null_ratio);
             break;
         }
         let Some(hit) = hit else {
             lights.escaped(direction, |le, pdf| {
-                radiance += throughput * le * emission_weight(bounce, pdf);
+                radiance += throughput * le * emission_weight(bounce, pdf, null_ratio);
             });
             break;
         };
         let sp = geometry.surface_point(&hit);
         let wo = -direction;
         if materials.is_emissive(sp.material) && (sp.double_sided || wo.dot(sp.ng) > 0.0) {
-            let weight = emission_weight(bounce, lights.mesh_pdf(&sp, origin));
+            let weight = emission_weight(bounce, lights.mesh_pdf(&sp, origin), null_ratio);
             radiance += throughput * materials.emission(sp.material, sp.uv) * weight;
         }
         if depth >= settings.max_depth {
@@ -269,14 +286,14 @@ fn next_event(
     if ls.pdf.is_nan() || ls.pdf <= 0.0 || f == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let tr = visibility(state, settings, &vertex.shadow_ray(&ls), rng, counts);
+    let (tr, null_ratio) = visibility(state, settings, &vertex.shadow_ray(&ls), rng, counts);
     if tr == 0.0 {
         return Vec3::ZERO;
     }
     let weight = if ls.delta || settings.strategy == Strategy::Nee {
         1.0
     } else {
-        power_heuristic(ls.pdf, vertex.pdf(ls.wi))
+        power_heuristic(ls.pdf, vertex.pdf(ls.wi) * null_ratio)
     };
     f * ls.radiance * (tr * weight / ls.pdf)
 }
@@ -296,33 +313,114 @@ fn roulette(throughput: &mut Vec3, depth: u32, u: f32) -> bool {
 }
 
 /// The fraction of light that arrives along a shadow ray: 0 when geometry
-/// blocks it, else the media's transmittance estimate (1 without media).
+/// blocks it, else the media's transmittance estimate (1 without media);
+/// and the factor that turns the vertex's directional sampling density into
+/// its density for the whole null-scattering path (ratio tracking's
+/// product of sigma_n / sigma_maj under null-scattering MIS, else 1).
 fn visibility(
     state: &RenderState,
     settings: &PathSettings,
     shadow: &Ray,
     rng: &mut Pcg32,
     counts: &mut PathCounts,
-) -> f32 {
+) -> (f32, f32) {
     counts.rays.shadow += 1;
     if state.geometry.occluded(shadow) {
-        return 0.0;
+        return (0.0, 1.0);
     }
     if state.media.is_empty() {
-        return 1.0;
+        return (1.0, 1.0);
     }
     let along = state
         .media
         .along(shadow.origin.into(), shadow.direction.into(), shadow.tmax);
     if along.is_empty() {
-        return 1.0;
+        return (1.0, 1.0);
     }
     let segments = along.segments(shadow.tmin, shadow.tmax);
-    transmittance(
-        settings.transmittance,
-        segments,
-        |t| along.sigma_t(t),
-        rng,
-        counts.tracking,
-    )
+    let sigma_t = |t| along.sigma_t(t);
+    match settings.volume_estimator {
+        VolumeEstimator::NullScatteringMis => {
+            ratio_tracking_with_null_ratio(segments, sigma_t, rng, counts.tracking)
+        }
+        estimator => {
+            let tr = transmittance(
+                estimator.transmittance(),
+                segments,
+                sigma_t,
+                rng,
+                counts.tracking,
+            );
+            (tr, 1.0)
+        }
+    }
+}
+
+/// How a free flight through media ended.
+enum FlightEnd {
+    /// It reached the end of the ray (the surface, light or infinity).
+    Left,
+    /// A real collision absorbed it.
+    Absorbed,
+    /// A real collision at ray parameter `t` scattered it; the throughput
+    /// takes `weight` (sigma_s over the mean sigma_s that chose scattering).
+    Scattered { t: f32, weight: Vec3 },
+}
+
+/// A free flight and what it gathered on the way.
+struct FreeFlight {
+    end: FlightEnd,
+    /// Emission collected at the tentative collisions, sum of
+    /// sigma_a Le / sigma_maj, W/(m^2 sr), to be multiplied by the throughput.
+    emission: Vec3,
+    /// Product of sigma_maj / sigma_n over the null collisions: the light
+    /// strategy's density of these null vertices over delta tracking's.
+    null_ratio: f32,
+}
+
+/// Samples a free flight along `along` over `[t_min, t_max)` by delta
+/// tracking with absorption, scattering and null events (pbrt-v4's
+/// `VolPathIntegrator`, Miller et al. 2019): at each tentative collision the
+/// emission sigma_a Le / sigma_maj is added (unbiased: tentative collisions
+/// have rate sigma_maj, and each is reached with probability T), then one
+/// uniform number picks absorption (mean sigma_a / sigma_maj), scattering
+/// (mean sigma_s / sigma_maj) or a null collision. Choosing by the mean over
+/// RGB channels is the balance-heuristic spectral MIS of a uniformly chosen
+/// hero channel, averaged over the choice; extinction is grey
+/// (CONVENTIONS.md), so the null probability is exact for every channel.
+fn free_flight(
+    along: &MediaRay,
+    t_min: f32,
+    t_max: f32,
+    rng: &mut Pcg32,
+    stats: &mut TrackingStats,
+) -> FreeFlight {
+    let mut flight = FreeFlight {
+        end: FlightEnd::Left,
+        emission: Vec3::ZERO,
+        null_ratio: 1.0,
+    };
+    walk_tentative_collisions(along.segments(t_min, t_max), rng, |t, sigma_maj, rng| {
+        let point = along.at(t);
+        stats.count_lookup(point.sigma_t, sigma_maj);
+        flight.emission += point.emission / sigma_maj;
+        let u = rng.next_f32() * sigma_maj;
+        if u < point.sigma_t {
+            stats.real_collisions += 1;
+            let sigma_s = (point.sigma_s.element_sum() / 3.0).min(point.sigma_t);
+            flight.end = if u < sigma_s {
+                FlightEnd::Scattered {
+                    t,
+                    weight: point.sigma_s / sigma_s,
+                }
+            } else {
+                FlightEnd::Absorbed
+            };
+            return false;
+        }
+        stats.null_collisions += 1;
+        flight.null_ratio *= sigma_maj / (sigma_maj - point.sigma_t);
+        true
+    });
+    flight
 }

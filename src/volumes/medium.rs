@@ -76,16 +76,16 @@ pub struct MediaRay<'a> {
     direction: Vec3,
 }
 
-/// What happens at a real collision at one point of the media.
+/// The media's coefficients at one point, where a tentative collision
+/// looked them up (per world unit).
 #[derive(Clone, Copy, Debug)]
-pub struct MediumCollision {
-    /// sigma_s / sigma_t of the media mix there, per RGB channel.
-    pub albedo: Vec3,
-    /// The phase function of the medium with the largest extinction there.
-    pub phase: HenyeyGreenstein,
-    /// Emitted radiance per collision, sum of sigma_a Le / sigma_t, W/(m^2 sr):
-    /// a collision estimator of the RTE's emission term (its density is
-    /// sigma_t T, so this weight makes it sigma_a Le T).
+pub struct MediumPoint {
+    /// Extinction sigma_t, summed over the overlapping media.
+    pub sigma_t: f32,
+    /// Scattering sigma_s = albedo x sigma_t per RGB channel, summed.
+    pub sigma_s: Vec3,
+    /// Emission sigma_a Le, W/(m^3 sr) in scene units (radiance added per
+    /// unit length): the source term of the RTE, summed over media.
     pub emission: Vec3,
 }
 
@@ -149,19 +149,18 @@ impl MediaRay<'_> {
             .sum()
     }
 
-    /// Albedo, phase function and emission at `t`, where delta tracking
-    /// found a real collision: overlapping media mix albedos and emission by
-    /// their extinctions there.
-    pub fn collision(&self, t: f32) -> MediumCollision {
-        let mut total = 0.0;
-        let mut albedo = Vec3::ZERO;
-        let mut emission = Vec3::ZERO;
-        let mut phase = HenyeyGreenstein { g: 0.0 };
-        let mut strongest = 0.0;
+    /// Extinction, scattering and emission at `t`. Temperature grids are
+    /// read only for media that emit.
+    pub fn at(&self, t: f32) -> MediumPoint {
+        let mut point = MediumPoint {
+            sigma_t: 0.0,
+            sigma_s: Vec3::ZERO,
+            emission: Vec3::ZERO,
+        };
         for (m, o, d) in &self.media {
             let sigma = m.density_scale * m.density.trilinear_index(*o + *d * t).max(0.0);
-            total += sigma;
-            albedo += m.albedo * sigma;
+            point.sigma_t += sigma;
+            point.sigma_s += m.albedo * sigma;
             if let (Some(e), Some(table)) = (&m.emission, self.blackbody) {
                 let p = e
                     .index_from_world
@@ -169,26 +168,35 @@ impl MediaRay<'_> {
                 let kelvin =
                     e.temperature_offset + e.temperature_scale * e.temperature.trilinear_index(p);
                 let sigma_a = (Vec3::ONE - m.albedo).max(Vec3::ZERO) * sigma;
-                emission += sigma_a * table.radiance(kelvin) * e.heat_scale;
-            }
-            if sigma > strongest {
-                strongest = sigma;
-                phase = m.phase;
+                point.emission += sigma_a * table.radiance(kelvin) * e.heat_scale;
             }
         }
-        if total > 0.0 {
-            MediumCollision {
-                albedo: albedo / total,
-                phase,
-                emission: emission / total,
-            }
-        } else {
-            MediumCollision {
-                albedo: Vec3::ZERO,
-                phase,
-                emission: Vec3::ZERO,
+        point
+    }
+
+    /// The phase function at a real scattering event at `t`: with one
+    /// medium its own; where media overlap, medium i is chosen with
+    /// probability proportional to its mean sigma_s there (`u` uniform in
+    /// [0, 1)), which samples their sigma_s-weighted mixture exactly.
+    pub fn phase(&self, t: f32, u: f32) -> HenyeyGreenstein {
+        if let [(m, _, _)] = self.media.as_slice() {
+            return m.phase;
+        }
+        let weight = |(m, o, d): &(&Medium, Vec3, Vec3)| {
+            m.albedo.element_sum()
+                * m.density_scale
+                * m.density.trilinear_index(*o + *d * t).max(0.0)
+        };
+        let mut pick = u * self.media.iter().map(weight).sum::<f32>();
+        for medium in &self.media {
+            pick -= weight(medium);
+            if pick < 0.0 {
+                return medium.0.phase;
             }
         }
+        self.media
+            .last()
+            .map_or(HenyeyGreenstein { g: 0.0 }, |(m, _, _)| m.phase)
     }
 }
 

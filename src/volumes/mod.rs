@@ -27,10 +27,10 @@ mod vdb;
 pub use emission::{BlackbodyTable, REFERENCE_TEMPERATURE_K};
 pub use grid::{GridAccessor, GridStats, GridTransform, LayoutError, SparseGrid, Tile};
 pub use majorant::{MajorantGrid, MajorantKind, MajorantSegment, MajorantSegments};
-pub use medium::{Media, MediaRay, MediumCollision};
+pub use medium::{Media, MediaRay, MediumPoint};
 pub use phase::{HenyeyGreenstein, PhaseSample};
 pub use tracking::{
-    delta_tracking, transmittance, TrackingStats, TransmittanceEstimator,
-    RUSSIAN_ROULETTE_THRESHOLD,
+    delta_tracking, ratio_tracking_with_null_ratio, transmittance, walk_tentative_collisions,
+    TrackingStats, TransmittanceEstimator, RUSSIAN_ROULETTE_THRESHOLD,
 };
 pub use vdb::{GridInfo, Space, VdbFile, VolumeError};

@@ -36,6 +36,16 @@ pub struct TrackingStats {
 }
 
 impl TrackingStats {
+    /// Counts one density lookup that found `sigma` under the majorant
+    /// `sigma_maj`, and a violation when `sigma` exceeds it.
+    #[inline]
+    pub fn count_lookup(&mut self, sigma: f32, sigma_maj: f32) {
+        self.density_lookups += 1;
+        if sigma > sigma_maj {
+            self.majorant_violations += 1;
+        }
+    }
+
     /// Adds another thread's counters to these.
     pub fn merge(&mut self, other: &TrackingStats) {
         self.density_lookups += other.density_lookups;
@@ -62,6 +72,33 @@ pub enum TransmittanceEstimator {
     ResidualRatio,
 }
 
+/// Walks the tentative collisions of a Poisson process of rate `sigma_maj`
+/// over `segments`, front to back, calling `visit(t, sigma_maj, rng)` at
+/// each; `visit` returns false to stop there. True when a visit stopped the
+/// walk, false when it left the segments. This is the null-collision
+/// skeleton every free-flight estimator shares (pbrt-v4's `SampleT_maj`):
+/// with grey extinction the majorant transmittance between collisions
+/// cancels from every weight, so the visitor sees only `sigma_maj`.
+pub fn walk_tentative_collisions(
+    segments: impl IntoIterator<Item = MajorantSegment>,
+    rng: &mut Pcg32,
+    mut visit: impl FnMut(f32, f32, &mut Pcg32) -> bool,
+) -> bool {
+    for segment in segments {
+        if segment.sigma_maj <= 0.0 {
+            continue;
+        }
+        let mut t = segment.t_min;
+        while let Some(next) = next_tentative_collision(t, segment.sigma_maj, segment.t_max, rng) {
+            t = next;
+            if !visit(t, segment.sigma_maj, rng) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
 /// Delta (Woodcock) tracking (Novák et al. 2018, §3, Alg. 1): the distance
 /// `t` of the first real collision along `segments`, distributed with density
 /// `sigma_t(t) exp(-∫_0^t sigma_t)`, or `None` if the ray leaves them
@@ -75,22 +112,19 @@ pub fn delta_tracking(
     rng: &mut Pcg32,
     stats: &mut TrackingStats,
 ) -> Option<f32> {
-    for segment in segments {
-        if segment.sigma_maj <= 0.0 {
-            continue;
+    let mut collision = None;
+    walk_tentative_collisions(segments, rng, |t, sigma_maj, rng| {
+        let sigma = sigma_t(t);
+        stats.count_lookup(sigma, sigma_maj);
+        if rng.next_f32() * sigma_maj < sigma {
+            stats.real_collisions += 1;
+            collision = Some(t);
+            return false;
         }
-        let mut t = segment.t_min;
-        while let Some(next) = next_tentative_collision(t, segment.sigma_maj, segment.t_max, rng) {
-            t = next;
-            let sigma = look_up(&mut sigma_t, t, segment.sigma_maj, stats);
-            if rng.next_f32() * segment.sigma_maj < sigma {
-                stats.real_collisions += 1;
-                return Some(t);
-            }
-            stats.null_collisions += 1;
-        }
-    }
-    None
+        stats.null_collisions += 1;
+        true
+    });
+    collision
 }
 
 /// An unbiased estimate of the transmittance `exp(-∫ sigma_t dt)` along
@@ -112,11 +146,28 @@ pub fn transmittance(
                 None => 1.0,
             }
         }
-        TransmittanceEstimator::Ratio => ratio_tracking(segments, sigma_t, false, rng, stats),
+        TransmittanceEstimator::Ratio => ratio_tracking(segments, sigma_t, false, rng, stats).0,
         TransmittanceEstimator::ResidualRatio => {
-            ratio_tracking(segments, sigma_t, true, rng, stats)
+            ratio_tracking(segments, sigma_t, true, rng, stats).0
         }
     }
+}
+
+/// Ratio tracking for null-scattering path MIS (Miller, Georgiev & Jarosz
+/// 2019, §5; pbrt-v4's `VolPathIntegrator::SampleLd`): the transmittance
+/// estimate, and the product of `sigma_n / sigma_maj` over its tentative
+/// collisions (Russian roulette aside): the probability, relative to ratio
+/// tracking's own density, with which delta tracking would have passed the
+/// same collisions as null, i.e. the factor that turns the phase or BSDF
+/// sampling density of the shadow ray's direction into that of the whole
+/// null-scattering path.
+pub fn ratio_tracking_with_null_ratio(
+    segments: impl IntoIterator<Item = MajorantSegment>,
+    sigma_t: impl FnMut(f32) -> f32,
+    rng: &mut Pcg32,
+    stats: &mut TrackingStats,
+) -> (f32, f32) {
+    ratio_tracking(segments, sigma_t, false, rng, stats)
 }
 
 /// Ratio tracking, optionally of the residual against each segment's
@@ -125,15 +176,17 @@ pub fn transmittance(
 /// multiplies the weight by `1 - (sigma_t - sigma_c) / (sigma_maj - sigma_c)`,
 /// whose expected product is `exp(-∫ (sigma_t - sigma_c))`, and the control
 /// part `exp(-sigma_c * length)` is exact. With `sigma_c = 0` this is plain
-/// ratio tracking.
+/// ratio tracking. Returns the weight and the product of the per-collision
+/// factors before Russian roulette (see [`ratio_tracking_with_null_ratio`]).
 fn ratio_tracking(
     segments: impl IntoIterator<Item = MajorantSegment>,
     mut sigma_t: impl FnMut(f32) -> f32,
     use_control: bool,
     rng: &mut Pcg32,
     stats: &mut TrackingStats,
-) -> f32 {
+) -> (f32, f32) {
     let mut weight = 1.0f32;
+    let mut null_ratio = 1.0f32;
     for segment in segments {
         let sigma_c = if use_control {
             segment.sigma_min.clamp(0.0, segment.sigma_maj.max(0.0))
@@ -150,15 +203,17 @@ fn ratio_tracking(
         let mut t = segment.t_min;
         while let Some(next) = next_tentative_collision(t, residual_maj, segment.t_max, rng) {
             t = next;
-            let sigma = look_up(&mut sigma_t, t, segment.sigma_maj, stats);
-            weight *= (segment.sigma_maj - sigma) / residual_maj;
-            weight = russian_roulette(weight, rng);
+            let sigma = sigma_t(t);
+            stats.count_lookup(sigma, segment.sigma_maj);
+            let factor = (segment.sigma_maj - sigma) / residual_maj;
+            null_ratio *= factor.max(0.0);
+            weight = russian_roulette(weight * factor, rng);
             if weight == 0.0 {
-                return 0.0;
+                return (0.0, null_ratio);
             }
         }
     }
-    weight
+    (weight, null_ratio)
 }
 
 /// The next tentative collision after `t` of a Poisson process with `rate`
@@ -169,22 +224,6 @@ fn ratio_tracking(
 fn next_tentative_collision(t: f32, rate: f32, t_max: f32, rng: &mut Pcg32) -> Option<f32> {
     let next = t - (-rng.next_f32()).ln_1p() / rate;
     (next < t_max).then_some(next)
-}
-
-/// `sigma_t(t)`, counted as a lookup and, above `sigma_maj`, as a violation.
-#[inline]
-fn look_up(
-    sigma_t: &mut impl FnMut(f32) -> f32,
-    t: f32,
-    sigma_maj: f32,
-    stats: &mut TrackingStats,
-) -> f32 {
-    let sigma = sigma_t(t);
-    stats.density_lookups += 1;
-    if sigma > sigma_maj {
-        stats.majorant_violations += 1;
-    }
-    sigma
 }
 
 /// Russian roulette on a small ratio-tracking weight: below

@@ -72,3 +72,28 @@ pub fn python_script(name: &str) -> PathBuf {
         .join("tests/python")
         .join(name)
 }
+
+/// The mean of independent samples and its standard error.
+#[derive(Clone, Copy, Debug)]
+pub struct Estimate {
+    pub mean: f64,
+    pub sigma: f64,
+}
+
+/// Mean of `samples` and its standard error std / sqrt(n) (std with n - 1),
+/// accumulated by Welford's update so large means do not cancel.
+pub fn estimate<T: std::borrow::Borrow<f64>>(samples: impl IntoIterator<Item = T>) -> Estimate {
+    let (mut n, mut mean, mut m2) = (0.0f64, 0.0f64, 0.0f64);
+    for x in samples {
+        let x = *x.borrow();
+        n += 1.0;
+        let delta = x - mean;
+        mean += delta / n;
+        m2 += delta * (x - mean);
+    }
+    assert!(n >= 2.0, "too few samples for a statistic");
+    Estimate {
+        mean,
+        sigma: (m2 / (n - 1.0) / n).sqrt(),
+    }
+}
