@@ -44,10 +44,55 @@ pub(super) mod ffi {
         pixels: Vec<f32>,
     }
 
+    /// OpenEXR's three pixel types, as a channel is stored in a file.
+    enum ChannelFormat {
+        Half,
+        Float,
+        Uint,
+    }
+
+    /// One channel of an EXR as read: its full name and stored type.
+    struct ChannelInfo {
+        name: String,
+        format: ChannelFormat,
+    }
+
+    /// An EXR's channels as read: every value widened to f32 by value (uint
+    /// channels too, not normalised), interleaved channel-fastest, row 0 at
+    /// the top, channels in the order OpenImageIO presents them.
+    struct ExrData {
+        width: u32,
+        height: u32,
+        channels: Vec<ChannelInfo>,
+        pixels: Vec<f32>,
+        /// Every header attribute of string type.
+        strings: Vec<StringAttribute>,
+    }
+
+    /// A line of text drawn onto an image; (x, y) is its top-left corner in pixels.
+    struct TextLabel {
+        text: String,
+        x: i32,
+        y: i32,
+    }
+
+    /// An 8-bit sRGB PNG to write from linear display-referred RGB in [0, 1].
+    struct DisplayPngRequest<'a> {
+        path: &'a str,
+        width: u32,
+        height: u32,
+        /// Interleaved RGB, row 0 at the top.
+        pixels: &'a [f32],
+        labels: Vec<TextLabel>,
+    }
+
     unsafe extern "C++" {
         include!("cirrus/ffi/oiio/shim.h");
 
         fn write_exr(request: &ExrRequest) -> Result<()>;
         fn read_image(path: &str) -> Result<ImageData>;
+        fn read_exr(path: &str) -> Result<ExrData>;
+        /// Returns whether the labels were drawn (false: no font found).
+        fn write_display_png(request: &DisplayPngRequest) -> Result<bool>;
     }
 }

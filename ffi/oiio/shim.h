@@ -8,9 +8,13 @@ namespace oiio {
 
 struct ExrRequest;
 struct ImageData;
+struct ExrData;
+struct DisplayPngRequest;
 
 void write_exr(const ExrRequest &request);
 ImageData read_image(rust::Str path);
+ExrData read_exr(rust::Str path);
+bool write_display_png(const DisplayPngRequest &request);
 
 } // namespace oiio
 } // namespace cirrus

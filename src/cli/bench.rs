@@ -71,6 +71,41 @@ pub enum Bench {
         #[arg(long, default_value = "out/bench-render")]
         out: PathBuf,
     },
+    /// Participating media: density lookups per camera ray, null-collision
+    /// share, majorant violations and the equal-time relative MSE against a
+    /// long reference, for the grid and global majorants with every volume
+    /// estimator, and their global / grid ratios (table + SVG chart).
+    Volumes {
+        /// Scenes (USD or exported); default: the teapot cloud and smoke.vdb
+        /// of scenes/bench.
+        scenes: Vec<PathBuf>,
+        /// Image size WIDTHxHEIGHT.
+        #[arg(long, default_value = "160x120", value_parser = super::render::parse_resolution)]
+        res: glam::UVec2,
+        /// Samples per pixel of the reference (null-scattering MIS, grid majorant).
+        #[arg(long, default_value_t = 1024)]
+        reference_spp: u32,
+        /// Equal-time budgets in seconds.
+        #[arg(long, value_delimiter = ',', default_value = "0.5,1,2,4")]
+        times: Vec<f64>,
+        /// Seeds per measurement; the table shows medians.
+        #[arg(long, default_value_t = 3)]
+        repeats: u32,
+        /// Smoke check in under a minute: budgets 0.1,0.2 s, one seed, a
+        /// 32-spp reference (numbers are noisy).
+        #[arg(long, conflicts_with_all = ["reference_spp", "times", "repeats"])]
+        quick: bool,
+        /// Worker threads.
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+        /// Folder for the reference EXRs and the charts.
+        #[arg(long, default_value = "out/bench-volumes")]
+        out: PathBuf,
+        /// Also write each chart as DIR/volumes-<scene>-equal-time.svg (the
+        /// README's charts live in docs/bench).
+        #[arg(long, value_name = "DIR")]
+        charts: Option<PathBuf>,
+    },
     /// Internal to `bench instances`: loads one exported scene and builds its
     /// BVHs in this fresh process, and prints the resident bytes added.
     #[command(hide = true)]
@@ -115,13 +150,50 @@ pub fn run(bench: Bench) -> Result<()> {
                 repeats,
                 out,
             };
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads.max(1))
-                .build()?
-                .install(|| super::bench_render::run(&bench))
+            with_threads(threads, || super::bench_render::run(&bench))
+        }
+        Bench::Volumes {
+            scenes,
+            res,
+            reference_spp,
+            times,
+            repeats,
+            quick,
+            threads,
+            out,
+            charts,
+        } => {
+            let scenes = if scenes.is_empty() {
+                super::bench_volumes::default_scenes(&crate::scene::repo_root())
+            } else {
+                scenes
+            };
+            let (reference_spp, times, repeats) = if quick {
+                (32, vec![0.1, 0.2], 1)
+            } else {
+                (reference_spp, times, repeats)
+            };
+            let bench = super::bench_volumes::VolumesBench {
+                scenes,
+                resolution: res,
+                reference_spp,
+                times,
+                repeats,
+                out,
+                charts,
+            };
+            with_threads(threads, || super::bench_volumes::run(&bench))
         }
         Bench::InstancesMemory { scene } => super::bench_instances::print_memory(&scene),
     }
+}
+
+/// Runs `f` on a rayon pool of `threads` workers (at least one).
+fn with_threads(threads: usize, f: impl FnOnce() -> Result<()> + Send) -> Result<()> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()?
+        .install(f)
 }
 
 fn vdb(files: &[PathBuf], grid_name: &str, repeats: usize, lookups: usize) -> Result<()> {

@@ -6,19 +6,23 @@
 //! time. References are kept in the output folder, named by scene,
 //! resolution and spp: delete them after changing the renderer.
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use glam::UVec2;
 
 use super::bench::{machine_line, median};
-use crate::integrator::{self, Budget, PathSettings, RenderSettings, RenderStats, Strategy};
+use super::bench_equal_time::{
+    error_cells, error_columns, ladder, median_curve, median_errors, reference_path, render,
+    spp_per_second, svg_chart, write_chart, ErrorMetric, Rung, MAX_DEPTH, REFERENCE_SEED,
+};
+use crate::integrator::{
+    Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
+};
 use crate::output::filter::FilterKind;
-use crate::output::{read_image, Compression};
 use crate::render_state::RenderState;
 use crate::sampling::SamplerKind;
-use crate::volumes::{MajorantKind, TransmittanceEstimator};
+use crate::volumes::MajorantKind;
 
 /// The estimator and sampler pairs compared at equal time.
 const METHODS: [(Strategy, SamplerKind); 6] = [
@@ -29,9 +33,6 @@ const METHODS: [(Strategy, SamplerKind); 6] = [
     (Strategy::Mis, SamplerKind::Independent),
     (Strategy::Mis, SamplerKind::Sobol),
 ];
-
-/// Path depth used throughout the benchmark (the CLI's default).
-const MAX_DEPTH: u32 = 16;
 
 /// What to measure.
 pub struct RenderBench {
@@ -93,14 +94,9 @@ fn settings(
             strategy,
             max_depth,
             clamp: None,
-            transmittance: TransmittanceEstimator::Ratio,
+            volume_estimator: VolumeEstimator::NullScatteringMis,
         },
     }
-}
-
-fn render(state: &RenderState, s: &RenderSettings) -> (Vec<f32>, RenderStats) {
-    let (film, stats) = integrator::render(state, s, &|_| {});
-    (film.rgb(), stats)
 }
 
 /// Camera rays per second (depth 0, no light sampling) and, for full MIS
@@ -140,90 +136,20 @@ fn throughput(state: &RenderState, repeats: u32) {
 /// The reference image, rendered once and kept in the output folder (the
 /// file name holds the resolution and spp).
 fn reference(state: &RenderState, bench: &RenderBench, name: &str) -> Result<Vec<f32>> {
-    let r = state.resolution;
-    let path = bench.out.join(format!(
-        "{name}-{}x{}-ref{}.exr",
-        r.x, r.y, bench.reference_spp
-    ));
-    if let Ok(image) = read_image(&path, crate::scene::ColorSpace::Raw) {
-        if image.channels == 3 && UVec2::new(image.width, image.height) == r {
-            return Ok(image.pixels);
-        }
-    }
+    let path = reference_path(&bench.out, name, state.resolution, bench.reference_spp);
     let s = settings(
         Budget::Samples(bench.reference_spp),
         Strategy::Mis,
         SamplerKind::Sobol,
-        1 << 20,
+        REFERENCE_SEED,
         MAX_DEPTH,
     );
-    let (rgb, stats) = render(state, &s);
-    eprintln!(
-        "reference {}: {:.1} s",
-        path.display(),
-        stats.elapsed.as_secs_f64()
-    );
-    super::render::write_beauty(&path, r, &rgb, Compression::Zip, &s, &stats)?;
-    Ok(rgb)
-}
-
-/// Mean squared error over pixels and channels.
-fn mse(image: &[f32], reference: &[f32]) -> f64 {
-    let sum: f64 = image
-        .iter()
-        .zip(reference)
-        .map(|(a, b)| f64::from(a - b).powi(2))
-        .sum();
-    sum / image.len() as f64
-}
-
-/// One method's convergence: (seconds, MSE) after 1, 2, 4, ... spp, each a
-/// separate render, up to the first that takes longer than `max_seconds`.
-fn convergence(
-    state: &RenderState,
-    reference: &[f32],
-    (strategy, sampler): (Strategy, SamplerKind),
-    seed: u64,
-    max_seconds: f64,
-) -> Vec<(f64, f64)> {
-    let mut points = Vec::new();
-    let mut spp = 1;
-    loop {
-        let s = settings(Budget::Samples(spp), strategy, sampler, seed, MAX_DEPTH);
-        let (rgb, stats) = render(state, &s);
-        let seconds = stats.elapsed.as_secs_f64();
-        points.push((seconds, mse(&rgb, reference)));
-        if seconds > max_seconds || spp >= 1 << 16 {
-            return points;
-        }
-        spp *= 2;
-    }
-}
-
-/// log MSE interpolated linearly in log time between the two points of
-/// `curve` around `t` (extrapolated from the end segments).
-fn mse_at(curve: &[(f64, f64)], t: f64) -> f64 {
-    let logs: Vec<(f64, f64)> = curve.iter().map(|&(x, y)| (x.ln(), y.ln())).collect();
-    if logs.len() == 1 {
-        return curve[0].1;
-    }
-    let i = logs
-        .windows(2)
-        .position(|w| t.ln() <= w[1].0)
-        .unwrap_or(logs.len() - 2);
-    let ((x0, y0), (x1, y1)) = (logs[i], logs[i + 1]);
-    let f = if x1 > x0 {
-        (t.ln() - x0) / (x1 - x0)
-    } else {
-        0.0
-    };
-    (y0 + f * (y1 - y0)).exp()
+    super::bench_equal_time::reference(state, &s, &path)
 }
 
 /// The equal-time table and chart: every method renders at 1, 2, 4, ... spp
 /// (per seed) until one render exceeds the largest budget; its MSE at each
-/// budget is interpolated log-log between the renders around it, so the
-/// times are equal exactly rather than rounded to whole passes.
+/// budget is interpolated log-log between the renders around it.
 fn equal_time(
     state: &RenderState,
     bench: &RenderBench,
@@ -232,46 +158,29 @@ fn equal_time(
 ) -> Result<()> {
     let max_time = bench.times.iter().copied().fold(0.0, f64::max);
     let pixels = f64::from(state.resolution.x * state.resolution.y);
-    let mut header = String::from("| estimator | sampler | samples/s (M) |");
-    let mut rule = String::from("|---|---|---:|");
-    for t in &bench.times {
-        write!(header, " MSE @ {t} s |")?;
-        rule.push_str("---:|");
-    }
-    println!("{header}\n{rule}");
+    let (errors_header, errors_rule) = error_columns(ErrorMetric::Mse, &bench.times);
+    println!("| estimator | sampler | samples/s (M) |{errors_header}\n|---|---|---:|{errors_rule}");
     let mut curves = Vec::new();
     let mut at_times = Vec::new();
-    for method in METHODS {
-        let runs: Vec<Vec<(f64, f64)>> = (0..bench.repeats.max(1))
-            .map(|seed| convergence(state, reference, method, u64::from(seed), max_time))
+    for (strategy, sampler) in METHODS {
+        let s = settings(Budget::Samples(1), strategy, sampler, 0, MAX_DEPTH);
+        let runs: Vec<Vec<Rung>> = (0..bench.repeats.max(1))
+            .map(|seed| {
+                let s = RenderSettings {
+                    seed: u64::from(seed),
+                    ..s
+                };
+                ladder(state, reference, ErrorMetric::Mse, &s, max_time)
+            })
             .collect();
-        let errors: Vec<f64> = bench
-            .times
-            .iter()
-            .map(|&t| median(runs.iter().map(|c| mse_at(c, t)).collect()))
-            .collect();
-        // Samples per second from each run's largest render.
-        let rate = median(
-            runs.iter()
-                .map(|c| {
-                    let &(seconds, _) = c.last().expect("one render at least");
-                    pixels * (1u64 << (c.len() - 1)) as f64 / seconds
-                })
-                .collect(),
+        let errors = median_errors(&runs, &bench.times);
+        let rate = median(runs.iter().map(|l| pixels * spp_per_second(l)).collect());
+        println!(
+            "| {strategy:?} | {sampler:?} | {:.3} |{}",
+            rate / 1e6,
+            error_cells(&errors)
         );
-        let (strategy, sampler) = method;
-        let mut row = format!("| {strategy:?} | {sampler:?} | {:.3} |", rate / 1e6);
-        for e in &errors {
-            write!(row, " {e:.3e} |")?;
-        }
-        println!("{row}");
-        // The chart shows the median run (by its final error).
-        let mut runs = runs;
-        runs.sort_by(|a, b| a.last().unwrap().1.total_cmp(&b.last().unwrap().1));
-        curves.push((
-            format!("{strategy:?} + {sampler:?}"),
-            runs.swap_remove(runs.len() / 2),
-        ));
+        curves.push((format!("{strategy:?} + {sampler:?}"), median_curve(&runs)));
         at_times.push(errors);
     }
     let ratios: Vec<String> = at_times[4]
@@ -285,65 +194,9 @@ fn equal_time(
         ratios.join(", ")
     );
     let chart = bench.out.join(format!("{name}-equal-time.svg"));
-    std::fs::write(&chart, svg_chart(name, &curves))
-        .with_context(|| format!("cannot write {}", chart.display()))?;
+    write_chart(&chart, &svg_chart(name, ErrorMetric::Mse, &curves))?;
     println!("Chart: {}\n", chart.display());
     Ok(())
-}
-
-/// A log-log chart of MSE against seconds, one polyline per method.
-fn svg_chart(title: &str, curves: &[(String, Vec<(f64, f64)>)]) -> String {
-    const COLOURS: [&str; 6] = [
-        "#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02",
-    ];
-    let (w, h, margin) = (640.0, 400.0, 60.0);
-    let points = curves.iter().flat_map(|(_, c)| c.iter().copied());
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for (x, y) in points.filter(|(x, y)| *x > 0.0 && *y > 0.0) {
-        (x0, x1, y0, y1) = (
-            x0.min(x.log10()),
-            x1.max(x.log10()),
-            y0.min(y.log10()),
-            y1.max(y.log10()),
-        );
-    }
-    let (x1, y1) = (x1.max(x0 + 1e-3), y1.max(y0 + 1e-3));
-    let sx = |x: f64| margin + (x.log10() - x0) / (x1 - x0) * (w - 2.0 * margin);
-    let sy = |y: f64| h - margin - (y.log10() - y0) / (y1 - y0) * (h - 2.0 * margin);
-    let mut svg = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n\
-         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
-         <text x=\"{margin}\" y=\"20\">{title}: MSE vs render time (log-log)</text>\n\
-         <text x=\"{}\" y=\"{}\">seconds (10^{x0:.2} .. 10^{x1:.2})</text>\n\
-         <text x=\"5\" y=\"{}\">MSE 10^{y0:.1} .. 10^{y1:.1}</text>\n\
-         <rect x=\"{margin}\" y=\"{margin}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
-        w / 2.0 - 60.0,
-        h - 20.0,
-        margin - 10.0,
-        w - 2.0 * margin,
-        h - 2.0 * margin
-    );
-    for (i, (label, curve)) in curves.iter().enumerate() {
-        let c = COLOURS[i % COLOURS.len()];
-        let pts: Vec<String> = curve
-            .iter()
-            .filter(|(x, y)| *x > 0.0 && *y > 0.0)
-            .map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y)))
-            .collect();
-        let _ = writeln!(
-            svg,
-            "<polyline points=\"{}\" fill=\"none\" stroke=\"{c}\" stroke-width=\"2\"/>",
-            pts.join(" ")
-        );
-        let _ = writeln!(
-            svg,
-            "<text x=\"{}\" y=\"{}\" fill=\"{c}\">{label}</text>",
-            w - margin - 150.0,
-            margin + 15.0 + 15.0 * i as f64
-        );
-    }
-    svg.push_str("</svg>\n");
-    svg
 }
 
 /// Default scenes of the benchmark, from the shared assets.

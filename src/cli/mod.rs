@@ -1,9 +1,12 @@
 //! The `cirrus` command line: subcommands, logging set-up, and the mapping of
 //! errors to exit codes. `anyhow` lives here only; the library uses typed errors.
 
+mod aovs;
 mod bench;
+mod bench_equal_time;
 mod bench_instances;
 mod bench_render;
+mod bench_volumes;
 mod info;
 mod render;
 
@@ -45,6 +48,9 @@ enum Command {
     },
     /// Render a scene to an EXR (and a PNG preview beside it).
     Render(render::RenderArgs),
+    /// Tile every layer of an EXR (beauty, AOVs, Cryptomattes) into one PNG
+    /// contact sheet and list the layers.
+    Aovs(aovs::AovsArgs),
     /// Run a benchmark and print a Markdown table (machine, date, medians).
     #[command(subcommand)]
     Bench(bench::Bench),
@@ -65,6 +71,7 @@ pub fn run() -> ExitCode {
             frame,
         } => export(&input, &output, frame),
         Command::Render(args) => render::run(args),
+        Command::Aovs(args) => aovs::run(args),
         Command::Bench(b) => bench::run(b),
     };
     match result {

@@ -1,11 +1,13 @@
 //! Image files through the OpenImageIO bridge (`ffi/oiio/`): multi-channel EXR
 //! writing (named half/float channels, compression, metadata), written
-//! atomically, and reading of texture images into linear floats. This is the
-//! only module that talks to OpenImageIO.
+//! atomically; reading of texture images into linear floats; reading an EXR's
+//! named channels and string metadata back; and labelled 8-bit PNGs for the
+//! contact sheet. This is the only module that talks to OpenImageIO.
 
 #[path = "../../ffi/oiio/bridge.rs"]
 mod bridge;
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use bridge::ffi;
@@ -15,8 +17,8 @@ use crate::scene::ColorSpace;
 /// Why an image could not be written or read.
 #[derive(Debug, thiserror::Error)]
 pub enum ImageError {
-    /// Writing `path` failed; `message` is OpenImageIO's or the OS's reason.
-    #[error("{path}: cannot write EXR: {message}", path = path.display())]
+    /// Writing `path` (an EXR, or a PNG) failed; `message` is OpenImageIO's or the OS's reason.
+    #[error("{path}: cannot write image: {message}", path = path.display())]
     Write {
         /// The file asked for (not the temporary it is written under).
         path: PathBuf,
@@ -157,13 +159,7 @@ pub fn write_exr(path: &Path, image: &ExrImage) -> Result<(), ImageError> {
             .collect(),
         pixels: image.pixels,
     };
-    let written = ffi::write_exr(&request)
-        .map_err(|e| fail(e.what().to_owned()))
-        .and_then(|()| std::fs::rename(&temp, path).map_err(|e| fail(e.to_string())));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&temp);
-    }
-    written
+    write_atomically(path, &temp, || ffi::write_exr(&request))
 }
 
 /// Reads an image (png, jpg, tga, exr, ...) into linear f32. `color_space`
@@ -206,8 +202,167 @@ pub fn read_image(path: &Path, color_space: ColorSpace) -> Result<Image, ImageEr
     })
 }
 
+/// How a channel is stored in an EXR that was read: OpenEXR's three pixel types.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ChannelFormat {
+    /// 16-bit float.
+    Half,
+    /// 32-bit float.
+    Float,
+    /// 32-bit unsigned integer (e.g. another renderer's object IDs).
+    Uint,
+}
+
+/// One channel of an EXR that was read.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StoredChannel {
+    /// Full channel name, layer prefix included (`diffuse.R`, `CryptoObject00.A`).
+    pub name: String,
+    /// Storage in the file.
+    pub format: ChannelFormat,
+}
+
+/// An EXR's channels as read back by [`read_exr`], for tools and tests that
+/// need channel names and metadata (`cirrus aovs`, Cryptomatte checks).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExrChannels {
+    /// Pixels per row (of the data window).
+    pub width: u32,
+    /// Rows (of the data window).
+    pub height: u32,
+    /// Channels in the order OpenImageIO presents them. OpenEXR itself stores
+    /// channels sorted by name; OpenImageIO regroups them by layer, with
+    /// `R,G,B,A` first inside a layer, so this need not be the written order:
+    /// look channels up by name ([`ExrChannels::channel_index`]).
+    pub channels: Vec<StoredChannel>,
+    /// `width * height * channels.len()` values, interleaved channel-fastest,
+    /// row 0 at the top. Half and float values are exact; a uint is widened
+    /// by value (not normalised), exact up to 2^24.
+    pub pixels: Vec<f32>,
+    /// Every string attribute of the header by name (`cryptomatte/<key>/name`,
+    /// `cirrus/...`, `compression`, ...).
+    pub strings: BTreeMap<String, String>,
+}
+
+impl ExrChannels {
+    /// Index of the channel called `name` (full name, layer included).
+    pub fn channel_index(&self, name: &str) -> Option<usize> {
+        self.channels.iter().position(|c| c.name == name)
+    }
+
+    /// The values of channel `index`, one per pixel in row order.
+    pub fn channel_values(&self, index: usize) -> impl Iterator<Item = f32> + '_ {
+        self.pixels
+            .iter()
+            .skip(index)
+            .step_by(self.channels.len())
+            .copied()
+    }
+}
+
+/// Reads every channel of the OpenEXR file at `path` (first part only, flat
+/// images only) with its name, stored type and string metadata. A file that
+/// is missing, unreadable, deep, or not an EXR is an [`ImageError::Read`]
+/// naming it.
+pub fn read_exr(path: &Path) -> Result<ExrChannels, ImageError> {
+    let fail = |message: String| ImageError::Read {
+        path: path.to_path_buf(),
+        message,
+    };
+    std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
+    let data = ffi::read_exr(&path.to_string_lossy()).map_err(|e| fail(e.what().to_owned()))?;
+    let channels = data
+        .channels
+        .into_iter()
+        .map(|c| StoredChannel {
+            name: c.name,
+            format: match c.format {
+                ffi::ChannelFormat::Half => ChannelFormat::Half,
+                ffi::ChannelFormat::Float => ChannelFormat::Float,
+                _ => ChannelFormat::Uint,
+            },
+        })
+        .collect();
+    Ok(ExrChannels {
+        width: data.width,
+        height: data.height,
+        channels,
+        pixels: data.pixels,
+        strings: data
+            .strings
+            .into_iter()
+            .map(|s| (s.name, s.value))
+            .collect(),
+    })
+}
+
+/// A line of text to draw on a PNG, top-left corner at (`x`, `y`) pixels.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(super) struct TextLabel {
+    /// What to draw.
+    pub text: String,
+    /// Column of the text's left edge.
+    pub x: i32,
+    /// Row of the text's top edge.
+    pub y: i32,
+}
+
+/// Writes `rgb` (linear display-referred values in [0, 1], interleaved, row 0
+/// at the top) as an 8-bit PNG with the sRGB transfer function applied, and
+/// draws `labels` in white when OpenImageIO finds a font. Returns whether the
+/// labels were drawn. Atomic like [`write_exr`].
+pub(super) fn write_display_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[f32],
+    labels: &[TextLabel],
+) -> Result<bool, ImageError> {
+    let temp = temp_path(path);
+    let request = ffi::DisplayPngRequest {
+        path: &temp.to_string_lossy(),
+        width,
+        height,
+        pixels: rgb,
+        labels: labels
+            .iter()
+            .map(|l| ffi::TextLabel {
+                text: l.text.clone(),
+                x: l.x,
+                y: l.y,
+            })
+            .collect(),
+    };
+    let mut labelled = false;
+    write_atomically(path, &temp, || {
+        labelled = ffi::write_display_png(&request)?;
+        Ok(())
+    })?;
+    Ok(labelled)
+}
+
+/// Runs `write` (which writes `temp`), then renames `temp` to `path`; on any
+/// failure removes `temp` and reports a [`ImageError::Write`] naming `path`.
+fn write_atomically(
+    path: &Path,
+    temp: &Path,
+    write: impl FnOnce() -> Result<(), cxx::Exception>,
+) -> Result<(), ImageError> {
+    let fail = |message: String| ImageError::Write {
+        path: path.to_path_buf(),
+        message,
+    };
+    let written = write()
+        .map_err(|e| fail(e.what().to_owned()))
+        .and_then(|()| std::fs::rename(temp, path).map_err(|e| fail(e.to_string())));
+    if written.is_err() {
+        let _ = std::fs::remove_file(temp);
+    }
+    written
+}
+
 /// The sRGB electro-optical transfer function (IEC 61966-2-1).
-fn srgb_to_linear(v: f32) -> f32 {
+pub(super) fn srgb_to_linear(v: f32) -> f32 {
     if v <= 0.04045 {
         v / 12.92
     } else {

@@ -34,7 +34,7 @@ pub fn write_preview(path: &Path, width: u32, height: u32, rgb: &[f32]) -> Resul
 
 /// Khronos PBR Neutral tone mapping of a linear colour (non-finite and
 /// negative values read as black); output in [0, 1].
-fn pbr_neutral(c: [f32; 3]) -> [f32; 3] {
+pub(super) fn pbr_neutral(c: [f32; 3]) -> [f32; 3] {
     const START: f32 = 0.8 - 0.04;
     const DESATURATION: f32 = 0.15;
     let c = c.map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 });

@@ -1,0 +1,329 @@
+//! Equal-time error against a long reference, shared by `cirrus bench
+//! render` and `cirrus bench volumes`: the cached reference render, the
+//! error metrics, the ladder of renders at 1, 2, 4, ... spp whose error is
+//! read off at exact times (log-log interpolation), the Markdown columns of
+//! those errors, and the SVG chart of error against time.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use glam::UVec2;
+
+use super::bench::median;
+use crate::integrator::{self, Budget, RenderSettings, RenderStats};
+use crate::output::{read_image, Compression};
+use crate::render_state::RenderState;
+
+/// Path depth of the equal-time benchmarks (the CLI's default).
+pub(super) const MAX_DEPTH: u32 = 16;
+
+/// Seed of every reference render, apart from the seeds of the measured ones
+/// (0, 1, 2, ...).
+pub(super) const REFERENCE_SEED: u64 = 1 << 20;
+
+/// How an image's error against the reference is measured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum ErrorMetric {
+    /// Mean squared error over pixels and RGB channels.
+    Mse,
+    /// Relative MSE: mean over pixels and channels of (x - r)^2 / (r^2 +
+    /// 0.01), as in Rousselle et al. 2011 and most denoising and path
+    /// guiding papers, so bright and dark regions weigh alike (the 0.01
+    /// keeps black reference pixels finite).
+    RelMse,
+}
+
+impl ErrorMetric {
+    /// The error of `image` against `reference` (same layout, linear RGB).
+    pub(super) fn error(self, image: &[f32], reference: &[f32]) -> f64 {
+        let sum: f64 = image
+            .iter()
+            .zip(reference)
+            .map(|(&a, &b)| {
+                let squared = f64::from(a - b).powi(2);
+                match self {
+                    Self::Mse => squared,
+                    Self::RelMse => squared / (f64::from(b).powi(2) + 0.01),
+                }
+            })
+            .sum();
+        sum / image.len() as f64
+    }
+
+    /// The metric's name in tables and charts.
+    pub(super) fn name(self) -> &'static str {
+        match self {
+            Self::Mse => "MSE",
+            Self::RelMse => "relMSE",
+        }
+    }
+}
+
+/// One render of a [`ladder`]: its error and what it did (spp, time, rays,
+/// media counters).
+pub(super) struct Rung {
+    /// Error against the reference.
+    pub error: f64,
+    /// The render's statistics.
+    pub stats: RenderStats,
+}
+
+impl Rung {
+    /// Seconds of sampling.
+    pub fn seconds(&self) -> f64 {
+        self.stats.elapsed.as_secs_f64()
+    }
+}
+
+/// Renders `state` with `settings`; the film's RGB and the statistics.
+pub(super) fn render(state: &RenderState, settings: &RenderSettings) -> (Vec<f32>, RenderStats) {
+    let (film, stats) = integrator::render(state, settings, &|_| {});
+    (film.rgb(), stats)
+}
+
+/// Where the reference of scene `name` at this resolution and spp is kept:
+/// `<out>/<name>-<w>x<h>-ref<spp>.exr`. The key holds neither the settings
+/// nor the renderer's version: delete the file after changing either.
+pub(super) fn reference_path(out: &Path, name: &str, resolution: UVec2, spp: u32) -> PathBuf {
+    out.join(format!(
+        "{name}-{}x{}-ref{spp}.exr",
+        resolution.x, resolution.y
+    ))
+}
+
+/// The reference image at `path`, read back when it exists with the right
+/// size, else rendered with `settings` (a sample budget) and written there.
+pub(super) fn reference(
+    state: &RenderState,
+    settings: &RenderSettings,
+    path: &Path,
+) -> Result<Vec<f32>> {
+    let r = state.resolution;
+    if let Ok(image) = read_image(path, crate::scene::ColorSpace::Raw) {
+        if image.channels == 3 && UVec2::new(image.width, image.height) == r {
+            return Ok(image.pixels);
+        }
+    }
+    let (rgb, stats) = render(state, settings);
+    eprintln!(
+        "reference {}: {:.1} s",
+        path.display(),
+        stats.elapsed.as_secs_f64()
+    );
+    super::render::write_beauty(path, r, &rgb, Compression::Zip, settings, &stats)?;
+    Ok(rgb)
+}
+
+/// One method's convergence: renders with `settings` at 1, 2, 4, ... spp,
+/// each a separate render, up to the first that takes longer than
+/// `max_seconds` (or reaches 65536 spp).
+pub(super) fn ladder(
+    state: &RenderState,
+    reference: &[f32],
+    metric: ErrorMetric,
+    settings: &RenderSettings,
+    max_seconds: f64,
+) -> Vec<Rung> {
+    let mut rungs = Vec::new();
+    let mut spp = 1;
+    loop {
+        let s = RenderSettings {
+            budget: Budget::Samples(spp),
+            ..*settings
+        };
+        let (rgb, stats) = render(state, &s);
+        let rung = Rung {
+            error: metric.error(&rgb, reference),
+            stats,
+        };
+        let seconds = rung.seconds();
+        rungs.push(rung);
+        if seconds > max_seconds || spp >= 1 << 16 {
+            return rungs;
+        }
+        spp *= 2;
+    }
+}
+
+/// The error at `t` seconds: log error interpolated linearly in log time
+/// between the two rungs around `t` (extrapolated from the end segments), so
+/// times are equal exactly rather than rounded to whole passes.
+pub(super) fn error_at(ladder: &[Rung], t: f64) -> f64 {
+    if ladder.len() == 1 {
+        return ladder[0].error;
+    }
+    let logs: Vec<(f64, f64)> = ladder
+        .iter()
+        .map(|r| (r.seconds().ln(), r.error.ln()))
+        .collect();
+    let i = logs
+        .windows(2)
+        .position(|w| t.ln() <= w[1].0)
+        .unwrap_or(logs.len() - 2);
+    let ((x0, y0), (x1, y1)) = (logs[i], logs[i + 1]);
+    let f = if x1 > x0 {
+        (t.ln() - x0) / (x1 - x0)
+    } else {
+        0.0
+    };
+    (y0 + f * (y1 - y0)).exp()
+}
+
+/// Samples per pixel per second of a ladder's largest (longest) render.
+pub(super) fn spp_per_second(ladder: &[Rung]) -> f64 {
+    let last = ladder.last().expect("a ladder has one render at least");
+    f64::from(last.stats.samples_per_pixel) / last.seconds()
+}
+
+/// Per time in `times`, the median over `ladders` (one per seed) of the
+/// error at that time.
+pub(super) fn median_errors(ladders: &[Vec<Rung>], times: &[f64]) -> Vec<f64> {
+    times
+        .iter()
+        .map(|&t| median(ladders.iter().map(|l| error_at(l, t)).collect()))
+        .collect()
+}
+
+/// The chart curve of the median ladder (by final error): (seconds, error)
+/// per render.
+pub(super) fn median_curve(ladders: &[Vec<Rung>]) -> Vec<(f64, f64)> {
+    let mut order: Vec<&Vec<Rung>> = ladders.iter().collect();
+    order.sort_by(|a, b| last_error(a).total_cmp(&last_error(b)));
+    order[order.len() / 2]
+        .iter()
+        .map(|r| (r.seconds(), r.error))
+        .collect()
+}
+
+fn last_error(ladder: &[Rung]) -> f64 {
+    ladder.last().map_or(f64::NAN, |r| r.error)
+}
+
+/// The Markdown header cells and rule cells of one error column per time:
+/// `" MSE @ 1 s |"` and `"---:|"` each.
+pub(super) fn error_columns(metric: ErrorMetric, times: &[f64]) -> (String, String) {
+    let mut header = String::new();
+    for t in times {
+        let _ = write!(header, " {} @ {t} s |", metric.name());
+    }
+    (header, "---:|".repeat(times.len()))
+}
+
+/// The Markdown cells of `errors`, one per time of [`error_columns`].
+pub(super) fn error_cells(errors: &[f64]) -> String {
+    errors.iter().map(|e| format!(" {e:.3e} |")).collect()
+}
+
+/// Writes `svg` to `path`.
+pub(super) fn write_chart(path: &Path, svg: &str) -> Result<()> {
+    std::fs::write(path, svg).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// A log-log chart of the error against seconds, one polyline per labelled
+/// curve of (seconds, error) points.
+pub(super) fn svg_chart(
+    title: &str,
+    metric: ErrorMetric,
+    curves: &[(String, Vec<(f64, f64)>)],
+) -> String {
+    const COLOURS: [&str; 8] = [
+        "#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02", "#a6761d", "#666666",
+    ];
+    let metric = metric.name();
+    let (w, h, margin) = (640.0, 400.0, 60.0);
+    let points = curves.iter().flat_map(|(_, c)| c.iter().copied());
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for (x, y) in points.filter(|(x, y)| *x > 0.0 && *y > 0.0) {
+        (x0, x1, y0, y1) = (
+            x0.min(x.log10()),
+            x1.max(x.log10()),
+            y0.min(y.log10()),
+            y1.max(y.log10()),
+        );
+    }
+    let (x1, y1) = (x1.max(x0 + 1e-3), y1.max(y0 + 1e-3));
+    let sx = |x: f64| margin + (x.log10() - x0) / (x1 - x0) * (w - 2.0 * margin);
+    let sy = |y: f64| h - margin - (y.log10() - y0) / (y1 - y0) * (h - 2.0 * margin);
+    let mut svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n\
+         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
+         <text x=\"{margin}\" y=\"20\">{title}: {metric} vs render time (log-log)</text>\n\
+         <text x=\"{}\" y=\"{}\">seconds (10^{x0:.2} .. 10^{x1:.2})</text>\n\
+         <text x=\"5\" y=\"{}\">{metric} 10^{y0:.1} .. 10^{y1:.1}</text>\n\
+         <rect x=\"{margin}\" y=\"{margin}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
+        w / 2.0 - 60.0,
+        h - 20.0,
+        margin - 10.0,
+        w - 2.0 * margin,
+        h - 2.0 * margin
+    );
+    for (i, (label, curve)) in curves.iter().enumerate() {
+        let c = COLOURS[i % COLOURS.len()];
+        let pts: Vec<String> = curve
+            .iter()
+            .filter(|(x, y)| *x > 0.0 && *y > 0.0)
+            .map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y)))
+            .collect();
+        let _ = writeln!(
+            svg,
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"{c}\" stroke-width=\"2\"/>",
+            pts.join(" ")
+        );
+        let _ = writeln!(
+            svg,
+            "<text x=\"{}\" y=\"{}\" fill=\"{c}\">{label}</text>",
+            w - margin - 150.0,
+            margin + 15.0 + 15.0 * i as f64
+        );
+    }
+    svg.push_str("</svg>\n");
+    svg
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+    use crate::integrator::RayCounts;
+    use crate::volumes::TrackingStats;
+
+    fn rung(seconds: f64, error: f64) -> Rung {
+        Rung {
+            error,
+            stats: RenderStats {
+                samples_per_pixel: 1,
+                elapsed: Duration::from_secs_f64(seconds),
+                rays: RayCounts::default(),
+                non_finite: Default::default(),
+                tracking: TrackingStats::default(),
+            },
+        }
+    }
+
+    #[test]
+    fn metrics_match_their_formulas() {
+        let reference = [0.0, 1.0, 3.0];
+        let image = [0.1, 1.5, 2.0];
+        let mse = (0.01 + 0.25 + 1.0) / 3.0;
+        let rel = (0.01 / 0.01 + 0.25 / 1.01 + 1.0 / 9.01) / 3.0;
+        assert!((ErrorMetric::Mse.error(&image, &reference) - mse).abs() < 1e-7);
+        assert!((ErrorMetric::RelMse.error(&image, &reference) - rel).abs() < 1e-7);
+    }
+
+    #[test]
+    fn error_at_follows_a_power_law_between_and_beyond_rungs() {
+        // error = 1 / t exactly: the log-log interpolation reproduces it,
+        // between rungs and extrapolated past both ends.
+        let ladder: Vec<Rung> = [0.5, 1.0, 2.0, 4.0]
+            .iter()
+            .map(|&t| rung(t, 1.0 / t))
+            .collect();
+        for t in [0.25, 0.7, 1.5, 3.0, 8.0] {
+            let e = error_at(&ladder, t);
+            assert!((e * t - 1.0).abs() < 1e-6, "t {t}: {e}");
+        }
+        assert_eq!(error_at(&ladder[..1], 3.0), 2.0);
+    }
+}

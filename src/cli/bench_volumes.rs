@@ -1,0 +1,305 @@
+//! `cirrus bench volumes`: the participating-media benchmark. Per scene
+//! (default: the teapot cloud and smoke.vdb of `scenes/bench`), every
+//! majorant (grid, global) with every volume estimator renders 1, 2, 4, ...
+//! spp per seed; the table gives the spp reached at the largest time budget,
+//! density lookups per camera ray, the share of null collisions, majorant
+//! violations, and the equal-time relative MSE against a long reference
+//! (median over seeds), then the global / grid ratios the targets
+//! name: at least 3x fewer lookups and 2x lower relMSE with the grid, and
+//! under 50% null collisions. References are kept in the output folder,
+//! named by scene, resolution and spp: delete them after changing the
+//! renderer.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::ValueEnum;
+use glam::UVec2;
+
+use super::bench::{machine_line, median};
+use super::bench_equal_time::{
+    error_cells, error_columns, ladder, median_curve, median_errors, reference_path,
+    spp_per_second, svg_chart, write_chart, ErrorMetric, Rung, MAX_DEPTH, REFERENCE_SEED,
+};
+use crate::integrator::{Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
+use crate::output::filter::FilterKind;
+use crate::render_state::RenderState;
+use crate::sampling::SamplerKind;
+use crate::scene::Scene;
+use crate::volumes::{MajorantKind, TrackingStats, VdbFile};
+
+/// The targets: global / grid density lookups per camera ray at
+/// least this, ...
+const LOOKUP_RATIO_TARGET: f64 = 3.0;
+/// ... global / grid equal-time relMSE at the largest budget at least this, ...
+const ERROR_RATIO_TARGET: f64 = 2.0;
+/// ... and null collisions under this share of all collisions (grid).
+const NULL_SHARE_TARGET: f64 = 0.5;
+
+/// What to measure.
+pub struct VolumesBench {
+    /// Scenes (USD or exported).
+    pub scenes: Vec<PathBuf>,
+    /// Image size.
+    pub resolution: UVec2,
+    /// Samples per pixel of the reference (null-scattering MIS, grid majorant).
+    pub reference_spp: u32,
+    /// Equal-time budgets, seconds.
+    pub times: Vec<f64>,
+    /// Seeds per method; the table shows the median error.
+    pub repeats: u32,
+    /// Folder for references and charts.
+    pub out: PathBuf,
+    /// Folder that also receives each chart as `volumes-<scene>-equal-time.svg`
+    /// (the README's `docs/bench`), when given.
+    pub charts: Option<PathBuf>,
+}
+
+/// One (majorant, estimator) pair's measurements on one scene.
+struct Measurement {
+    majorant: MajorantKind,
+    estimator: VolumeEstimator,
+    /// relMSE per time budget, median over seeds.
+    errors: Vec<f64>,
+    /// Samples per pixel reached at the largest budget (median over seeds).
+    spp: f64,
+    /// Media counters summed over every render of every seed.
+    tracking: TrackingStats,
+    /// Camera rays of those same renders.
+    camera_rays: u64,
+    /// (seconds, relMSE) of the median seed's renders, for the chart.
+    curve: Vec<(f64, f64)>,
+}
+
+impl Measurement {
+    fn lookups_per_camera_ray(&self) -> f64 {
+        self.tracking.density_lookups as f64 / self.camera_rays.max(1) as f64
+    }
+
+    fn null_share(&self) -> f64 {
+        let t = &self.tracking;
+        t.null_collisions as f64 / (t.null_collisions + t.real_collisions).max(1) as f64
+    }
+}
+
+/// Runs the benchmark and prints its tables.
+pub fn run(bench: &VolumesBench) -> Result<()> {
+    for dir in std::iter::once(&bench.out).chain(&bench.charts) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    println!("{}\n", machine_line());
+    println!(
+        "Threads: {}; {}x{} pixels; max depth {MAX_DEPTH}; MIS + Sobol; box filter; {} seed(s) per method; reference: null-scattering MIS, grid majorant, {} spp. relMSE = mean (x - ref)^2 / (ref^2 + 0.01).\n",
+        rayon::current_num_threads(),
+        bench.resolution.x,
+        bench.resolution.y,
+        bench.repeats.max(1),
+        bench.reference_spp
+    );
+    for path in &bench.scenes {
+        let scene = super::load_scene(path, None)?;
+        let name = path
+            .file_stem()
+            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        println!("### {name}\n");
+        print_extinction(&scene)?;
+        let grid = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Grid)?;
+        let global = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Global)?;
+        drop(scene);
+        let reference = {
+            let path = reference_path(&bench.out, &name, grid.resolution, bench.reference_spp);
+            let s = settings(
+                Budget::Samples(bench.reference_spp),
+                VolumeEstimator::default(),
+                REFERENCE_SEED,
+            );
+            super::bench_equal_time::reference(&grid, &s, &path)?
+        };
+        let mut measurements = Vec::new();
+        for (majorant, state) in [(MajorantKind::Grid, &grid), (MajorantKind::Global, &global)] {
+            for &estimator in VolumeEstimator::value_variants() {
+                measurements.push(measure(state, bench, &reference, majorant, estimator));
+            }
+        }
+        print_measurements(bench, &measurements);
+        print_ratios(bench, &measurements);
+        write_charts(bench, &name, &measurements)?;
+    }
+    Ok(())
+}
+
+/// Settings for one benchmark render: MIS + Sobol, box filter, `estimator`.
+fn settings(budget: Budget, estimator: VolumeEstimator, seed: u64) -> RenderSettings {
+    RenderSettings {
+        budget,
+        seed,
+        sampler: SamplerKind::Sobol,
+        filter: FilterKind::Box,
+        path: PathSettings {
+            strategy: Strategy::Mis,
+            max_depth: MAX_DEPTH,
+            clamp: None,
+            volume_estimator: estimator,
+        },
+    }
+}
+
+/// Ladders of one (majorant, estimator) pair, one per seed, summarised.
+fn measure(
+    state: &RenderState,
+    bench: &VolumesBench,
+    reference: &[f32],
+    majorant: MajorantKind,
+    estimator: VolumeEstimator,
+) -> Measurement {
+    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
+    let ladders: Vec<Vec<Rung>> = (0..bench.repeats.max(1))
+        .map(|seed| {
+            let s = settings(Budget::Samples(1), estimator, u64::from(seed));
+            ladder(state, reference, ErrorMetric::RelMse, &s, max_time)
+        })
+        .collect();
+    let mut tracking = TrackingStats::default();
+    let mut camera_rays = 0;
+    for rung in ladders.iter().flatten() {
+        tracking.merge(&rung.stats.tracking);
+        camera_rays += rung.stats.rays.camera;
+    }
+    Measurement {
+        majorant,
+        estimator,
+        errors: median_errors(&ladders, &bench.times),
+        spp: median(
+            ladders
+                .iter()
+                .map(|l| spp_per_second(l) * max_time)
+                .collect(),
+        ),
+        tracking,
+        camera_rays,
+        curve: median_curve(&ladders),
+    }
+}
+
+/// One line per volume: its largest sigma_t per world unit (densityScale x
+/// the density grid's largest value).
+fn print_extinction(scene: &Scene) -> Result<()> {
+    for volume in &scene.manifest.volumes {
+        let Some(field) = volume.fields.get("density") else {
+            continue;
+        };
+        let grid =
+            VdbFile::open(&field.file)?.read_float_grid(&field.grid, field.index as usize)?;
+        let max_density = grid.stats().max_value;
+        println!(
+            "{}: densityScale {} x max density {max_density:.3} = max sigma_t {:.2} per world unit.",
+            volume.path,
+            volume.density_scale,
+            volume.density_scale * max_density
+        );
+    }
+    println!();
+    Ok(())
+}
+
+/// The per-method table.
+fn print_measurements(bench: &VolumesBench, measurements: &[Measurement]) {
+    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
+    let (errors_header, errors_rule) = error_columns(ErrorMetric::RelMse, &bench.times);
+    println!(
+        "| majorant | estimator | spp @ {max_time} s | lookups / camera ray | null / all collisions | violations |{errors_header}\n|---|---|---:|---:|---:|---:|{errors_rule}"
+    );
+    for m in measurements {
+        println!(
+            "| {} | {} | {:.1} | {:.1} | {:.1}% | {} |{}",
+            value_name(m.majorant),
+            value_name(m.estimator),
+            m.spp,
+            m.lookups_per_camera_ray(),
+            100.0 * m.null_share(),
+            m.tracking.majorant_violations,
+            error_cells(&m.errors)
+        );
+    }
+    println!();
+}
+
+/// The global / grid ratios per estimator, and whether the targets hold.
+fn print_ratios(bench: &VolumesBench, measurements: &[Measurement]) {
+    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
+    let (errors_header, errors_rule) = error_columns(ErrorMetric::RelMse, &bench.times);
+    println!(
+        "| estimator | lookups, global / grid |{} null share (grid) | targets (>= {LOOKUP_RATIO_TARGET}x lookups, >= {ERROR_RATIO_TARGET}x relMSE @ {max_time} s, < {:.0}% null) |\n|---|---:|{errors_rule}---:|---|",
+        errors_header.replace(" relMSE", " relMSE global / grid"),
+        100.0 * NULL_SHARE_TARGET
+    );
+    for &estimator in VolumeEstimator::value_variants() {
+        let find = |majorant| {
+            measurements
+                .iter()
+                .find(|m| m.majorant == majorant && m.estimator == estimator)
+                .expect("every majorant and estimator is measured")
+        };
+        let (grid, global) = (find(MajorantKind::Grid), find(MajorantKind::Global));
+        let lookups = global.lookups_per_camera_ray() / grid.lookups_per_camera_ray();
+        let errors: Vec<f64> = global
+            .errors
+            .iter()
+            .zip(&grid.errors)
+            .map(|(a, b)| a / b)
+            .collect();
+        let last_error = errors.last().copied().unwrap_or(f64::NAN);
+        let mark = |met: bool| if met { "met" } else { "MISSED" };
+        println!(
+            "| {} | {lookups:.2} |{} {:.1}% | lookups {}, relMSE {}, null {} |",
+            value_name(estimator),
+            errors
+                .iter()
+                .map(|r| format!(" {r:.2} |"))
+                .collect::<String>(),
+            100.0 * grid.null_share(),
+            mark(lookups >= LOOKUP_RATIO_TARGET),
+            mark(last_error >= ERROR_RATIO_TARGET),
+            mark(grid.null_share() < NULL_SHARE_TARGET),
+        );
+    }
+    println!();
+}
+
+/// The relMSE-against-time chart of one scene, in the output folder and, when
+/// asked, in the charts folder as `volumes-<scene>-equal-time.svg`.
+fn write_charts(bench: &VolumesBench, name: &str, measurements: &[Measurement]) -> Result<()> {
+    let curves: Vec<(String, Vec<(f64, f64)>)> = measurements
+        .iter()
+        .map(|m| {
+            (
+                format!("{} + {}", value_name(m.majorant), value_name(m.estimator)),
+                m.curve.clone(),
+            )
+        })
+        .collect();
+    let svg = svg_chart(name, ErrorMetric::RelMse, &curves);
+    let chart = bench.out.join(format!("{name}-equal-time.svg"));
+    write_chart(&chart, &svg)?;
+    println!("Chart: {}", chart.display());
+    if let Some(dir) = &bench.charts {
+        let published = dir.join(format!("volumes-{name}-equal-time.svg"));
+        write_chart(&published, &svg)?;
+        println!("Chart: {}", published.display());
+    }
+    println!();
+    Ok(())
+}
+
+/// The command-line name of an option value (`grid`, `null-scattering-mis`).
+fn value_name(value: impl ValueEnum) -> String {
+    value
+        .to_possible_value()
+        .map_or_else(String::new, |v| v.get_name().to_owned())
+}
+
+/// Default scenes of the benchmark: the teapot cloud and the smoke plume.
+pub fn default_scenes(repo: &Path) -> Vec<PathBuf> {
+    let scenes = repo.join("scenes/bench");
+    vec![scenes.join("teapot_cloud.usda"), scenes.join("smoke.usda")]
+}
