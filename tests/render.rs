@@ -11,10 +11,8 @@
 
 mod common;
 
-use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 
 use common::{estimate, Estimate};
 use exr::prelude::{read_all_flat_layers_from_file, FlatSamples};
@@ -28,30 +26,10 @@ const STRATEGIES: [&str; 3] = ["mis", "bsdf", "nee"];
 /// Deep enough that paths end by Russian roulette (unbiased), not by depth.
 const UNBOUNDED_DEPTH: &str = "1000";
 
-/// `scenes/tests/NAME.usda` exported once per test process into a scratch
-/// folder (tests running in parallel share it; the exporter cache in the
-/// home folder is not involved, so a stale or concurrent export cannot leak
-/// in).
+/// `scenes/tests/NAME.usda` exported once per test process (see
+/// [`common::exported_test_scene`]).
 fn exported(name: &str) -> PathBuf {
-    static EXPORTS: Mutex<BTreeMap<String, PathBuf>> = Mutex::new(BTreeMap::new());
-    let mut exports = EXPORTS.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(dir) = exports.get(name) {
-        return dir.clone();
-    }
-    let usda = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes/tests")
-        .join(format!("{name}.usda"));
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("render_scenes")
-        .join(name);
-    common::cirrus_ok(&[
-        "export".as_ref(),
-        usda.as_os_str(),
-        "-o".as_ref(),
-        dir.as_os_str(),
-    ]);
-    exports.insert(name.to_owned(), dir.clone());
-    dir
+    common::exported_test_scene(name, "render_scenes")
 }
 
 /// One render's settings beside the scene; `extra` holds any further flags.

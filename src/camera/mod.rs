@@ -19,10 +19,16 @@
 //!   space (clipping range, focus distance, lens radius, orthographic view)
 //!   are scaled with it, like any geometry under the prim; directions are
 //!   normalised and `t_min`/`t_max` are world distances.
+//! - For compositing, [`Camera::world_to_camera`] and [`Camera::world_to_ndc`]
+//!   give the matrices of OpenEXR's `worldToCamera` and `worldToNDC`
+//!   standard attributes (read by Nuke to rebuild the camera and project
+//!   points), and [`Camera::depth`] the `Z` AOV: all in USD camera space
+//!   (-Z forward, +Y up, +X right), so a scaling camera transform scales
+//!   depths like the clipping range.
 
 mod window;
 
-use glam::{Affine3A, UVec2, Vec2, Vec3};
+use glam::{Affine3A, Mat4, UVec2, Vec2, Vec3, Vec4};
 use thiserror::Error;
 
 use crate::sampling::warp::square_to_concentric_disk;
@@ -33,6 +39,8 @@ use window::FilmWindow;
 #[derive(Clone, Debug)]
 pub struct Camera {
     world_from_camera: Affine3A,
+    /// The inverse of `world_from_camera`.
+    camera_from_world: Affine3A,
     /// Film positions to the image plane at z = -1 (perspective) or to the
     /// view rectangle at z = 0 in camera units (orthographic).
     window: FilmWindow,
@@ -126,6 +134,52 @@ impl Camera {
         }
     }
 
+    /// Camera-space depth of the world point `p`: its distance along the
+    /// viewing axis from the eye's z = 0 plane, positive in front (-z in USD
+    /// camera space). The `Z` AOV; camera-space units, which are scene
+    /// units unless the camera's transform scales.
+    pub fn depth(&self, p: Vec3) -> f32 {
+        -self.camera_from_world.transform_point3(p).z
+    }
+
+    /// World-to-camera matrix (column vectors, `M * (p, 1)`): the inverse of
+    /// the camera prim's world transform, into USD camera space (looking
+    /// down -Z, +Y up, +X right). OpenEXR's `worldToCamera` attribute as
+    /// RenderMan and Nuke use it; Imath's M44f multiplies row vectors, so
+    /// its 16 floats in file order are this matrix's `to_cols_array()`.
+    pub fn world_to_camera(&self) -> Mat4 {
+        Mat4::from(self.camera_from_world)
+    }
+
+    /// World-to-NDC matrix (column vectors): for a world point `p` and
+    /// `h = M * (p, 1)`, `(h.x / h.w, h.y / h.w)` is where `p` lands on the
+    /// rendered image, 0 to 1 from its left to its right edge and from its
+    /// TOP to its bottom edge (film position / resolution, through the same
+    /// conformed and offset aperture as [`Camera::generate_ray`]).
+    /// Perspective: `h.w` is the camera-space depth and `h.z = 1` (so
+    /// `h.z / h.w` is inverse depth); orthographic: `h.w = 1` and `h.z` is
+    /// the depth. The z row only keeps the matrix invertible. OpenEXR's
+    /// `worldToNDC` attribute as RenderMan writes it and Nuke reads it
+    /// (file order: `to_cols_array()`, as for [`Camera::world_to_camera`]).
+    pub fn world_to_ndc(&self) -> Mat4 {
+        let (top_left, extent) = self.window.corner_and_extent();
+        // NDC = (plane - top_left) / extent, with plane the point's position
+        // on the window's plane: (x, y) / -z for perspective, (x, y) for
+        // orthographic; multiplied through by -z for perspective.
+        let (scale, corner) = (extent.recip(), top_left / extent);
+        let x = Vec4::new(scale.x, 0.0, 0.0, 0.0);
+        let y = Vec4::new(0.0, scale.y, 0.0, 0.0);
+        let ndc_from_camera = match self.projection {
+            Projection::Pinhole | Projection::ThinLens(_) => {
+                Mat4::from_cols(x, y, Vec4::new(corner.x, corner.y, 0.0, -1.0), Vec4::Z)
+            }
+            Projection::Orthographic => {
+                Mat4::from_cols(x, y, Vec4::NEG_Z, Vec4::new(-corner.x, -corner.y, 0.0, 1.0))
+            }
+        };
+        ndc_from_camera * self.world_to_camera()
+    }
+
     /// The camera of `record` for an image of `resolution` pixels; refuses
     /// attributes that cannot make rays (non-finite or non-positive focal
     /// length or apertures, near >= far, a singular transform, ...).
@@ -157,6 +211,7 @@ impl Camera {
         let [near, far] = record.clipping_range;
         Ok(Self {
             world_from_camera,
+            camera_from_world: world_from_camera.inverse(),
             window: FilmWindow::new(aperture, offset, resolution, plane_units),
             projection,
             near: if near > NEAR_PLANE_MIN_FRACTION * far {
@@ -553,5 +608,134 @@ mod tests {
         ortho.projection = scene::Projection::Orthographic;
         ortho.focal_length = 0.0;
         assert!(Camera::new(&ortho, UVec2::new(8, 8)).is_ok());
+    }
+
+    /// A rotated, translated and scaled world-from-camera transform.
+    fn moved() -> Affine3A {
+        Affine3A::from_scale_rotation_translation(
+            Vec3::splat(1.7),
+            Quat::from_rotation_z(0.4) * Quat::from_rotation_x(-0.7),
+            Vec3::new(3.0, 1.0, -2.0),
+        )
+    }
+
+    #[test]
+    fn world_to_ndc_projects_ray_points_back_to_their_film_position() {
+        let mut rng = Pcg32::new(10, 0);
+        let perspective = |offset: Vec2, f_stop: f32| {
+            let mut r = record();
+            r.transform = transform(moved());
+            r.horizontal_aperture_offset = offset.x;
+            r.vertical_aperture_offset = offset.y;
+            r.f_stop = f_stop;
+            r.focus_distance = 7.0;
+            r
+        };
+        let mut ortho = perspective(Vec2::new(10.0, -4.0), 0.0);
+        ortho.projection = scene::Projection::Orthographic;
+        let cases = [
+            (perspective(Vec2::ZERO, 0.0), "perspective"),
+            (perspective(Vec2::new(5.0, -3.0), 0.0), "offset perspective"),
+            (perspective(Vec2::new(-2.0, 6.0), 2.0), "offset thin lens"),
+            (ortho, "offset orthographic"),
+        ];
+        // 300 x 200 matches the 36 x 24 aperture; the others conform it.
+        let resolutions = [
+            UVec2::new(300, 200),
+            UVec2::new(400, 100),
+            UVec2::new(100, 200),
+        ];
+        for (r, name) in cases {
+            for resolution in resolutions {
+                let cam = camera(&r, resolution);
+                let m = cam.world_to_ndc();
+                for _ in 0..200 {
+                    let film = Vec2::new(rng.next_f32(), rng.next_f32()) * resolution.as_vec2();
+                    let u_lens = Vec2::new(rng.next_f32(), rng.next_f32());
+                    let ray = cam.generate_ray(film, u_lens);
+                    // Any point of a pinhole or orthographic ray; the point
+                    // on the plane of focus of a thin-lens ray.
+                    let t = if r.f_stop > 0.0 {
+                        let depth_0 = cam.depth(ray.origin);
+                        let per_t = cam.depth(ray.origin + ray.direction) - depth_0;
+                        (r.focus_distance - depth_0) / per_t
+                    } else {
+                        0.1 + 50.0 * rng.next_f32()
+                    };
+                    let p = ray.origin + t * ray.direction;
+                    let h = m * p.extend(1.0);
+                    let ndc = Vec2::new(h.x, h.y) / h.w;
+                    let expected = film / resolution.as_vec2();
+                    assert!(
+                        (ndc - expected).abs().max_element() < 1e-4,
+                        "{name} {resolution}: {ndc} vs {expected}"
+                    );
+                    let w = if r.projection == scene::Projection::Orthographic {
+                        1.0
+                    } else {
+                        cam.depth(p)
+                    };
+                    assert!((h.w - w).abs() <= 1e-5 * w, "{name}: w {} vs {w}", h.w);
+                }
+                assert!(m.determinant().is_normal(), "{name}: singular");
+            }
+        }
+    }
+
+    #[test]
+    fn world_to_camera_inverts_the_camera_transform() {
+        let mut r = record();
+        r.transform = transform(moved());
+        let cam = camera(&r, UVec2::new(30, 20));
+        let m = cam.world_to_camera() * Mat4::from(moved());
+        assert!(
+            m.abs_diff_eq(Mat4::IDENTITY, 1e-5),
+            "world_to_camera * world_from_camera = {m}"
+        );
+        // The eye maps to the origin and the view direction to -Z.
+        let eye = Vec3::from(moved().translation);
+        let ahead = eye + moved().transform_vector3(Vec3::NEG_Z);
+        assert_close(
+            cam.world_to_camera().transform_point3(eye),
+            Vec3::ZERO,
+            1e-5,
+        );
+        assert_close(
+            cam.world_to_camera().transform_point3(ahead),
+            Vec3::NEG_Z,
+            1e-5,
+        );
+    }
+
+    #[test]
+    fn depth_is_the_distance_along_the_view_axis() {
+        let m = Affine3A::from_rotation_translation(
+            Quat::from_rotation_y(0.8) * Quat::from_rotation_x(0.3),
+            Vec3::new(-1.0, 4.0, 2.0),
+        );
+        let mut r = record();
+        r.transform = transform(m);
+        for projection in [
+            scene::Projection::Perspective,
+            scene::Projection::Orthographic,
+        ] {
+            r.projection = projection;
+            let cam = camera(&r, UVec2::new(64, 48));
+            let eye = Vec3::from(m.translation);
+            let (right, up, ahead) = (
+                m.transform_vector3(Vec3::X),
+                m.transform_vector3(Vec3::Y),
+                m.transform_vector3(Vec3::NEG_Z),
+            );
+            for d in [0.5f32, 3.0, 40.0] {
+                let centre = eye + d * ahead;
+                assert!((cam.depth(centre) - d).abs() < 1e-5 * d.max(1.0));
+                for (a, b) in [(1.0, 0.0), (-2.5, 3.0), (7.0, -0.2)] {
+                    let off_axis = centre + a * right + b * up;
+                    assert!((cam.depth(off_axis) - d).abs() < 1e-4 * d.max(1.0));
+                }
+                assert!((cam.depth(eye - d * ahead) + d).abs() < 1e-4 * d.max(1.0));
+            }
+        }
     }
 }

@@ -13,12 +13,22 @@ pub(super) struct FilmWindow {
     top_left: Vec2,
     /// Plane offset per pixel; its y is negative because rows run down.
     per_pixel: Vec2,
+    /// Plane offset from the top-left to the bottom-right corner (y negative).
+    extent: Vec2,
 }
 
 impl FilmWindow {
     /// The plane position of `film` (pixels from the top-left corner).
     pub(super) fn at(&self, film: Vec2) -> Vec2 {
         self.top_left + film * self.per_pixel
+    }
+
+    /// The top-left corner and the corner-to-corner extent (y negative) of
+    /// the rectangle the image covers on the plane: a position with NDC
+    /// `ndc` (0 to 1 from the top-left corner, y down) lies at
+    /// `top_left + ndc * extent`.
+    pub(super) fn corner_and_extent(&self) -> (Vec2, Vec2) {
+        (self.top_left, self.extent)
     }
 
     /// The window of apertures `aperture` centred at `offset` (both in the
@@ -33,9 +43,11 @@ impl FilmWindow {
     ) -> Self {
         let size = expand_aperture(aperture, resolution) / units_per_plane_unit;
         let centre = offset / units_per_plane_unit;
+        let extent = Vec2::new(size.x, -size.y);
         Self {
             top_left: centre + Vec2::new(-0.5, 0.5) * size,
-            per_pixel: Vec2::new(size.x, -size.y) / resolution.as_vec2(),
+            per_pixel: extent / resolution.as_vec2(),
+            extent,
         }
     }
 }
@@ -79,5 +91,8 @@ mod tests {
         assert!(close(w.at(Vec2::ZERO), Vec2::new(-3.0, 1.5)));
         assert!(close(w.at(Vec2::new(200.0, 100.0)), Vec2::new(7.0, -3.5)));
         assert!(close(w.at(Vec2::new(100.0, 50.0)), Vec2::new(2.0, -1.0)));
+        let (top_left, extent) = w.corner_and_extent();
+        assert!(close(top_left, Vec2::new(-3.0, 1.5)));
+        assert!(close(top_left + extent, Vec2::new(7.0, -3.5)));
     }
 }

@@ -15,6 +15,28 @@ use crate::volumes::VdbFile;
 
 #[derive(Subcommand, Debug)]
 pub enum Bench {
+    /// AOV cost (issue 6): render time with the default AOV set against the
+    /// beauty alone, EXR write time and file size.
+    Aovs {
+        /// Scenes (USD or exported); default: the StandardShaderBall and
+        /// scenes/bench/smoke.usda.
+        scenes: Vec<PathBuf>,
+        /// Image size WIDTHxHEIGHT.
+        #[arg(long, default_value = "640x360", value_parser = super::render::parse_resolution)]
+        res: glam::UVec2,
+        /// Samples per pixel of every render.
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        /// Renders per AOV set; the table shows medians.
+        #[arg(long, default_value_t = 5)]
+        repeats: u32,
+        /// Worker threads.
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+        /// Folder for the written EXRs.
+        #[arg(long, default_value = "out/bench-aovs")]
+        out: PathBuf,
+    },
     /// Sparse grid layout: load time, memory next to OpenVDB's own tree, and
     /// single-thread trilinear lookups per second (random points, independent
     /// ray marches, and tiles of neighbouring ray marches).
@@ -117,6 +139,28 @@ pub enum Bench {
 
 pub fn run(bench: Bench) -> Result<()> {
     match bench {
+        Bench::Aovs {
+            scenes,
+            res,
+            spp,
+            repeats,
+            threads,
+            out,
+        } => {
+            let scenes = if scenes.is_empty() {
+                super::bench_aovs::default_scenes(&crate::scene::repo_root())
+            } else {
+                scenes
+            };
+            let bench = super::bench_aovs::AovsBench {
+                scenes,
+                resolution: res,
+                spp,
+                repeats,
+                out,
+            };
+            with_threads(threads, || super::bench_aovs::run(&bench))
+        }
         Bench::Vdb {
             files,
             grid,

@@ -111,7 +111,13 @@ pub(super) fn reference(
         path.display(),
         stats.elapsed.as_secs_f64()
     );
-    super::render::write_beauty(path, r, &rgb, Compression::Zip, settings, &stats)?;
+    let header = super::render::Header {
+        state,
+        settings,
+        stats: &stats,
+        compression: Compression::Zip,
+    };
+    super::render::write_beauty(path, &rgb, &header)?;
     Ok(rgb)
 }
 
@@ -130,7 +136,7 @@ pub(super) fn ladder(
     loop {
         let s = RenderSettings {
             budget: Budget::Samples(spp),
-            ..*settings
+            ..settings.clone()
         };
         let (rgb, stats) = render(state, &s);
         let rung = Rung {

@@ -19,6 +19,7 @@ use super::bench_equal_time::{
 use crate::integrator::{
     Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
 };
+use crate::output::aov::AovSet;
 use crate::output::filter::FilterKind;
 use crate::render_state::RenderState;
 use crate::sampling::SamplerKind;
@@ -96,6 +97,7 @@ fn settings(
             clamp: None,
             volume_estimator: VolumeEstimator::NullScatteringMis,
         },
+        aovs: AovSet::beauty_only(),
     }
 }
 
@@ -168,7 +170,7 @@ fn equal_time(
             .map(|seed| {
                 let s = RenderSettings {
                     seed: u64::from(seed),
-                    ..s
+                    ..s.clone()
                 };
                 ladder(state, reference, ErrorMetric::Mse, &s, max_time)
             })

@@ -22,6 +22,7 @@ use super::bench_equal_time::{
     spp_per_second, svg_chart, write_chart, ErrorMetric, Rung, MAX_DEPTH, REFERENCE_SEED,
 };
 use crate::integrator::{Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
+use crate::output::aov::AovSet;
 use crate::output::filter::FilterKind;
 use crate::render_state::RenderState;
 use crate::sampling::SamplerKind;
@@ -141,6 +142,7 @@ fn settings(budget: Budget, estimator: VolumeEstimator, seed: u64) -> RenderSett
             clamp: None,
             volume_estimator: estimator,
         },
+        aovs: AovSet::beauty_only(),
     }
 }
 

@@ -3,6 +3,7 @@
 
 mod aovs;
 mod bench;
+mod bench_aovs;
 mod bench_equal_time;
 mod bench_instances;
 mod bench_render;

@@ -1,7 +1,7 @@
 //! `cirrus render SCENE -o OUT.exr`: the renderer's command-line contract.
 //! SCENE is a USD file (exported through the cache first) or an exported
-//! scene; the beauty goes to OUT.exr (linear, float RGB) and a tone-mapped
-//! preview beside it (OUT.png).
+//! scene; the beauty (linear, float RGBA) and the chosen AOVs go to OUT.exr
+//! (or one file per AOV) and a tone-mapped preview beside it (OUT.png).
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -15,10 +15,14 @@ use indicatif::{ProgressBar, ProgressStyle};
 use crate::integrator::{
     self, Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
 };
+use crate::output::aov::{Aov, AovSet};
+use crate::output::cryptomatte::CryptoLayer;
+use crate::output::film::{Film, Layer};
 use crate::output::filter::FilterKind;
 use crate::output::{write_exr, write_preview, Channel, Compression, ExrImage, PixelType};
 use crate::render_state::RenderState;
 use crate::sampling::SamplerKind;
+use crate::scene::Scene;
 use crate::volumes::MajorantKind;
 
 /// Samples per pixel when neither `--spp` nor `--time` is given.
@@ -69,12 +73,42 @@ pub struct RenderArgs {
     /// with ratio, residual-ratio or track-length shadow transmittance.
     #[arg(long, value_enum, default_value_t = VolumeEstimator::NullScatteringMis)]
     volume_estimator: VolumeEstimator,
+    /// AOVs beside the beauty: default, all, beauty (none) or a
+    /// comma-separated list (emission, diffuse_direct, diffuse_indirect,
+    /// specular_direct, specular_indirect, transmission, volume_direct,
+    /// volume_indirect, albedo, N, P, Z, sample_count, variance,
+    /// CryptoObject, CryptoMaterial).
+    #[arg(long, default_value = "default")]
+    aovs: AovSet,
+    /// One multi-channel EXR, or one file per AOV (OUT.<aov>.exr).
+    #[arg(long, value_enum, default_value_t)]
+    aov_files: AovFiles,
     /// EXR compression.
     #[arg(long, value_enum, default_value_t)]
     compression: Compression,
     /// USD time code to export (USD input only).
     #[arg(long)]
     frame: Option<f64>,
+}
+
+/// The Cryptomatte layers chosen in `aovs`, named by the scene's Mesh and
+/// Material prim paths (indexed like the film's object and material ids).
+pub(super) fn cryptomatte_layers(scene: &Scene, aovs: &AovSet) -> [Option<CryptoLayer>; 2] {
+    let m = &scene.manifest;
+    let layer = |aov: Aov, names: Vec<String>| {
+        aovs.contains(aov)
+            .then(|| CryptoLayer::new(aov.name(), names))
+    };
+    [
+        layer(
+            Aov::CryptoObject,
+            m.meshes.iter().map(|x| x.path.clone()).collect(),
+        ),
+        layer(
+            Aov::CryptoMaterial,
+            m.materials.iter().map(|x| x.path.clone()).collect(),
+        ),
+    ]
 }
 
 /// Parses `WIDTHxHEIGHT`.
@@ -110,6 +144,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let scene = super::load_scene(&args.scene, args.frame)?;
     let state = pool.install(|| RenderState::build(&scene, args.res, args.majorant))?;
+    let crypto = cryptomatte_layers(&scene, &args.aovs);
     drop(scene);
     log::info!(
         "{}: ready in {:.2} s, {}x{}",
@@ -129,53 +164,167 @@ pub fn run(args: RenderArgs) -> Result<()> {
             clamp: args.clamp,
             volume_estimator: args.volume_estimator,
         },
+        aovs: args.aovs,
     };
     let progress = Progress::new();
     let (film, stats) =
         pool.install(|| integrator::render(&state, &settings, &|f| progress.update(f)));
     progress.finish();
+    let header = Header {
+        state: &state,
+        settings: &settings,
+        stats: &stats,
+        compression: args.compression,
+    };
+    write_film(&args.output, args.aov_files, &film, &crypto, &header)?;
     let rgb = film.rgb();
     let r = state.resolution;
-    write_beauty(&args.output, r, &rgb, args.compression, &settings, &stats)?;
     let preview = args.output.with_extension("png");
     write_preview(&preview, r.x, r.y, &rgb)?;
     report(&args.output, &preview, &stats);
     Ok(())
 }
 
-/// Writes the beauty EXR: float R, G, B with the render's settings as metadata.
-pub(super) fn write_beauty(
-    path: &Path,
-    resolution: UVec2,
-    rgb: &[f32],
-    compression: Compression,
-    settings: &RenderSettings,
-    stats: &RenderStats,
+/// How AOVs are split over files (`--aov-files`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum AovFiles {
+    /// One multi-channel EXR: beauty in the base layer, AOVs as layers.
+    #[default]
+    Single,
+    /// The beauty in OUT.exr and each AOV in OUT.<aov>.exr.
+    Separate,
+}
+
+/// Writes the film: the beauty layer and every chosen AOV, in one EXR or
+/// one per AOV, each with the render's metadata (and a Cryptomatte's own).
+pub(super) fn write_film(
+    output: &Path,
+    files: AovFiles,
+    film: &Film,
+    crypto: &[Option<CryptoLayer>; 2],
+    header: &Header,
 ) -> Result<()> {
-    let channel = |name: &str| Channel {
-        name: name.into(),
-        pixel_type: PixelType::Float,
+    let crypto_of = |aov| match aov {
+        Aov::CryptoObject => crypto[0].as_ref(),
+        Aov::CryptoMaterial => crypto[1].as_ref(),
+        _ => None,
     };
+    let layers: Vec<(Aov, Layer)> = film
+        .aov_set()
+        .aovs()
+        .iter()
+        .map(|&aov| (aov, film.aov_layer(aov, crypto_of(aov))))
+        .collect();
+    let beauty = film.beauty_layer();
+    match files {
+        AovFiles::Single => {
+            let mut all = vec![&beauty];
+            all.extend(layers.iter().map(|(_, l)| l));
+            let crypto_metadata = crypto.iter().flatten().flat_map(CryptoLayer::metadata);
+            write_layers(output, &all, crypto_metadata.collect(), header)
+        }
+        AovFiles::Separate => {
+            write_layers(output, &[&beauty], Vec::new(), header)?;
+            for (aov, layer) in &layers {
+                let path = output.with_extension(format!("{}.exr", aov.name()));
+                let metadata = crypto_of(*aov).map(CryptoLayer::metadata);
+                write_layers(&path, &[layer], metadata.unwrap_or_default(), header)?;
+            }
+            Ok(())
+        }
+    }
+}
+
+/// What every EXR of a render carries in its header.
+pub(super) struct Header<'a> {
+    /// The camera, for `worldToCamera` and `worldToNDC`.
+    pub state: &'a RenderState,
+    /// How it was rendered.
+    pub settings: &'a RenderSettings,
+    /// What the render did.
+    pub stats: &'a RenderStats,
+    /// EXR compression.
+    pub compression: Compression,
+}
+
+/// Writes `layers` (interleaved into one image) with `strings` and the
+/// header's metadata: `software`, the camera matrices (Imath's row-vector
+/// layout, which is glam's column-major array of the column-vector matrix)
+/// and the settings as `cirrus/*` strings.
+fn write_layers(
+    path: &Path,
+    layers: &[&Layer],
+    mut strings: Vec<(String, String)>,
+    header: &Header,
+) -> Result<()> {
+    let r = header.state.resolution;
+    let pixel_count = (r.x * r.y) as usize;
+    let channels: Vec<Channel> = layers.iter().flat_map(|l| l.channels.clone()).collect();
+    let mut pixels = Vec::with_capacity(channels.len() * pixel_count);
+    for i in 0..pixel_count {
+        for layer in layers {
+            let n = layer.channels.len();
+            pixels.extend_from_slice(&layer.pixels[i * n..(i + 1) * n]);
+        }
+    }
+    let (settings, stats) = (header.settings, header.stats);
     let attribute = |k: &str, v: String| (format!("cirrus/{k}"), v);
+    strings.extend([
+        (
+            "software".to_string(),
+            format!("Cirrus {}", env!("CARGO_PKG_VERSION")),
+        ),
+        attribute("version", env!("CARGO_PKG_VERSION").into()),
+        attribute("spp", stats.samples_per_pixel.to_string()),
+        attribute(
+            "render_seconds",
+            format!("{:.3}", stats.elapsed.as_secs_f64()),
+        ),
+        attribute("seed", settings.seed.to_string()),
+        attribute("sampler", format!("{:?}", settings.sampler)),
+        attribute("strategy", format!("{:?}", settings.path.strategy)),
+        attribute("max_depth", settings.path.max_depth.to_string()),
+        attribute(
+            "volume_estimator",
+            format!("{:?}", settings.path.volume_estimator),
+        ),
+        attribute("aovs", settings.aovs.to_string()),
+    ]);
+    let camera = &header.state.camera;
     write_exr(
         path,
         &ExrImage {
-            width: resolution.x,
-            height: resolution.y,
-            channels: vec![channel("R"), channel("G"), channel("B")],
-            pixels: rgb,
-            compression,
-            strings: vec![
-                attribute("version", env!("CARGO_PKG_VERSION").into()),
-                attribute("spp", stats.samples_per_pixel.to_string()),
-                attribute("seed", settings.seed.to_string()),
-                attribute("sampler", format!("{:?}", settings.sampler)),
-                attribute("strategy", format!("{:?}", settings.path.strategy)),
+            width: r.x,
+            height: r.y,
+            channels,
+            pixels: &pixels,
+            compression: header.compression,
+            strings,
+            matrices: vec![
+                (
+                    "worldToCamera".into(),
+                    camera.world_to_camera().to_cols_array(),
+                ),
+                ("worldToNDC".into(), camera.world_to_ndc().to_cols_array()),
             ],
-            matrices: Vec::new(),
         },
     )?;
     Ok(())
+}
+
+/// Writes a beauty-only EXR (float R, G, B) with the render's metadata: the
+/// benchmarks' references.
+pub(super) fn write_beauty(path: &Path, rgb: &[f32], header: &Header) -> Result<()> {
+    let layer = Layer {
+        channels: ["R", "G", "B"]
+            .map(|name| Channel {
+                name: name.into(),
+                pixel_type: PixelType::Float,
+            })
+            .to_vec(),
+        pixels: rgb.to_vec(),
+    };
+    write_layers(path, &[&layer], Vec::new(), header)
 }
 
 /// Prints what was written and how the render went; warns about dropped samples.

@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 use glam::{UVec2, Vec2};
 use rayon::prelude::*;
 
+use crate::output::aov::AovSet;
 use crate::output::film::{Film, NonFiniteSamples, TileFilm};
 use crate::output::filter::{FilterKind, PixelFilter};
 use crate::render_state::RenderState;
@@ -102,7 +103,7 @@ pub enum Budget {
 }
 
 /// Everything that chooses how to render, beside the scene.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct RenderSettings {
     /// Samples or time.
     pub budget: Budget,
@@ -114,6 +115,8 @@ pub struct RenderSettings {
     pub filter: FilterKind,
     /// The path tracer's own settings.
     pub path: PathSettings,
+    /// The AOVs accumulated beside the beauty.
+    pub aovs: AovSet,
 }
 
 /// Rays traced, by kind.
@@ -157,7 +160,7 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(f64) + Sync),
 ) -> (Film, RenderStats) {
-    let mut film = Film::new(state.resolution);
+    let mut film = Film::new(state.resolution, settings.aovs.clone());
     let tiles = film.tiles(TILE_SIZE);
     let filter = PixelFilter::new(settings.filter);
     let start = Instant::now();
@@ -174,7 +177,7 @@ pub fn render(
         let results: Vec<(TileFilm, RayCounts, TrackingStats)> = tiles
             .par_iter()
             .map(|tile| {
-                let mut out = TileFilm::new(*tile);
+                let mut out = TileFilm::new(*tile, &settings.aovs);
                 let mut counts = RayCounts::default();
                 let mut media = TrackingStats::default();
                 let samples = done..done + count;
@@ -261,8 +264,8 @@ fn render_tile(
                     rays: &mut *rays,
                     tracking: &mut *tracking,
                 };
-                let radiance = path::radiance(state, ray, random, &settings.path, counts);
-                out.add(pixel, index, radiance);
+                let (radiance, aovs) = path::radiance(state, ray, random, &settings.path, counts);
+                out.add(pixel, index, radiance, &aovs);
             }
         }
     }

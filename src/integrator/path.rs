@@ -26,10 +26,12 @@ use obvhs::ray::Ray;
 use super::{PathSettings, RayCounts, Strategy, VolumeEstimator};
 use crate::geometry::SurfacePoint;
 use crate::lights::LightSample;
-use crate::materials::Bsdf;
+use crate::materials::{Bsdf, LobeValues};
+use crate::output::aov::{AovSample, CameraHit};
 use crate::render_state::RenderState;
 use crate::sampling::warp::power_heuristic;
 use crate::sampling::{Pcg32, Sampler};
+use crate::scene::NO_MATERIAL;
 use crate::volumes::{
     ratio_tracking_with_null_ratio, transmittance, walk_tentative_collisions, HenyeyGreenstein,
     MediaRay, TrackingStats,
@@ -71,23 +73,23 @@ pub struct PathCounts<'a> {
 }
 
 /// Radiance arriving at the camera along a camera ray, W/(m^2 sr): one
-/// sample of the path-integral estimator. The sampler must be positioned at
-/// the first path dimension; each bounce consumes the same number of
-/// dimensions whether or not it uses them, so dimensions stay aligned
-/// between pixel samples.
+/// sample of the path-integral estimator, with what it gives every AOV. The
+/// sampler must be positioned at the first path dimension; each bounce
+/// consumes the same number of dimensions whether or not it uses them, so
+/// dimensions stay aligned between pixel samples.
 pub fn radiance(
     state: &RenderState,
     mut ray: Ray,
     random: PathRandom,
     settings: &PathSettings,
     mut counts: PathCounts,
-) -> Vec3 {
+) -> (Vec3, AovSample) {
     let PathRandom {
         sampler,
         tracking: rng,
     } = random;
     let (geometry, materials, lights) = (&state.geometry, &state.materials, &state.lights);
-    let mut radiance = Vec3::ZERO;
+    let mut gathered = Gathered::default();
     let mut throughput = Vec3::ONE;
     let mut bounce = Bounce {
         pdf: 1.0,
@@ -107,6 +109,7 @@ pub fn radiance(
             Strategy::Nee => 0.0,
         }
     };
+    // `depth` counts the scattering events before the current ray.
     for depth in 0.. {
         counts.rays.closest += 1;
         let hit = geometry.intersect(&ray);
@@ -114,6 +117,20 @@ pub fn radiance(
         let t_surface = hit.map_or(ray.tmax, |h| h.t);
         let light_hit = lights.intersect(origin, direction, t_surface);
         let t_end = light_hit.map_or(t_surface, |l| l.t);
+        // The camera ray's surface hit feeds the geometric AOVs even when
+        // the path scatters in a volume before reaching it.
+        let mut camera_hit = None;
+        if depth == 0 {
+            camera_hit = hit.map(|h| geometry.surface_point(&h));
+            gathered.aovs.opaque = hit.is_some() || light_hit.is_some();
+            gathered.aovs.hit = hit.zip(camera_hit).map(|(h, sp)| CameraHit {
+                normal: sp.ns,
+                position: sp.p,
+                depth: state.camera.depth(sp.p),
+                object: geometry.scene_mesh(&h),
+                material: (sp.material != NO_MATERIAL).then_some(sp.material),
+            });
+        }
         // The free flight through media up to the surface or light: it may
         // end in absorption or a real scattering event on the way.
         let mut null_ratio = 1.0;
@@ -122,14 +139,19 @@ pub fn radiance(
             .filter(|along| !along.is_empty());
         if let Some(along) = along {
             let flight = free_flight(&along, ray.tmin, t_end, rng, counts.tracking);
-            radiance += throughput * flight.emission;
+            gathered.add(throughput * flight.emission, depth);
             if settings.volume_estimator == VolumeEstimator::NullScatteringMis {
                 null_ratio = flight.null_ratio;
             }
             match flight.end {
                 FlightEnd::Left => {}
-                FlightEnd::Absorbed => break,
-                FlightEnd::Scattered { t, weight } => {
+                FlightEnd::Absorbed => {
+                    gathered.aovs.opaque |= depth == 0;
+                    break;
+                }
+                FlightEnd::Scattered { t, weight, albedo } => {
+                    gathered.first_event(depth, [Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ONE]);
+                    gathered.set_albedo(albedo);
                     throughput *= weight;
                     if depth >= settings.max_depth {
                         break;
@@ -140,8 +162,11 @@ pub fn radiance(
                     let u_light = (sampler.next_1d(), sampler.next_2d());
                     if settings.strategy != Strategy::Bsdf {
                         let vertex = Vertex::Medium { p, phase, wo };
-                        radiance += throughput
-                            * next_event(state, settings, &vertex, u_light, rng, &mut counts);
+                        if let Some(light) =
+                            next_event(state, settings, &vertex, u_light, rng, &mut counts)
+                        {
+                            gathered.add(throughput * light.f * light.li, depth + 1);
+                        }
                     }
                     let (_, u_phase, u_roulette) =
                         (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
@@ -159,26 +184,35 @@ pub fn radiance(
             }
         }
         if let Some(light) = light_hit {
-            radiance +=
-                throughput * light.radiance * emission_weight(bounce, light.pdf, null_ratio);
+            let weight = emission_weight(bounce, light.pdf, null_ratio);
+            gathered.add(throughput * light.radiance * weight, depth);
             break;
         }
         let Some(hit) = hit else {
             lights.escaped(direction, |le, pdf| {
-                radiance += throughput * le * emission_weight(bounce, pdf, null_ratio);
+                gathered.add(
+                    throughput * le * emission_weight(bounce, pdf, null_ratio),
+                    depth,
+                );
             });
             break;
         };
-        let sp = geometry.surface_point(&hit);
+        let sp = camera_hit.unwrap_or_else(|| geometry.surface_point(&hit));
         let wo = -direction;
         if materials.is_emissive(sp.material) && (sp.double_sided || wo.dot(sp.ng) > 0.0) {
             let weight = emission_weight(bounce, lights.mesh_pdf(&sp, origin), null_ratio);
-            radiance += throughput * materials.emission(sp.material, sp.uv) * weight;
+            gathered.add(
+                throughput * materials.emission(sp.material, sp.uv) * weight,
+                depth,
+            );
         }
         if depth >= settings.max_depth {
             break;
         }
         let bsdf = materials.bsdf(&sp, wo);
+        if !bsdf.is_delta() {
+            gathered.set_albedo(bsdf.albedo());
+        }
         // Next-event estimation: one light sample.
         let u_light = (sampler.next_1d(), sampler.next_2d());
         if settings.strategy != Strategy::Bsdf && !bsdf.is_delta() {
@@ -187,8 +221,16 @@ pub fn radiance(
                 bsdf: &bsdf,
                 wo,
             };
-            radiance +=
-                throughput * next_event(state, settings, &vertex, u_light, rng, &mut counts);
+            if let Some(light) = next_event(state, settings, &vertex, u_light, rng, &mut counts) {
+                let contribution = throughput * light.f * light.li;
+                if depth == 0 {
+                    // The first event: split the light by lobe.
+                    let shares = lobe_shares(bsdf.eval_split(wo, light.wi));
+                    gathered.add_first(contribution, &shares);
+                } else {
+                    gathered.add(contribution, depth + 1);
+                }
+            }
         }
         // BSDF sampling continues the path.
         let (u_lobe, u_bsdf, u_roulette) =
@@ -196,6 +238,14 @@ pub fn radiance(
         let Some(bs) = bsdf.sample(wo, u_lobe, u_bsdf) else {
             break;
         };
+        if depth == 0 {
+            let shares = if bs.delta {
+                [Vec3::ZERO, Vec3::ZERO, Vec3::ONE, Vec3::ZERO]
+            } else {
+                lobe_shares(bsdf.eval_split(wo, bs.wi))
+            };
+            gathered.first_event(depth, shares);
+        }
         throughput *= bs.weight;
         bounce = Bounce {
             pdf: bs.pdf,
@@ -206,12 +256,82 @@ pub fn radiance(
         }
         ray = sp.spawn_ray(bs.wi);
     }
-    // Clamping would hide a NaN (f32::min drops it): non-finite samples
-    // pass through for the film to count.
-    match settings.clamp {
-        Some(max) if radiance.is_finite() => radiance.min(Vec3::splat(max)),
-        _ => radiance,
+    gathered.finish(settings.clamp)
+}
+
+/// What a path has gathered: its radiance and the same contributions split
+/// into the light-path AOVs, plus the other AOVs' values.
+#[derive(Default)]
+struct Gathered {
+    radiance: Vec3,
+    aovs: AovSample,
+    /// Each first-event kind's share of what the path carries after its
+    /// first event (see [`AovSample::add`]).
+    first: [Vec3; 4],
+    albedo_set: bool,
+}
+
+impl Gathered {
+    /// Adds a contribution that reached the camera after `events` events.
+    fn add(&mut self, contribution: Vec3, events: u32) {
+        self.radiance += contribution;
+        self.aovs.add(contribution, events, &self.first);
     }
+
+    /// Adds light reaching the camera straight after the first event, split
+    /// by that event's own `shares` (next-event estimation at a surface).
+    fn add_first(&mut self, contribution: Vec3, shares: &[Vec3; 4]) {
+        self.radiance += contribution;
+        self.aovs.add(contribution, 1, shares);
+    }
+
+    /// Records how the first event (at `depth` 0) splits what follows.
+    fn first_event(&mut self, depth: u32, shares: [Vec3; 4]) {
+        if depth == 0 {
+            self.first = shares;
+        }
+    }
+
+    /// The albedo AOV takes the first non-Dirac event's reflectance.
+    fn set_albedo(&mut self, albedo: Vec3) {
+        if !self.albedo_set {
+            self.aovs.albedo = albedo;
+            self.albedo_set = true;
+        }
+    }
+
+    /// The radiance (clamped if asked; the AOVs are scaled alike so they
+    /// still sum to it) and the AOV values.
+    fn finish(mut self, clamp: Option<f32>) -> (Vec3, AovSample) {
+        // Clamping would hide a NaN (f32::min drops it): non-finite samples
+        // pass through for the film to count.
+        match clamp {
+            Some(max) if self.radiance.is_finite() => {
+                let clamped = self.radiance.min(Vec3::splat(max));
+                let scale = Vec3::select(
+                    self.radiance.cmpgt(Vec3::ZERO),
+                    clamped / self.radiance,
+                    Vec3::ONE,
+                );
+                self.aovs.scale(scale);
+                (clamped, self.aovs)
+            }
+            _ => (self.radiance, self.aovs),
+        }
+    }
+}
+
+/// Each lobe kind's share of the BSDF value (per RGB channel; 0 where the
+/// BSDF is).
+fn lobe_shares(split: LobeValues) -> [Vec3; 4] {
+    let total = split.total();
+    let share = |part: Vec3| Vec3::select(total.cmpgt(Vec3::ZERO), part / total, Vec3::ZERO);
+    [
+        share(split.diffuse),
+        share(split.specular),
+        share(split.transmission),
+        Vec3::ZERO,
+    ]
 }
 
 /// A scattering vertex of a path, where next-event estimation samples a
@@ -264,10 +384,21 @@ impl Vertex<'_> {
     }
 }
 
+/// One light sample's contribution at a vertex: `f * li` is to be
+/// multiplied by the path throughput.
+struct LightContribution {
+    /// The BSDF (cosine included) or phase function towards the light.
+    f: Vec3,
+    /// Le tr w / pdf: the light's radiance through the media, MIS-weighted
+    /// against the vertex's own sampling (1 for delta lights and in
+    /// NEE-only mode), over the light sample's density.
+    li: Vec3,
+    /// Unit direction towards the light.
+    wi: Vec3,
+}
+
 /// Next-event estimation at `vertex`: one light sample (`u`: selection and
-/// position), its contribution f Le tr w / pdf, to be multiplied by the
-/// path throughput; w is the power heuristic against the vertex's own
-/// sampling (1 for delta lights and in NEE-only mode).
+/// position); `None` when it contributes nothing.
 fn next_event(
     state: &RenderState,
     settings: &PathSettings,
@@ -275,27 +406,28 @@ fn next_event(
     (u_select, u): (f32, Vec2),
     rng: &mut Pcg32,
     counts: &mut PathCounts,
-) -> Vec3 {
-    let Some(ls) = state
+) -> Option<LightContribution> {
+    let ls = state
         .lights
-        .sample(&state.materials, vertex.position(), u_select, u)
-    else {
-        return Vec3::ZERO;
-    };
+        .sample(&state.materials, vertex.position(), u_select, u)?;
     let f = vertex.f(ls.wi);
     if ls.pdf.is_nan() || ls.pdf <= 0.0 || f == Vec3::ZERO {
-        return Vec3::ZERO;
+        return None;
     }
     let (tr, null_ratio) = visibility(state, settings, &vertex.shadow_ray(&ls), rng, counts);
     if tr == 0.0 {
-        return Vec3::ZERO;
+        return None;
     }
     let weight = if ls.delta || settings.strategy == Strategy::Nee {
         1.0
     } else {
         power_heuristic(ls.pdf, vertex.pdf(ls.wi) * null_ratio)
     };
-    f * ls.radiance * (tr * weight / ls.pdf)
+    Some(LightContribution {
+        f,
+        li: ls.radiance * (tr * weight / ls.pdf),
+        wi: ls.wi,
+    })
 }
 
 /// Russian roulette from [`ROULETTE_DEPTH`]: false ends the path; a
@@ -363,8 +495,9 @@ enum FlightEnd {
     /// A real collision absorbed it.
     Absorbed,
     /// A real collision at ray parameter `t` scattered it; the throughput
-    /// takes `weight` (sigma_s over the mean sigma_s that chose scattering).
-    Scattered { t: f32, weight: Vec3 },
+    /// takes `weight` (sigma_s over the mean sigma_s that chose scattering);
+    /// `albedo` = sigma_s / sigma_t there.
+    Scattered { t: f32, weight: Vec3, albedo: Vec3 },
 }
 
 /// A free flight and what it gathered on the way.
@@ -412,6 +545,7 @@ fn free_flight(
                 FlightEnd::Scattered {
                     t,
                     weight: point.sigma_s / sigma_s,
+                    albedo: point.sigma_s / point.sigma_t,
                 }
             } else {
                 FlightEnd::Absorbed

@@ -66,6 +66,28 @@ pub struct BsdfSample {
     pub delta: bool,
 }
 
+/// [`Bsdf::eval`] by lobe category, each f(wo, wi) |cos theta_i| in RGB;
+/// the three sum to `eval`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LobeValues {
+    /// The Lambert base of the opaque stack, attenuated by the specular and
+    /// clearcoat layers' Fresnel on the way in and out, times opacity.
+    pub diffuse: Vec3,
+    /// Every glossy reflection: the specular and clearcoat microfacet lobes
+    /// and the dielectric's (or thin sheet's) reflection.
+    pub specular: Vec3,
+    /// Rough refraction through the dielectric (a thin sheet's straight-
+    /// through Dirac lobe is never evaluated, so it is 0 here too).
+    pub transmission: Vec3,
+}
+
+impl LobeValues {
+    /// diffuse + specular + transmission: f(wo, wi) |cos theta_i|.
+    pub fn total(&self) -> Vec3 {
+        self.diffuse + self.specular + self.transmission
+    }
+}
+
 /// Evaluated UsdPreviewSurface inputs at one point: the weights and
 /// parameters of every layer.
 #[derive(Clone, Debug)]
@@ -117,19 +139,32 @@ const ALL_LOBES: [Lobe; LOBES] = [
 ];
 
 impl Bsdf {
-    /// f(wo, wi) |cos theta_i| (cosine included, per steradian of `wi`), RGB.
+    /// f(wo, wi) |cos theta_i| (cosine included, per steradian of `wi`), RGB:
+    /// the sum of [`Bsdf::eval_split`]'s categories.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.eval_split(wo, wi).total()
+    }
+
+    /// [`Bsdf::eval`] split by lobe category for the compositing AOVs
+    /// (diffuse, specular, transmission light passes). A sampled direction's
+    /// weight splits the same way: `eval_split(wo, wi)` scaled by `1 / pdf`.
+    pub fn eval_split(&self, wo: Vec3, wi: Vec3) -> LobeValues {
         let (wo_l, wi_l) = (self.frame.to_local(wo), self.frame.to_local(wi));
         if wo_l.z <= 0.0 {
-            return Vec3::ZERO;
+            return LobeValues::default();
         }
         let t = 1.0 - self.layers.opacity;
         if self.reflects(wi, wi_l) {
-            self.opaque_reflection(wo_l, wi_l) + t * self.dielectric_reflection(wo_l, wi_l)
+            let mut values = self.opaque_reflection(wo_l, wi_l);
+            values.specular += t * self.dielectric_reflection(wo_l, wi_l);
+            values
         } else if self.transmits(wi, wi_l) && !self.layers.thin && t > 0.0 {
-            Vec3::splat(t * self.refraction(wo_l, wi_l))
+            LobeValues {
+                transmission: Vec3::splat(t * self.refraction(wo_l, wi_l)),
+                ..LobeValues::default()
+            }
         } else {
-            Vec3::ZERO
+            LobeValues::default()
         }
     }
 
@@ -230,27 +265,35 @@ impl Bsdf {
         wi.dot(self.ng) < 0.0 && wi_l.z < 0.0
     }
 
-    /// The opaque stack (clearcoat over specular over Lambert), times opacity.
-    fn opaque_reflection(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    /// The opaque stack (clearcoat over specular over Lambert), times
+    /// opacity: the Lambert base as `diffuse`, the clearcoat and specular
+    /// microfacet lobes as `specular`.
+    fn opaque_reflection(&self, wo: Vec3, wi: Vec3) -> LobeValues {
         let l = &self.layers;
         if l.opacity <= 0.0 {
-            return Vec3::ZERO;
+            return LobeValues::default();
         }
         let h = (wo + wi).normalize();
         let spec_f = |cos| fresnel::schlick(l.specular_f0, l.specular_f90, cos);
         let through_spec = (Vec3::ONE - spec_f(wo.z)) * (Vec3::ONE - spec_f(wi.z))
             / (Vec3::ONE - fresnel::schlick_average(l.specular_f0, l.specular_f90))
                 .max(Vec3::splat(1e-6));
-        let base = microfacet_reflection(l.specular, wo, wi, h) * spec_f(wo.dot(h))
-            + l.diffuse * through_spec * (wi.z * FRAC_1_PI);
-        let stack = if l.clearcoat > 0.0 {
+        let specular = microfacet_reflection(l.specular, wo, wi, h) * spec_f(wo.dot(h));
+        let diffuse = l.diffuse * through_spec * (wi.z * FRAC_1_PI);
+        let (coat, through_cc) = if l.clearcoat > 0.0 {
             let cc_f = |cos| l.clearcoat_fresnel(cos);
-            let through_cc = (1.0 - cc_f(wo.z)) * (1.0 - cc_f(wi.z));
-            microfacet_reflection(l.clearcoat_ggx, wo, wi, h) * cc_f(wo.dot(h)) + base * through_cc
+            (
+                microfacet_reflection(l.clearcoat_ggx, wo, wi, h) * cc_f(wo.dot(h)),
+                (1.0 - cc_f(wo.z)) * (1.0 - cc_f(wi.z)),
+            )
         } else {
-            base
+            (0.0, 1.0)
         };
-        l.opacity * stack
+        LobeValues {
+            diffuse: l.opacity * through_cc * diffuse,
+            specular: l.opacity * (coat + through_cc * specular),
+            transmission: Vec3::ZERO,
+        }
     }
 
     /// The dielectric's reflection (without its 1 - opacity weight).
@@ -845,5 +888,152 @@ mod tests {
         let below = Vec3::new(0.5, 0.0, -0.1).normalize();
         assert_eq!(bsdf.eval(wo, below), Vec3::ZERO);
         assert_eq!(bsdf.pdf(wo, below), 0.0);
+    }
+
+    /// A random UsdPreviewSurface: either workflow, optional clearcoat,
+    /// opacity 1 or random below 1; double-sided (a thin sheet when not
+    /// opaque) at random.
+    fn random_surface(rng: &mut Pcg32) -> (PreviewSurface, bool) {
+        let mut color = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let (diffuse, specular) = (color(), color());
+        let mut u = || rng.next_f32();
+        let s = surface(|s| {
+            s.diffuse_color = Param::Constant(diffuse);
+            s.use_specular_workflow = u() < 0.5;
+            s.specular_color = Param::Constant(specular);
+            s.metallic = Param::Constant(u());
+            s.roughness = Param::Constant(u());
+            s.ior = 1.0 + u();
+            s.clearcoat = if u() < 0.5 { u() } else { 0.0 };
+            s.clearcoat_roughness = u();
+            s.opacity = Param::Constant(if u() < 0.3 { 1.0 } else { u() });
+        });
+        (s, u() < 0.5)
+    }
+
+    #[test]
+    fn eval_split_sums_to_eval_over_random_materials_and_directions() {
+        let mut rng = Pcg32::new(10, 0);
+        let (mut diffuse, mut specular, mut transmission) = (0, 0, 0);
+        for _ in 0..200 {
+            let (s, double_sided) = random_surface(&mut rng);
+            let wo = warp::square_to_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let bsdf = s.bsdf(&[], &point(double_sided), wo);
+            for _ in 0..50 {
+                let wi = warp::square_to_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                let split = bsdf.eval_split(wo, wi);
+                let f = bsdf.eval(wo, wi);
+                let sum = split.diffuse + split.specular + split.transmission;
+                assert!(
+                    (sum - f).abs().max_element() <= 1e-6 * f.abs().max_element(),
+                    "{split:?} vs {f}"
+                );
+                for v in [split.diffuse, split.specular, split.transmission] {
+                    assert!(v.is_finite() && v.min_element() >= 0.0, "{split:?}");
+                }
+                if wi.z * wo.z > 0.0 {
+                    assert_eq!(split.transmission, Vec3::ZERO);
+                } else {
+                    assert_eq!(split.diffuse + split.specular, Vec3::ZERO);
+                }
+                diffuse += usize::from(split.diffuse.max_element() > 0.0);
+                specular += usize::from(split.specular.max_element() > 0.0);
+                transmission += usize::from(split.transmission.max_element() > 0.0);
+            }
+        }
+        // Every category is exercised.
+        assert!(
+            diffuse > 100 && specular > 100 && transmission > 100,
+            "{diffuse} {specular} {transmission}"
+        );
+    }
+
+    #[test]
+    fn lambert_is_all_diffuse_and_metal_has_no_diffuse() {
+        let mut rng = Pcg32::new(11, 0);
+        let metal = surface(|s| {
+            s.diffuse_color = Param::Constant(Vec3::new(0.9, 0.6, 0.2));
+            s.metallic = Param::Constant(1.0);
+            s.roughness = Param::Constant(0.4);
+            s.clearcoat = 0.5;
+        });
+        for wo in directions(&[0.9, 0.4, 0.1]) {
+            let lambert = white_lambert().bsdf(&[], &point(false), wo);
+            let metal = metal.bsdf(&[], &point(false), wo);
+            for _ in 0..200 {
+                let wi =
+                    warp::square_to_cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                let l = lambert.eval_split(wo, wi);
+                assert!(l.diffuse.min_element() > 0.0, "{l:?}");
+                assert_eq!((l.specular, l.transmission), (Vec3::ZERO, Vec3::ZERO));
+                assert!((l.diffuse - Vec3::splat(wi.z * FRAC_1_PI)).length() < 1e-6);
+                let m = metal.eval_split(wo, wi);
+                assert!(m.specular.min_element() > 0.0, "{m:?}");
+                assert_eq!((m.diffuse, m.transmission), (Vec3::ZERO, Vec3::ZERO));
+            }
+        }
+    }
+
+    /// Without a clearcoat the diffuse category integrates to exactly what
+    /// the specular layer lets through (Kelemen and Szirmay-Kalos 2001):
+    /// opacity * diffuse * (1 - F(cos_o)), estimated with cosine sampling.
+    #[test]
+    fn diffuse_category_reflects_what_the_specular_layer_lets_through() {
+        let mut rng = Pcg32::new(13, 0);
+        let n = 4000;
+        for _ in 0..20 {
+            let (mut s, _) = random_surface(&mut rng);
+            s.clearcoat = 0.0;
+            let wo = directions(&[0.05 + 0.95 * rng.next_f32()])[0];
+            let bsdf = s.bsdf(&[], &point(false), wo);
+            let l = &bsdf.layers;
+            let expected = l.opacity
+                * l.diffuse
+                * (Vec3::ONE - fresnel::schlick(l.specular_f0, l.specular_f90, wo.z));
+            let (mut sum, mut sum2) = (Vec3::ZERO, Vec3::ZERO);
+            for _ in 0..n {
+                let wi =
+                    warp::square_to_cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                let v = bsdf.eval_split(wo, wi).diffuse / warp::cosine_hemisphere_pdf(wi.z);
+                sum += v;
+                sum2 += v * v;
+            }
+            let mean = sum / n as f32;
+            let sigma = ((sum2 / n as f32 - mean * mean).max(Vec3::ZERO) / n as f32).sqrt();
+            assert!(
+                (mean - expected).abs().cmple(4.0 * sigma + 1e-5).all(),
+                "{mean} +- {sigma} vs {expected}"
+            );
+        }
+    }
+
+    /// Glass from either side: reflection directions carry no transmission
+    /// and refraction directions nothing else.
+    #[test]
+    fn glass_splits_into_specular_reflection_and_transmission() {
+        let mut rng = Pcg32::new(12, 0);
+        let glass = surface(|s| {
+            s.opacity = Param::Constant(0.0);
+            s.roughness = Param::Constant(0.5);
+        });
+        for wo in directions(&[0.7, -0.6]) {
+            let bsdf = glass.bsdf(&[], &point(false), wo);
+            let (mut reflected, mut refracted) = (0, 0);
+            for _ in 0..500 {
+                let wi = warp::square_to_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                let split = bsdf.eval_split(wo, wi);
+                assert_eq!(split.diffuse, Vec3::ZERO);
+                if wi.z * wo.z > 0.0 {
+                    assert_eq!(split.transmission, Vec3::ZERO);
+                    reflected += usize::from(split.specular.x > 0.0);
+                } else {
+                    assert_eq!(split.specular, Vec3::ZERO);
+                    refracted += usize::from(split.transmission.x > 0.0);
+                }
+            }
+            // From inside, total internal reflection leaves few refracting
+            // directions (44 of the 500 here).
+            assert!(reflected > 100 && refracted > 20, "{reflected} {refracted}");
+        }
     }
 }

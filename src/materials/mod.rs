@@ -17,7 +17,7 @@ mod microfacet;
 mod preview_surface;
 mod texture;
 
-pub use bsdf::{Bsdf, BsdfSample};
+pub use bsdf::{Bsdf, BsdfSample, LobeValues};
 
 use glam::{Vec2, Vec3};
 use thiserror::Error;

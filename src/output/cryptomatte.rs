@@ -87,6 +87,16 @@ pub fn layer_key(layer_name: &str) -> String {
     hex
 }
 
+/// The channel names of Cryptomatte layer `name` in file order:
+/// `{name}00.R`, `.G`, `.B`, `.A`, then `{name}01.*` and `{name}02.*`
+/// ([`CHANNELS`] in all). Rank `r` sits in layer `r / 2`: its id in R (even
+/// `r`) or B (odd `r`), its coverage in G or A.
+pub fn channel_names(name: &str) -> Vec<String> {
+    (0..RANKS / 2)
+        .flat_map(|layer| ["R", "G", "B", "A"].map(|c| format!("{name}{layer:02}.{c}")))
+        .collect()
+}
+
 /// One Cryptomatte type (e.g. "CryptoObject" over USD prim paths): its name
 /// and the precomputed float id of every name, indexed by our object index.
 #[derive(Clone, Debug)]
@@ -103,14 +113,9 @@ impl CryptoLayer {
         self.ids[index as usize]
     }
 
-    /// The layer's channel names in file order: `{name}00.R`, `.G`, `.B`,
-    /// `.A`, then `{name}01.*` and `{name}02.*` ([`CHANNELS`] in all). Rank
-    /// `r` sits in layer `r / 2`: its id in R (even `r`) or B (odd `r`), its
-    /// coverage in G or A.
+    /// The layer's channel names in file order (see [`channel_names`]).
     pub fn channel_names(&self) -> Vec<String> {
-        (0..RANKS / 2)
-            .flat_map(|layer| ["R", "G", "B", "A"].map(|c| format!("{}{layer:02}.{c}", self.name)))
-            .collect()
+        channel_names(&self.name)
     }
 
     /// EXR header attributes for this layer, `cryptomatte/<key>/name`,

@@ -1,16 +1,149 @@
-//! The film: per-pixel sums of radiance samples, filled tile by tile and
-//! merged in a fixed order, so the image does not depend on the thread count.
+//! The film: per-pixel sums of radiance samples and of the chosen AOVs,
+//! filled tile by tile and merged in a fixed order, so the image does not
+//! depend on the thread count.
 
 use glam::{UVec2, Vec3};
 
-/// One pixel's running sum of finite radiance samples, W/(m^2 sr).
+use super::aov::{Aov, AovSample, AovSet};
+use super::cryptomatte::{CryptoCoverage, CryptoLayer, CHANNELS};
+use super::{Channel, PixelType};
+
+/// One pixel's running sums of finite radiance samples, W/(m^2 sr).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PixelSum {
     /// Sum of the samples' RGB, in double precision so thousands of samples
     /// add without rounding drift.
     pub rgb: [f64; 3],
+    /// Sum of the squares of the samples' RGB (for the variance AOV).
+    pub rgb_squared: [f64; 3],
     /// Finite samples summed (non-finite ones are dropped and counted apart).
     pub count: u32,
+    /// Samples whose camera ray hit a surface or collided in a volume.
+    pub opaque: u32,
+}
+
+impl PixelSum {
+    fn add(&mut self, other: &PixelSum) {
+        for c in 0..3 {
+            self.rgb[c] += other.rgb[c];
+            self.rgb_squared[c] += other.rgb_squared[c];
+        }
+        self.count += other.count;
+        self.opaque += other.opaque;
+    }
+}
+
+/// The chosen AOVs' accumulators over a region's pixels: f32 sums of the
+/// averaged AOVs (light paths, albedo, N, P; `stride` per pixel, in set
+/// order), the minimum depth, and Cryptomatte coverage. Unchosen AOVs cost
+/// nothing.
+#[derive(Clone, Debug)]
+struct AovBuffers {
+    /// (AOV, offset of its 3 floats within a pixel's `sums`).
+    summed: Vec<(Aov, usize)>,
+    stride: usize,
+    sums: Vec<f32>,
+    /// Minimum camera-space depth per pixel, when `Z` is chosen.
+    depth: Option<Vec<f32>>,
+    /// Coverage per pixel for CryptoObject and CryptoMaterial, when chosen.
+    crypto: [Option<Vec<CryptoCoverage>>; 2],
+}
+
+impl AovBuffers {
+    fn new(set: &AovSet, pixels: usize) -> Self {
+        let summed: Vec<(Aov, usize)> = set
+            .aovs()
+            .iter()
+            .filter(|a| summed_value(**a, &AovSample::default()).is_some())
+            .enumerate()
+            .map(|(i, a)| (*a, 3 * i))
+            .collect();
+        let stride = 3 * summed.len();
+        let crypto = |aov| {
+            set.contains(aov)
+                .then(|| vec![CryptoCoverage::default(); pixels])
+        };
+        Self {
+            summed,
+            stride,
+            sums: vec![0.0; stride * pixels],
+            depth: set.contains(Aov::Z).then(|| vec![f32::INFINITY; pixels]),
+            crypto: [crypto(Aov::CryptoObject), crypto(Aov::CryptoMaterial)],
+        }
+    }
+
+    fn add(&mut self, i: usize, sample: &AovSample) {
+        let sums = &mut self.sums[i * self.stride..(i + 1) * self.stride];
+        for (aov, offset) in &self.summed {
+            if let Some(v) = summed_value(*aov, sample) {
+                for (s, x) in sums[*offset..*offset + 3].iter_mut().zip(v.to_array()) {
+                    *s += x;
+                }
+            }
+        }
+        let Some(hit) = sample.hit else {
+            return;
+        };
+        if let Some(depth) = &mut self.depth {
+            depth[i] = depth[i].min(hit.depth);
+        }
+        if let Some(objects) = &mut self.crypto[0] {
+            objects[i].add(hit.object);
+        }
+        if let (Some(materials), Some(material)) = (&mut self.crypto[1], hit.material) {
+            materials[i].add(material);
+        }
+    }
+
+    /// Adds `other`'s pixel `from` into this one's pixel `to`.
+    fn merge(&mut self, to: usize, other: &AovBuffers, from: usize) {
+        let n = self.stride;
+        for (d, s) in self.sums[to * n..(to + 1) * n]
+            .iter_mut()
+            .zip(&other.sums[from * n..(from + 1) * n])
+        {
+            *d += s;
+        }
+        if let (Some(d), Some(s)) = (&mut self.depth, &other.depth) {
+            d[to] = d[to].min(s[from]);
+        }
+        for (d, s) in self.crypto.iter_mut().zip(&other.crypto) {
+            if let (Some(d), Some(s)) = (d, s) {
+                d[to].merge(&s[from]);
+            }
+        }
+    }
+}
+
+/// The per-sample value an averaged AOV sums; `None` for the AOVs that are
+/// not sums of samples (depth, counts, variance, Cryptomatte).
+fn summed_value(aov: Aov, sample: &AovSample) -> Option<Vec3> {
+    let hit =
+        |f: fn(&super::aov::CameraHit) -> Vec3| Some(sample.hit.as_ref().map_or(Vec3::ZERO, f));
+    match aov {
+        Aov::Emission => Some(sample.light_paths[0]),
+        Aov::DiffuseDirect => Some(sample.light_paths[1]),
+        Aov::DiffuseIndirect => Some(sample.light_paths[2]),
+        Aov::SpecularDirect => Some(sample.light_paths[3]),
+        Aov::SpecularIndirect => Some(sample.light_paths[4]),
+        Aov::Transmission => Some(sample.light_paths[5]),
+        Aov::VolumeDirect => Some(sample.light_paths[6]),
+        Aov::VolumeIndirect => Some(sample.light_paths[7]),
+        Aov::Albedo => Some(sample.albedo),
+        Aov::N => hit(|h| h.normal),
+        Aov::P => hit(|h| h.position),
+        Aov::Z | Aov::SampleCount | Aov::Variance | Aov::CryptoObject | Aov::CryptoMaterial => None,
+    }
+}
+
+/// One image layer ready for an EXR: its channels and their values,
+/// interleaved channel-fastest, row 0 at the top.
+#[derive(Clone, Debug)]
+pub struct Layer {
+    /// Channel names and storage.
+    pub channels: Vec<Channel>,
+    /// `channels.len()` values per pixel.
+    pub pixels: Vec<f32>,
 }
 
 /// Samples that were NaN or infinite: dropped from the image, counted, and
@@ -61,31 +194,41 @@ pub struct TileFilm {
     pub pixels: Vec<PixelSum>,
     /// Its dropped samples.
     pub non_finite: NonFiniteSamples,
+    aovs: AovBuffers,
 }
 
 impl TileFilm {
-    /// An empty film for `tile`.
-    pub fn new(tile: Tile) -> Self {
+    /// An empty film for `tile`, accumulating the AOVs in `set`.
+    pub fn new(tile: Tile, set: &AovSet) -> Self {
+        let pixels = (tile.size.x * tile.size.y) as usize;
         Self {
             tile,
-            pixels: vec![PixelSum::default(); (tile.size.x * tile.size.y) as usize],
+            pixels: vec![PixelSum::default(); pixels],
             non_finite: NonFiniteSamples::default(),
+            aovs: AovBuffers::new(set, pixels),
         }
     }
 
-    /// Adds one radiance sample to `pixel` (image coordinates, inside the
-    /// tile); a NaN or infinite sample is dropped and counted instead.
-    pub fn add(&mut self, pixel: UVec2, sample: u32, radiance: Vec3) {
+    /// Adds one sample to `pixel` (image coordinates, inside the tile): its
+    /// radiance and its AOV values. A NaN or infinite radiance drops the
+    /// whole sample (AOVs included, so they still sum to the beauty) and is
+    /// counted instead.
+    pub fn add(&mut self, pixel: UVec2, sample: u32, radiance: Vec3, aovs: &AovSample) {
         if !radiance.is_finite() {
             self.non_finite.record(pixel, sample);
             return;
         }
         let local = pixel - self.tile.origin;
-        let sum = &mut self.pixels[(local.y * self.tile.size.x + local.x) as usize];
-        for (s, v) in sum.rgb.iter_mut().zip(radiance.to_array()) {
-            *s += f64::from(v);
+        let i = (local.y * self.tile.size.x + local.x) as usize;
+        let sum = &mut self.pixels[i];
+        for c in 0..3 {
+            let v = f64::from(radiance[c]);
+            sum.rgb[c] += v;
+            sum.rgb_squared[c] += v * v;
         }
         sum.count += 1;
+        sum.opaque += u32::from(aovs.opaque);
+        self.aovs.add(i, aovs);
     }
 }
 
@@ -97,16 +240,26 @@ pub struct Film {
     pixels: Vec<PixelSum>,
     /// Every dropped sample so far.
     pub non_finite: NonFiniteSamples,
+    set: AovSet,
+    aovs: AovBuffers,
 }
 
 impl Film {
-    /// An empty film.
-    pub fn new(resolution: UVec2) -> Self {
+    /// An empty film accumulating the AOVs in `set`.
+    pub fn new(resolution: UVec2, set: AovSet) -> Self {
+        let pixels = (resolution.x * resolution.y) as usize;
         Self {
             resolution,
-            pixels: vec![PixelSum::default(); (resolution.x * resolution.y) as usize],
+            pixels: vec![PixelSum::default(); pixels],
             non_finite: NonFiniteSamples::default(),
+            aovs: AovBuffers::new(&set, pixels),
+            set,
         }
+    }
+
+    /// The AOVs this film accumulates.
+    pub fn aov_set(&self) -> &AovSet {
+        &self.set
     }
 
     /// The tiles of `size` pixels (smaller at the right and bottom edges)
@@ -131,13 +284,10 @@ impl Film {
         let t = tile.tile;
         for y in 0..t.size.y {
             for x in 0..t.size.x {
-                let src = &tile.pixels[(y * t.size.x + x) as usize];
-                let dst = &mut self.pixels
-                    [((t.origin.y + y) * self.resolution.x + t.origin.x + x) as usize];
-                for (d, s) in dst.rgb.iter_mut().zip(src.rgb) {
-                    *d += s;
-                }
-                dst.count += src.count;
+                let from = (y * t.size.x + x) as usize;
+                let to = ((t.origin.y + y) * self.resolution.x + t.origin.x + x) as usize;
+                self.pixels[to].add(&tile.pixels[from]);
+                self.aovs.merge(to, &tile.aovs, from);
             }
         }
         self.non_finite.merge(&tile.non_finite);
@@ -154,6 +304,82 @@ impl Film {
             })
             .collect()
     }
+
+    /// The beauty as an EXR layer: `R,G,B` and alpha `A` (the fraction of
+    /// samples whose camera ray hit something), float.
+    pub fn beauty_layer(&self) -> Layer {
+        let pixels = self
+            .pixels
+            .iter()
+            .flat_map(|p| {
+                let n = f64::from(p.count.max(1));
+                let [r, g, b] = p.rgb.map(|v| (v / n) as f32);
+                [r, g, b, (f64::from(p.opaque) / n) as f32]
+            })
+            .collect();
+        Layer {
+            channels: channels(&["R", "G", "B", "A"], PixelType::Float),
+            pixels,
+        }
+    }
+
+    /// The layer of `aov` (which must be in the film's set); Cryptomatte
+    /// layers need their `crypto` names and ids.
+    pub fn aov_layer(&self, aov: Aov, crypto: Option<&CryptoLayer>) -> Layer {
+        let channels: Vec<Channel> = aov
+            .channels()
+            .iter()
+            .map(|n| Channel {
+                name: n.clone(),
+                pixel_type: aov.pixel_type(),
+            })
+            .collect();
+        let width = channels.len();
+        let mut pixels = vec![0.0f32; width * self.pixels.len()];
+        for (i, (p, out)) in self.pixels.iter().zip(pixels.chunks_mut(width)).enumerate() {
+            let n = p.count.max(1);
+            let mean = |c: usize| p.rgb[c] / f64::from(n);
+            match aov {
+                Aov::SampleCount => out[0] = p.count as f32,
+                Aov::Variance => {
+                    for (c, v) in out.iter_mut().enumerate() {
+                        let m = mean(c);
+                        let var = (p.rgb_squared[c] / f64::from(n) - m * m).max(0.0) * f64::from(n)
+                            / f64::from(n.saturating_sub(1).max(1));
+                        *v = (var / f64::from(n)) as f32;
+                    }
+                }
+                Aov::Z => out[0] = self.aovs.depth.as_ref().map_or(f32::INFINITY, |d| d[i]),
+                Aov::CryptoObject | Aov::CryptoMaterial => {
+                    let index = usize::from(aov == Aov::CryptoMaterial);
+                    if let (Some(coverage), Some(layer)) = (&self.aovs.crypto[index], crypto) {
+                        debug_assert_eq!(width, CHANNELS);
+                        coverage[i].ranks(layer, p.count, out);
+                    }
+                }
+                _ => {
+                    if let Some((_, offset)) = self.aovs.summed.iter().find(|(a, _)| *a == aov) {
+                        let sums = &self.aovs.sums[i * self.aovs.stride + offset..][..3];
+                        for (v, s) in out.iter_mut().zip(sums) {
+                            *v = s / n as f32;
+                        }
+                    }
+                }
+            }
+        }
+        Layer { channels, pixels }
+    }
+}
+
+/// Channels of one storage type.
+fn channels(names: &[&str], pixel_type: PixelType) -> Vec<Channel> {
+    names
+        .iter()
+        .map(|n| Channel {
+            name: (*n).to_string(),
+            pixel_type,
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -162,16 +388,18 @@ mod tests {
 
     #[test]
     fn tiles_cover_the_image_once_and_merge_back() {
-        let mut film = Film::new(UVec2::new(37, 21));
+        let set = AovSet::default();
+        let mut film = Film::new(UVec2::new(37, 21), set.clone());
         let tiles = film.tiles(16);
         assert_eq!(tiles.len(), 3 * 2);
+        let none = AovSample::default();
         for tile in &tiles {
-            let mut t = TileFilm::new(*tile);
+            let mut t = TileFilm::new(*tile, &set);
             for y in 0..tile.size.y {
                 for x in 0..tile.size.x {
                     let p = tile.origin + UVec2::new(x, y);
-                    t.add(p, 0, Vec3::splat((p.y * 37 + p.x) as f32));
-                    t.add(p, 1, Vec3::splat(f32::NAN));
+                    t.add(p, 0, Vec3::splat((p.y * 37 + p.x) as f32), &none);
+                    t.add(p, 1, Vec3::splat(f32::NAN), &none);
                 }
             }
             film.merge(&t);

@@ -1,6 +1,7 @@
 //! Everything that leaves the renderer as a file: multi-channel EXRs written
 //! through OpenImageIO (`ffi/oiio/`), and image reading through the same bridge.
 
+pub mod aov;
 pub mod contact_sheet;
 pub mod cryptomatte;
 mod exr;

@@ -97,3 +97,30 @@ pub fn estimate<T: std::borrow::Borrow<f64>>(samples: impl IntoIterator<Item = T
         sigma: (m2 / (n - 1.0) / n).sqrt(),
     }
 }
+
+/// `scenes/tests/NAME.usda` exported once per test process into the scratch
+/// folder `group/NAME` (tests running in parallel share it; the exporter
+/// cache in the home folder is not involved, so a stale or concurrent export
+/// cannot leak in).
+pub fn exported_test_scene(name: &str, group: &str) -> PathBuf {
+    static EXPORTS: std::sync::Mutex<std::collections::BTreeMap<String, PathBuf>> =
+        std::sync::Mutex::new(std::collections::BTreeMap::new());
+    let mut exports = EXPORTS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(dir) = exports.get(name) {
+        return dir.clone();
+    }
+    let usda = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/tests")
+        .join(format!("{name}.usda"));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(group)
+        .join(name);
+    cirrus_ok(&[
+        "export".as_ref(),
+        usda.as_os_str(),
+        "-o".as_ref(),
+        dir.as_os_str(),
+    ]);
+    exports.insert(name.to_owned(), dir.clone());
+    dir
+}

@@ -1,0 +1,124 @@
+//! `cirrus bench aovs` (issue 6): what the AOVs cost. Renders each scene at
+//! a fixed sample count with the beauty alone and with the default AOV set
+//! (alternating, several repeats), and writes each film as `render` does;
+//! prints median sampling and write times, the overhead ratio and file sizes.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Result;
+use glam::UVec2;
+
+use super::bench::{machine_line, median};
+use super::render::{cryptomatte_layers, write_film, AovFiles, Header};
+use crate::integrator::{self, Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
+use crate::output::aov::AovSet;
+use crate::output::filter::FilterKind;
+use crate::output::Compression;
+use crate::render_state::RenderState;
+use crate::sampling::SamplerKind;
+use crate::volumes::MajorantKind;
+
+/// What to measure.
+pub struct AovsBench {
+    /// Scenes (USD or exported).
+    pub scenes: Vec<PathBuf>,
+    /// Image size.
+    pub resolution: UVec2,
+    /// Samples per pixel of every render.
+    pub spp: u32,
+    /// Renders per AOV set; the table shows medians.
+    pub repeats: u32,
+    /// Folder for the written EXRs.
+    pub out: PathBuf,
+}
+
+/// The default scenes: the StandardShaderBall and the smoke plume.
+pub fn default_scenes(repo: &Path) -> Vec<PathBuf> {
+    vec![
+        repo.join("../shared/assets/usd-wg/full_assets/StandardShaderBall/standard_shader_ball_scene.usda"),
+        repo.join("scenes/bench/smoke.usda"),
+    ]
+}
+
+/// Runs the benchmark and prints its table.
+pub fn run(bench: &AovsBench) -> Result<()> {
+    println!("{}\n", machine_line());
+    println!(
+        "{}x{}, {} spp, {} repeats per set, zip compression; times are medians.\n",
+        bench.resolution.x, bench.resolution.y, bench.spp, bench.repeats
+    );
+    println!("| scene | AOVs | channels | render s | vs beauty | write s | file MB |");
+    println!("|---|---|---:|---:|---:|---:|---:|");
+    std::fs::create_dir_all(&bench.out)?;
+    for path in &bench.scenes {
+        let scene = super::load_scene(path, None)?;
+        let state = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Grid)?;
+        let sets = [AovSet::beauty_only(), AovSet::default()];
+        let crypto = cryptomatte_layers(&scene, &sets[1]);
+        let name = path
+            .file_stem()
+            .map_or("scene".into(), |s| s.to_string_lossy());
+        let mut render_times = [Vec::new(), Vec::new()];
+        let mut rows = Vec::new();
+        for repeat in 0..bench.repeats.max(1) {
+            // Alternate the order so drift in machine speed hits both alike.
+            let order = if repeat % 2 == 0 { [0, 1] } else { [1, 0] };
+            for i in order {
+                let settings = settings(bench.spp, sets[i].clone());
+                let (film, stats) = integrator::render(&state, &settings, &|_| {});
+                render_times[i].push(stats.elapsed.as_secs_f64());
+                if repeat == 0 {
+                    let exr = bench
+                        .out
+                        .join(format!("{name}-{}.exr", ["beauty", "default"][i]));
+                    let header = Header {
+                        state: &state,
+                        settings: &settings,
+                        stats: &stats,
+                        compression: Compression::Zip,
+                    };
+                    let start = Instant::now();
+                    write_film(&exr, AovFiles::Single, &film, &crypto, &header)?;
+                    let write = start.elapsed().as_secs_f64();
+                    let bytes = std::fs::metadata(&exr)?.len();
+                    let channels: usize = 4 + sets[i]
+                        .aovs()
+                        .iter()
+                        .map(|a| a.channels().len())
+                        .sum::<usize>();
+                    rows.push((i, channels, write, bytes));
+                }
+            }
+        }
+        let medians = render_times.map(median);
+        rows.sort_by_key(|r| r.0);
+        for (i, channels, write, bytes) in rows {
+            println!(
+                "| {name} | {} | {channels} | {:.3} | {:.3}x | {write:.3} | {:.2} |",
+                ["beauty", "default"][i],
+                medians[i],
+                medians[i] / medians[0],
+                bytes as f64 / 1e6
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The render defaults at `spp` samples with `aovs`.
+fn settings(spp: u32, aovs: AovSet) -> RenderSettings {
+    RenderSettings {
+        budget: Budget::Samples(spp),
+        seed: 0,
+        sampler: SamplerKind::Sobol,
+        filter: FilterKind::default(),
+        path: PathSettings {
+            strategy: Strategy::Mis,
+            max_depth: 16,
+            clamp: None,
+            volume_estimator: VolumeEstimator::NullScatteringMis,
+        },
+        aovs,
+    }
+}

@@ -1,0 +1,344 @@
+//! Arbitrary output variables (AOVs): the image layers written beside the
+//! beauty for compositing, what one path sample contributes to each, and
+//! their channel names as Nuke expects them (`diffuse_direct.R`, `N.X`, `Z`,
+//! `CryptoObject00.R`).
+//!
+//! Light-path AOVs split the beauty by the path's first scattering event
+//! after the camera (light path expressions, `C` camera, `R` reflection, `T`
+//! transmission, `V` volume, `D` diffuse, `G`/`S` glossy or specular, `L`
+//! light or emitter, `O` object emission): `emission` = `C[LO]`,
+//! `diffuse_direct` = `C<RD>[LO]`, `diffuse_indirect` = `C<RD>.+[LO]`,
+//! `specular_direct`/`_indirect` = the same with `<R[GS]>`, `transmission` =
+//! `C<T.>.*[LO]`, `volume_direct`/`_indirect` = `C<V.>[LO]` / `C<V.>.+[LO]`.
+//! Every contribution goes to exactly one of them, so they sum to the
+//! beauty.
+
+use std::fmt;
+use std::str::FromStr;
+
+use glam::Vec3;
+
+use super::PixelType;
+
+/// One AOV.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Aov {
+    /// Light reaching the camera without scattering: visible lights and
+    /// emitters, the dome, volume emission along camera rays.
+    Emission,
+    /// Light after one diffuse reflection at the first hit.
+    DiffuseDirect,
+    /// Light after a diffuse first reflection and more events.
+    DiffuseIndirect,
+    /// Light after one glossy or specular reflection at the first hit.
+    SpecularDirect,
+    /// Light after a glossy first reflection and more events.
+    SpecularIndirect,
+    /// Light transmitted (refracted or straight through) at the first hit.
+    Transmission,
+    /// Light after one real scattering event in a volume.
+    VolumeDirect,
+    /// Light after a volume first scattering event and more events.
+    VolumeIndirect,
+    /// Reflectance of the first non-Dirac event (a denoiser input).
+    Albedo,
+    /// World-space shading normal of the camera ray's surface hit, averaged.
+    N,
+    /// World position of the camera ray's surface hit, averaged, scene units.
+    P,
+    /// Camera-space depth of the camera ray's surface hit: the minimum over
+    /// the pixel's samples (a depth is not averaged), +inf where none.
+    Z,
+    /// Samples per pixel.
+    SampleCount,
+    /// Variance of the pixel's mean beauty: sample variance / n, per channel.
+    Variance,
+    /// Cryptomatte of the USD Mesh prims the camera rays hit.
+    CryptoObject,
+    /// Cryptomatte of the bound Material prims the camera rays hit.
+    CryptoMaterial,
+}
+
+/// Every AOV, in file order.
+pub const ALL: [Aov; 16] = [
+    Aov::Emission,
+    Aov::DiffuseDirect,
+    Aov::DiffuseIndirect,
+    Aov::SpecularDirect,
+    Aov::SpecularIndirect,
+    Aov::Transmission,
+    Aov::VolumeDirect,
+    Aov::VolumeIndirect,
+    Aov::Albedo,
+    Aov::N,
+    Aov::P,
+    Aov::Z,
+    Aov::SampleCount,
+    Aov::Variance,
+    Aov::CryptoObject,
+    Aov::CryptoMaterial,
+];
+
+/// What one camera path sample gives every AOV; the film keeps those asked for.
+#[derive(Clone, Copy, Debug)]
+pub struct AovSample {
+    /// Radiance per light-path AOV (the first eight of [`ALL`]), W/(m^2 sr);
+    /// their sum is the sample's beauty.
+    pub light_paths: [Vec3; 8],
+    /// Reflectance of the first non-Dirac event (0 when there is none).
+    pub albedo: Vec3,
+    /// The camera ray's surface hit, if any.
+    pub hit: Option<CameraHit>,
+    /// The camera ray hit a surface or collided in a volume (beauty alpha).
+    pub opaque: bool,
+}
+
+/// Where a camera ray met the first surface.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraHit {
+    /// World shading normal.
+    pub normal: Vec3,
+    /// World position, scene units.
+    pub position: Vec3,
+    /// Camera-space depth, scene units.
+    pub depth: f32,
+    /// Scene mesh index (the Cryptomatte object).
+    pub object: u32,
+    /// Material index, or `None` for unbound meshes.
+    pub material: Option<u32>,
+}
+
+impl Default for AovSample {
+    fn default() -> Self {
+        Self {
+            light_paths: [Vec3::ZERO; 8],
+            albedo: Vec3::ZERO,
+            hit: None,
+            opaque: false,
+        }
+    }
+}
+
+impl AovSample {
+    /// Adds `contribution`, which reached the camera after `events`
+    /// scattering events, to its light-path AOV: 0 events is emission; after
+    /// that the first event's kind decides, and `first` gives the share of
+    /// the contribution each kind takes, in the order diffuse, specular,
+    /// transmission, volume (per RGB channel, summing to 1 where the
+    /// contribution is non-zero).
+    pub fn add(&mut self, contribution: Vec3, events: u32, first: &[Vec3; 4]) {
+        if events == 0 {
+            self.light_paths[0] += contribution;
+            return;
+        }
+        let direct = events == 1;
+        for (kind, share) in first.iter().enumerate() {
+            if *share == Vec3::ZERO {
+                continue;
+            }
+            let index = match (kind, direct) {
+                (0, true) => 1,
+                (0, false) => 2,
+                (1, true) => 3,
+                (1, false) => 4,
+                (2, _) => 5,
+                (_, true) => 6,
+                (_, false) => 7,
+            };
+            self.light_paths[index] += contribution * *share;
+        }
+    }
+
+    /// Scales the light-path AOVs per channel, as a clamp scales the beauty.
+    pub fn scale(&mut self, factor: Vec3) {
+        for v in &mut self.light_paths {
+            *v *= factor;
+        }
+    }
+}
+
+impl Aov {
+    /// The layer name: channels are `<name>.R` etc. (`Z` and
+    /// `sample_count` are single channels of that name).
+    pub fn name(self) -> &'static str {
+        match self {
+            Aov::Emission => "emission",
+            Aov::DiffuseDirect => "diffuse_direct",
+            Aov::DiffuseIndirect => "diffuse_indirect",
+            Aov::SpecularDirect => "specular_direct",
+            Aov::SpecularIndirect => "specular_indirect",
+            Aov::Transmission => "transmission",
+            Aov::VolumeDirect => "volume_direct",
+            Aov::VolumeIndirect => "volume_indirect",
+            Aov::Albedo => "albedo",
+            Aov::N => "N",
+            Aov::P => "P",
+            Aov::Z => "Z",
+            Aov::SampleCount => "sample_count",
+            Aov::Variance => "variance",
+            Aov::CryptoObject => "CryptoObject",
+            Aov::CryptoMaterial => "CryptoMaterial",
+        }
+    }
+
+    /// Channel names in file order.
+    pub fn channels(self) -> Vec<String> {
+        let with = |suffixes: [&str; 3]| {
+            suffixes
+                .iter()
+                .map(|s| format!("{}.{s}", self.name()))
+                .collect()
+        };
+        match self {
+            Aov::N | Aov::P => with(["X", "Y", "Z"]),
+            Aov::Z | Aov::SampleCount => vec![self.name().to_string()],
+            Aov::CryptoObject | Aov::CryptoMaterial => {
+                super::cryptomatte::channel_names(self.name())
+            }
+            _ => with(["R", "G", "B"]),
+        }
+    }
+
+    /// In `--aovs default`: all but P, sample_count and variance (the light
+    /// paths, the denoiser inputs and both Cryptomattes).
+    fn in_default_set(self) -> bool {
+        !matches!(self, Aov::P | Aov::SampleCount | Aov::Variance)
+    }
+
+    /// Storage: half for colours, float for geometry, counts, variance and IDs.
+    pub fn pixel_type(self) -> PixelType {
+        match self {
+            Aov::N
+            | Aov::P
+            | Aov::Z
+            | Aov::SampleCount
+            | Aov::Variance
+            | Aov::CryptoObject
+            | Aov::CryptoMaterial => PixelType::Float,
+            _ => PixelType::Half,
+        }
+    }
+}
+
+/// The AOVs a render writes (`--aovs default|all|beauty|name,name,...`),
+/// sorted in file order without repeats.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AovSet(Vec<Aov>);
+
+impl AovSet {
+    /// No AOVs: the beauty alone (`--aovs beauty`; what benchmarks measure).
+    pub fn beauty_only() -> Self {
+        Self(Vec::new())
+    }
+
+    /// The chosen AOVs, in file order.
+    pub fn aovs(&self) -> &[Aov] {
+        &self.0
+    }
+
+    /// Whether `aov` is chosen.
+    pub fn contains(&self, aov: Aov) -> bool {
+        self.0.contains(&aov)
+    }
+}
+
+impl Default for AovSet {
+    fn default() -> Self {
+        Self(ALL.into_iter().filter(|a| a.in_default_set()).collect())
+    }
+}
+
+impl FromStr for AovSet {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        let mut aovs = match s {
+            "default" => return Ok(Self::default()),
+            "all" => ALL.to_vec(),
+            "beauty" => return Ok(Self::beauty_only()),
+            list => list
+                .split(',')
+                .map(|name| {
+                    let name = name.trim();
+                    ALL.into_iter().find(|a| a.name() == name).ok_or_else(|| {
+                        let known: Vec<_> = ALL.iter().map(|a| a.name()).collect();
+                        format!(
+                            "unknown AOV '{name}'; use default, all, beauty or a list of: {}",
+                            known.join(", ")
+                        )
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()?,
+        };
+        aovs.sort();
+        aovs.dedup();
+        Ok(Self(aovs))
+    }
+}
+
+impl fmt::Display for AovSet {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let names: Vec<_> = self.0.iter().map(|a| a.name()).collect();
+        if names.is_empty() {
+            write!(f, "beauty")
+        } else {
+            write!(f, "{}", names.join(","))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sets_parse_sorted_and_unknown_names_are_refused() {
+        let set: AovSet = "Z,albedo,Z,diffuse_direct".parse().unwrap();
+        assert_eq!(set.aovs(), [Aov::DiffuseDirect, Aov::Albedo, Aov::Z]);
+        assert_eq!(set.to_string(), "diffuse_direct,albedo,Z");
+        assert!("beauty".parse::<AovSet>().unwrap().aovs().is_empty());
+        assert_eq!("all".parse::<AovSet>().unwrap().aovs(), ALL);
+        let err = "diffuse,Z".parse::<AovSet>().unwrap_err();
+        assert!(err.contains("unknown AOV 'diffuse'") && err.contains("diffuse_direct"));
+    }
+
+    #[test]
+    fn channel_names_follow_the_compositing_conventions() {
+        assert_eq!(Aov::N.channels(), ["N.X", "N.Y", "N.Z"]);
+        assert_eq!(Aov::Z.channels(), ["Z"]);
+        assert_eq!(
+            Aov::VolumeIndirect.channels(),
+            [
+                "volume_indirect.R",
+                "volume_indirect.G",
+                "volume_indirect.B"
+            ]
+        );
+        assert_eq!(Aov::Albedo.pixel_type(), PixelType::Half);
+        assert_eq!(Aov::P.pixel_type(), PixelType::Float);
+    }
+
+    #[test]
+    fn contributions_go_to_one_light_path_each_and_sum_to_the_total() {
+        let mut sample = AovSample::default();
+        let diffuse = [Vec3::ONE, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO];
+        let mixed = [
+            Vec3::splat(0.25),
+            Vec3::splat(0.5),
+            Vec3::splat(0.25),
+            Vec3::ZERO,
+        ];
+        let volume = [Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ONE];
+        sample.add(Vec3::splat(1.0), 0, &mixed);
+        sample.add(Vec3::splat(2.0), 1, &diffuse);
+        sample.add(Vec3::splat(4.0), 2, &mixed);
+        sample.add(Vec3::splat(8.0), 1, &volume);
+        sample.add(Vec3::splat(16.0), 3, &volume);
+        let expected = [1.0, 2.0, 1.0, 0.0, 2.0, 1.0, 8.0, 16.0];
+        for (value, want) in sample.light_paths.iter().zip(expected) {
+            assert_eq!(*value, Vec3::splat(want));
+        }
+        let total: Vec3 = sample.light_paths.iter().sum();
+        assert_eq!(total, Vec3::splat(31.0));
+    }
+}
