@@ -118,6 +118,7 @@ fn settings(spp: u32, aovs: AovSet) -> RenderSettings {
             max_depth: 16,
             clamp: None,
             volume_estimator: VolumeEstimator::NullScatteringMis,
+            equiangular: true,
         },
         aovs,
     }

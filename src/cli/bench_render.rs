@@ -96,6 +96,7 @@ fn settings(
             max_depth,
             clamp: None,
             volume_estimator: VolumeEstimator::NullScatteringMis,
+            equiangular: true,
         },
         aovs: AovSet::beauty_only(),
     }

@@ -141,6 +141,7 @@ fn settings(budget: Budget, estimator: VolumeEstimator, seed: u64) -> RenderSett
             max_depth: MAX_DEPTH,
             clamp: None,
             volume_estimator: estimator,
+            equiangular: true,
         },
         aovs: AovSet::beauty_only(),
     }

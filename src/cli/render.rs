@@ -73,6 +73,9 @@ pub struct RenderArgs {
     /// with ratio, residual-ratio or track-length shadow transmittance.
     #[arg(long, value_enum, default_value_t = VolumeEstimator::NullScatteringMis)]
     volume_estimator: VolumeEstimator,
+    /// Turn off equiangular sampling of sphere and point lights in media.
+    #[arg(long)]
+    no_equiangular: bool,
     /// AOVs beside the beauty: default, all, beauty (none) or a
     /// comma-separated list (emission, diffuse_direct, diffuse_indirect,
     /// specular_direct, specular_indirect, transmission, volume_direct,
@@ -163,6 +166,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             max_depth: args.max_depth,
             clamp: args.clamp,
             volume_estimator: args.volume_estimator,
+            equiangular: !args.no_equiangular,
         },
         aovs: args.aovs,
     };
@@ -288,6 +292,7 @@ fn write_layers(
             "volume_estimator",
             format!("{:?}", settings.path.volume_estimator),
         ),
+        attribute("equiangular", settings.path.equiangular.to_string()),
         attribute("aovs", settings.aovs.to_string()),
     ]);
     let camera = &header.state.camera;

@@ -57,6 +57,10 @@ pub struct PathSettings {
     pub clamp: Option<f32>,
     /// How paths through media are estimated (`--volume-estimator`).
     pub volume_estimator: VolumeEstimator,
+    /// Equiangular sampling of sphere and point lights from media, MIS-
+    /// combined with distance sampling (null-scattering MIS only; on by
+    /// default, `--no-equiangular` for comparisons).
+    pub equiangular: bool,
 }
 
 /// The volume estimators compared in the charts (`--volume-estimator`).

@@ -29,12 +29,12 @@ use crate::lights::LightSample;
 use crate::materials::{Bsdf, LobeValues};
 use crate::output::aov::{AovSample, CameraHit};
 use crate::render_state::RenderState;
-use crate::sampling::warp::power_heuristic;
+use crate::sampling::warp::{power_heuristic, Equiangular};
 use crate::sampling::{Pcg32, Sampler};
 use crate::scene::NO_MATERIAL;
 use crate::volumes::{
     ratio_tracking_with_null_ratio, transmittance, walk_tentative_collisions, HenyeyGreenstein,
-    MediaRay, TrackingStats,
+    MajorantSegment, MediaRay, TrackingStats,
 };
 
 /// Depth (bounces) from which Russian roulette may end a path.
@@ -109,6 +109,13 @@ pub fn radiance(
             Strategy::Nee => 0.0,
         }
     };
+    // Equiangular sampling of point-like lights from media, a third
+    // strategy beside distance sampling with NEE or phase sampling.
+    let equiangular_on = settings.equiangular
+        && settings.volume_estimator == VolumeEstimator::NullScatteringMis
+        && settings.strategy != Strategy::Bsdf
+        && !state.media.is_empty()
+        && lights.has_point_like();
     // `depth` counts the scattering events before the current ray.
     for depth in 0.. {
         counts.rays.closest += 1;
@@ -138,7 +145,22 @@ pub fn radiance(
             .then(|| state.media.along(origin, direction, t_end))
             .filter(|along| !along.is_empty());
         if let Some(along) = along {
-            let flight = free_flight(&along, ray.tmin, t_end, rng, counts.tracking);
+            let segments = along.segments(ray.tmin, t_end);
+            let equiangular = equiangular_on
+                .then(|| EquiangularRay::new(origin, direction, &segments))
+                .flatten();
+            if let Some(eq) = &equiangular {
+                let sample = (&along, segments.as_slice(), eq);
+                if let Some(c) = equiangular_sample(state, settings, sample, rng, &mut counts) {
+                    let c = throughput * c;
+                    if depth == 0 {
+                        gathered.add_first(c, &VOLUME_EVENT);
+                    } else {
+                        gathered.add(c, depth + 1);
+                    }
+                }
+            }
+            let flight = free_flight(&along, &segments, rng, counts.tracking);
             gathered.add(throughput * flight.emission, depth);
             if settings.volume_estimator == VolumeEstimator::NullScatteringMis {
                 null_ratio = flight.null_ratio;
@@ -149,8 +171,13 @@ pub fn radiance(
                     gathered.aovs.opaque |= depth == 0;
                     break;
                 }
-                FlightEnd::Scattered { t, weight, albedo } => {
-                    gathered.first_event(depth, [Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ONE]);
+                FlightEnd::Scattered {
+                    t,
+                    weight,
+                    albedo,
+                    sigma_s,
+                } => {
+                    gathered.first_event(depth, VOLUME_EVENT);
                     gathered.set_albedo(albedo);
                     throughput *= weight;
                     if depth >= settings.max_depth {
@@ -165,7 +192,13 @@ pub fn radiance(
                         if let Some(light) =
                             next_event(state, settings, &vertex, u_light, rng, &mut counts)
                         {
-                            gathered.add(throughput * light.f * light.li, depth + 1);
+                            // Equiangular sampling could have made this path
+                            // too: its share of the NEE weight.
+                            let share = equiangular.as_ref().map_or(1.0, |eq| {
+                                let distance_path = (t, sigma_s, flight.null_ratio);
+                                eq.distance_share(state, light.light, distance_path)
+                            });
+                            gathered.add(throughput * light.f * light.li * share, depth + 1);
                         }
                     }
                     let (_, u_phase, u_roulette) =
@@ -387,6 +420,8 @@ impl Vertex<'_> {
 /// One light sample's contribution at a vertex: `f * li` is to be
 /// multiplied by the path throughput.
 struct LightContribution {
+    /// Index of the sampled light.
+    light: usize,
     /// The BSDF (cosine included) or phase function towards the light.
     f: Vec3,
     /// Le tr w / pdf: the light's radiance through the media, MIS-weighted
@@ -407,7 +442,7 @@ fn next_event(
     rng: &mut Pcg32,
     counts: &mut PathCounts,
 ) -> Option<LightContribution> {
-    let ls = state
+    let (light, ls) = state
         .lights
         .sample(&state.materials, vertex.position(), u_select, u)?;
     let f = vertex.f(ls.wi);
@@ -424,6 +459,7 @@ fn next_event(
         power_heuristic(ls.pdf, vertex.pdf(ls.wi) * null_ratio)
     };
     Some(LightContribution {
+        light,
         f,
         li: ls.radiance * (tr * weight / ls.pdf),
         wi: ls.wi,
@@ -496,8 +532,13 @@ enum FlightEnd {
     Absorbed,
     /// A real collision at ray parameter `t` scattered it; the throughput
     /// takes `weight` (sigma_s over the mean sigma_s that chose scattering);
-    /// `albedo` = sigma_s / sigma_t there.
-    Scattered { t: f32, weight: Vec3, albedo: Vec3 },
+    /// `albedo` = sigma_s / sigma_t there; `sigma_s` is that mean.
+    Scattered {
+        t: f32,
+        weight: Vec3,
+        albedo: Vec3,
+        sigma_s: f32,
+    },
 }
 
 /// A free flight and what it gathered on the way.
@@ -523,8 +564,7 @@ struct FreeFlight {
 /// (CONVENTIONS.md), so the null probability is exact for every channel.
 fn free_flight(
     along: &MediaRay,
-    t_min: f32,
-    t_max: f32,
+    segments: &[MajorantSegment],
     rng: &mut Pcg32,
     stats: &mut TrackingStats,
 ) -> FreeFlight {
@@ -533,7 +573,7 @@ fn free_flight(
         emission: Vec3::ZERO,
         null_ratio: 1.0,
     };
-    walk_tentative_collisions(along.segments(t_min, t_max), rng, |t, sigma_maj, rng| {
+    walk_tentative_collisions(segments.iter().copied(), rng, |t, sigma_maj, rng| {
         let point = along.at(t);
         stats.count_lookup(point.sigma_t, sigma_maj);
         flight.emission += point.emission / sigma_maj;
@@ -546,6 +586,7 @@ fn free_flight(
                     t,
                     weight: point.sigma_s / sigma_s,
                     albedo: point.sigma_s / point.sigma_t,
+                    sigma_s,
                 }
             } else {
                 FlightEnd::Absorbed
@@ -557,4 +598,125 @@ fn free_flight(
         true
     });
     flight
+}
+
+/// A first event in a volume takes all of what follows.
+const VOLUME_EVENT: [Vec3; 4] = [Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ONE];
+
+/// Equiangular sampling's view of one ray through media: the stretch
+/// [a, b] of the ray inside them, and the point from which it picks a light.
+struct EquiangularRay {
+    origin: Vec3,
+    direction: Vec3,
+    a: f32,
+    b: f32,
+    reference: Vec3,
+}
+
+impl EquiangularRay {
+    /// Over the span of `segments`; `None` when they are empty.
+    fn new(origin: Vec3, direction: Vec3, segments: &[MajorantSegment]) -> Option<Self> {
+        let (a, b) = (segments.first()?.t_min, segments.last()?.t_max);
+        (b > a).then(|| Self {
+            origin,
+            direction,
+            a,
+            b,
+            reference: origin + direction * (0.5 * (a + b)),
+        })
+    }
+
+    /// The distribution of distances towards `centre`.
+    fn towards(&self, centre: Vec3) -> Option<Equiangular> {
+        Equiangular::new(self.origin, self.direction, centre, self.a, self.b)
+    }
+
+    /// Distance sampling's share of the NEE weight at a real scattering
+    /// event it found at `t` (with mean sigma_s and the free flight's product
+    /// of sigma_maj / sigma_n over its null collisions), when NEE there
+    /// picked `light`: p1^2 / (p1^2 + p3^2), p3 / p1 = null ratio x
+    /// P_eq(light) pdf_eq(t) / (sigma_s P_nee(light)) being equiangular
+    /// sampling's density of the same null-scattering path over distance
+    /// sampling's (the light point's density is common to both).
+    fn distance_share(
+        &self,
+        state: &RenderState,
+        light: usize,
+        (t, sigma_s, null_ratio): (f32, f32, f32),
+    ) -> f32 {
+        let lights = &state.lights;
+        let Some(eq) = lights.centre(light).and_then(|c| self.towards(c)) else {
+            return 1.0;
+        };
+        let p = self.origin + self.direction * t;
+        let p3 = null_ratio * lights.probability(self.reference, light) * eq.pdf(t);
+        let p1 = sigma_s * lights.probability(p, light);
+        power_heuristic(p1, p3)
+    }
+}
+
+/// One equiangular sample of single scattering along a ray through media
+/// (Kulla & Fajardo 2012), to be multiplied by the path throughput: a
+/// sphere or point light picked from the ray's midpoint, a distance t
+/// towards it, the transmittance up to t by ratio tracking, the medium's
+/// sigma_s and phase function at t, and next-event estimation of that light
+/// from there. It joins the two strategies of [`next_event`] and phase
+/// sampling by a nested power heuristic: the light-sampled weight
+/// p1^2 / (p1^2 + p2^2) of distance sampling with NEE (p1) against phase
+/// sampling (p2), split between distance (p1) and equiangular (p3)
+/// sampling as p1^2 / (p1^2 + p3^2) and p3^2 / (p1^2 + p3^2); the weights of
+/// every path still sum to one.
+fn equiangular_sample(
+    state: &RenderState,
+    settings: &PathSettings,
+    (along, segments, eq): (&MediaRay, &[MajorantSegment], &EquiangularRay),
+    rng: &mut Pcg32,
+    counts: &mut PathCounts,
+) -> Option<Vec3> {
+    let lights = &state.lights;
+    let (light, centre, p_pick) = lights.pick_point_like(eq.reference, rng.next_f32())?;
+    let distances = eq.towards(centre)?;
+    let t = distances.sample(rng.next_f32()).clamp(eq.a, eq.b);
+    let p_t = distances.pdf(t);
+    let prefix = segments
+        .iter()
+        .filter(|s| s.t_min < t)
+        .map(|s| MajorantSegment {
+            t_max: s.t_max.min(t),
+            ..*s
+        });
+    let (tr, null_prefix) =
+        ratio_tracking_with_null_ratio(prefix, |x| along.sigma_t(x), rng, counts.tracking);
+    if tr == 0.0 {
+        return None;
+    }
+    let point = along.at(t);
+    counts.tracking.density_lookups += 1;
+    let sigma_s = (point.sigma_s.element_sum() / 3.0).min(point.sigma_t);
+    if sigma_s <= 0.0 {
+        return None;
+    }
+    let p = eq.origin + eq.direction * t;
+    let wo = -eq.direction;
+    let phase = along.phase(t, rng.next_f32());
+    let u = Vec2::new(rng.next_f32(), rng.next_f32());
+    let ls = lights.sample_light(&state.materials, light, p, u)?;
+    let p_select = lights.probability(p, light);
+    if ls.pdf.is_nan() || ls.pdf <= 0.0 || p_select <= 0.0 {
+        return None;
+    }
+    let shadow = Ray::new(p.into(), ls.wi.into(), 0.0, ls.distance);
+    let (tr_shadow, null_shadow) = visibility(state, settings, &shadow, rng, counts);
+    if tr_shadow == 0.0 {
+        return None;
+    }
+    let f = phase.eval(wo, ls.wi);
+    let light_weight = if ls.delta || settings.strategy == Strategy::Nee {
+        1.0
+    } else {
+        power_heuristic(p_select * ls.pdf, f * null_shadow)
+    };
+    let p1 = null_prefix * sigma_s * p_select;
+    let weight = light_weight * power_heuristic(p_pick * p_t, p1);
+    Some(point.sigma_s * f * ls.radiance * (tr * tr_shadow * weight / (p_pick * p_t * ls.pdf)))
 }

@@ -173,17 +173,53 @@ impl Lights {
     /// distance and orientation from `p` too), then a point or direction on
     /// it with `u`, as seen from `p`. `None` when there is no light or the
     /// sample carries nothing (the light faces away, `p` is inside a sphere).
+    /// The picked light's index comes with the sample.
     pub fn sample(
         &self,
         materials: &Materials,
         p: Vec3,
         u_select: f32,
         u: Vec2,
-    ) -> Option<LightSample> {
+    ) -> Option<(usize, LightSample)> {
         let pick = self.selection.as_ref()?.pick(p, u_select)?;
         let mut s = self.lights[pick.light].sample(materials, p, u)?;
         s.pdf *= pick.probability;
-        Some(s)
+        Some((pick.light, s))
+    }
+
+    /// A sample of light `index` seen from `p`, its pdf without selection
+    /// (equiangular sampling picks the light before the point).
+    pub fn sample_light(
+        &self,
+        materials: &Materials,
+        index: usize,
+        p: Vec3,
+        u: Vec2,
+    ) -> Option<LightSample> {
+        self.lights[index].sample(materials, p, u)
+    }
+
+    /// Whether any light is a sphere or point light, the lights equiangular
+    /// sampling targets.
+    pub fn has_point_like(&self) -> bool {
+        self.lights.iter().any(|l| matches!(l, Light::Sphere(_)))
+    }
+
+    /// Picks a light from `p` with `u` as [`Lights::sample`] does, and keeps
+    /// the pick when it is a sphere or point light: its index, centre and
+    /// pick probability (Kulla & Fajardo 2012 sample distances towards it).
+    pub fn pick_point_like(&self, p: Vec3, u: f32) -> Option<(usize, Vec3, f32)> {
+        let pick = self.selection.as_ref()?.pick(p, u)?;
+        let centre = self.centre(pick.light)?;
+        Some((pick.light, centre, pick.probability))
+    }
+
+    /// The centre of light `index` when it is a sphere or point light.
+    pub fn centre(&self, index: usize) -> Option<Vec3> {
+        match &self.lights[index] {
+            Light::Sphere(l) => Some(l.centre()),
+            _ => None,
+        }
     }
 
     /// The nearest front-face hit with t in (0, t_max) of the ray from
@@ -232,7 +268,7 @@ impl Lights {
     }
 
     /// Probability of picking light `index` from shading point `p`.
-    fn probability(&self, p: Vec3, index: usize) -> f32 {
+    pub fn probability(&self, p: Vec3, index: usize) -> f32 {
         self.selection
             .as_ref()
             .map_or(0.0, |s| s.probability(p, index))
@@ -487,7 +523,7 @@ mod tests {
         let mut counts = [0u32; 3];
         for _ in 0..n {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
-            let Some(s) = lights.sample(&materials, Vec3::ZERO, rng.next_f32(), u) else {
+            let Some((_, s)) = lights.sample(&materials, Vec3::ZERO, rng.next_f32(), u) else {
                 continue;
             };
             let which = if s.wi.x > 0.5 {
@@ -524,7 +560,7 @@ mod tests {
         let materials = Materials::build(&scene).unwrap();
         let lights = Lights::build(&scene, &materials).unwrap();
         let e = estimate(20_000, 22, |u| {
-            let s = lights.sample(&materials, Vec3::ZERO, 0.5, u)?;
+            let (_, s) = lights.sample(&materials, Vec3::ZERO, 0.5, u)?;
             let p = s.wi * s.distance;
             // Triangle 0 of the quad is mesh-space x > y: world x + 0.5 > 0.5 - y.
             let sp = SurfacePoint {
@@ -589,7 +625,7 @@ mod tests {
         });
         assert_eq!(seen.len(), 1);
         assert_eq!(seen[0].0, Vec3::ONE);
-        let sample = lights
+        let (_, sample) = lights
             .sample(&materials, Vec3::ZERO, 0.5, Vec2::splat(0.3))
             .expect("the default dome is sampled");
         assert_eq!(sample.radiance, Vec3::ONE);
@@ -627,7 +663,7 @@ mod tests {
         let mut domes = 0u32;
         for _ in 0..n {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
-            let s = lights
+            let (_, s) = lights
                 .sample(&materials, Vec3::ZERO, rng.next_f32(), u)
                 .unwrap();
             if s.distance.is_infinite() {

@@ -31,6 +31,11 @@ pub(crate) struct SphereLight {
 const SMALL_SIN2: f32 = 0.000_685_23;
 
 impl SphereLight {
+    /// Centre, world space.
+    pub fn centre(&self) -> Vec3 {
+        self.centre
+    }
+
     /// A point on the visible cap, uniformly by solid angle (pdf 1 / cone),
     /// seen from `p`; `None` from inside the sphere (it emits outwards only).
     /// A point light gives its one direction with pdf 1 and `radiance` =
