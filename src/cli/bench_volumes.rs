@@ -60,6 +60,9 @@ pub struct VolumesBench {
 struct Measurement {
     majorant: MajorantKind,
     estimator: VolumeEstimator,
+    /// Equiangular sampling of sphere and point lights (off only in the
+    /// extra row of scenes that have such lights).
+    equiangular: bool,
     /// relMSE per time budget, median over seeds.
     errors: Vec<f64>,
     /// Samples per pixel reached at the largest budget (median over seeds).
@@ -73,6 +76,16 @@ struct Measurement {
 }
 
 impl Measurement {
+    /// The estimator's name, marked when equiangular sampling is off.
+    fn method(&self) -> String {
+        let name = value_name(self.estimator);
+        if self.equiangular {
+            name
+        } else {
+            format!("{name}, no equiangular")
+        }
+    }
+
     fn lookups_per_camera_ray(&self) -> f64 {
         self.tracking.density_lookups as f64 / self.camera_rays.max(1) as f64
     }
@@ -111,7 +124,7 @@ pub fn run(bench: &VolumesBench) -> Result<()> {
             let path = reference_path(&bench.out, &name, grid.resolution, bench.reference_spp);
             let s = settings(
                 Budget::Samples(bench.reference_spp),
-                VolumeEstimator::default(),
+                (VolumeEstimator::default(), true),
                 REFERENCE_SEED,
             );
             super::bench_equal_time::reference(&grid, &s, &path)?
@@ -119,8 +132,20 @@ pub fn run(bench: &VolumesBench) -> Result<()> {
         let mut measurements = Vec::new();
         for (majorant, state) in [(MajorantKind::Grid, &grid), (MajorantKind::Global, &global)] {
             for &estimator in VolumeEstimator::value_variants() {
-                measurements.push(measure(state, bench, &reference, majorant, estimator));
+                let method = (estimator, true);
+                measurements.push(measure(state, bench, &reference, majorant, method));
             }
+        }
+        // Where equiangular sampling has lights to target, what it buys.
+        if grid.lights.has_point_like() {
+            let method = (VolumeEstimator::NullScatteringMis, false);
+            measurements.push(measure(
+                &grid,
+                bench,
+                &reference,
+                MajorantKind::Grid,
+                method,
+            ));
         }
         print_measurements(bench, &measurements);
         print_ratios(bench, &measurements);
@@ -129,8 +154,13 @@ pub fn run(bench: &VolumesBench) -> Result<()> {
     Ok(())
 }
 
-/// Settings for one benchmark render: MIS + Sobol, box filter, `estimator`.
-fn settings(budget: Budget, estimator: VolumeEstimator, seed: u64) -> RenderSettings {
+/// Settings for one benchmark render: MIS + Sobol, box filter, the volume
+/// estimator with or without equiangular sampling.
+fn settings(
+    budget: Budget,
+    (estimator, equiangular): (VolumeEstimator, bool),
+    seed: u64,
+) -> RenderSettings {
     RenderSettings {
         budget,
         seed,
@@ -141,7 +171,7 @@ fn settings(budget: Budget, estimator: VolumeEstimator, seed: u64) -> RenderSett
             max_depth: MAX_DEPTH,
             clamp: None,
             volume_estimator: estimator,
-            equiangular: true,
+            equiangular,
         },
         aovs: AovSet::beauty_only(),
     }
@@ -153,12 +183,16 @@ fn measure(
     bench: &VolumesBench,
     reference: &[f32],
     majorant: MajorantKind,
-    estimator: VolumeEstimator,
+    (estimator, equiangular): (VolumeEstimator, bool),
 ) -> Measurement {
     let max_time = bench.times.iter().copied().fold(0.0, f64::max);
     let ladders: Vec<Vec<Rung>> = (0..bench.repeats.max(1))
         .map(|seed| {
-            let s = settings(Budget::Samples(1), estimator, u64::from(seed));
+            let s = settings(
+                Budget::Samples(1),
+                (estimator, equiangular),
+                u64::from(seed),
+            );
             ladder(state, reference, ErrorMetric::RelMse, &s, max_time)
         })
         .collect();
@@ -171,6 +205,7 @@ fn measure(
     Measurement {
         majorant,
         estimator,
+        equiangular,
         errors: median_errors(&ladders, &bench.times),
         spp: median(
             ladders
@@ -216,7 +251,7 @@ fn print_measurements(bench: &VolumesBench, measurements: &[Measurement]) {
         println!(
             "| {} | {} | {:.1} | {:.1} | {:.1}% | {} |{}",
             value_name(m.majorant),
-            value_name(m.estimator),
+            m.method(),
             m.spp,
             m.lookups_per_camera_ray(),
             100.0 * m.null_share(),
@@ -240,7 +275,7 @@ fn print_ratios(bench: &VolumesBench, measurements: &[Measurement]) {
         let find = |majorant| {
             measurements
                 .iter()
-                .find(|m| m.majorant == majorant && m.estimator == estimator)
+                .find(|m| m.majorant == majorant && m.estimator == estimator && m.equiangular)
                 .expect("every majorant and estimator is measured")
         };
         let (grid, global) = (find(MajorantKind::Grid), find(MajorantKind::Global));
@@ -276,7 +311,7 @@ fn write_charts(bench: &VolumesBench, name: &str, measurements: &[Measurement]) 
         .iter()
         .map(|m| {
             (
-                format!("{} + {}", value_name(m.majorant), value_name(m.estimator)),
+                format!("{} + {}", value_name(m.majorant), m.method()),
                 m.curve.clone(),
             )
         })

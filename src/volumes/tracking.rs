@@ -84,12 +84,13 @@ pub fn walk_tentative_collisions(
     rng: &mut Pcg32,
     mut visit: impl FnMut(f32, f32, &mut Pcg32) -> bool,
 ) -> bool {
+    let mut depth = FreePath::new(rng);
     for segment in segments {
         if segment.sigma_maj <= 0.0 {
             continue;
         }
         let mut t = segment.t_min;
-        while let Some(next) = next_tentative_collision(t, segment.sigma_maj, segment.t_max, rng) {
+        while let Some(next) = depth.next(t, segment.sigma_maj, segment.t_max, rng) {
             t = next;
             if !visit(t, segment.sigma_maj, rng) {
                 return true;
@@ -187,6 +188,7 @@ fn ratio_tracking(
 ) -> (f32, f32) {
     let mut weight = 1.0f32;
     let mut null_ratio = 1.0f32;
+    let mut depth = FreePath::new(rng);
     for segment in segments {
         let sigma_c = if use_control {
             segment.sigma_min.clamp(0.0, segment.sigma_maj.max(0.0))
@@ -201,7 +203,7 @@ fn ratio_tracking(
             continue;
         }
         let mut t = segment.t_min;
-        while let Some(next) = next_tentative_collision(t, residual_maj, segment.t_max, rng) {
+        while let Some(next) = depth.next(t, residual_maj, segment.t_max, rng) {
             t = next;
             let sigma = sigma_t(t);
             stats.count_lookup(sigma, segment.sigma_maj);
@@ -216,14 +218,39 @@ fn ratio_tracking(
     (weight, null_ratio)
 }
 
-/// The next tentative collision after `t` of a Poisson process with `rate`
-/// per scene unit, `t - ln(1 - u) / rate`, or `None` once it reaches
-/// `t_max`. A NaN anywhere also gives `None`, so a corrupt segment ends the
-/// walk instead of hanging it.
-#[inline]
-fn next_tentative_collision(t: f32, rate: f32, t_max: f32, rng: &mut Pcg32) -> Option<f32> {
-    let next = t - (-rng.next_f32()).ln_1p() / rate;
-    (next < t_max).then_some(next)
+/// The free path to the next tentative collision of a Poisson process whose
+/// rate is piecewise constant along the ray, as an optical depth: one
+/// exponential depth -ln(1 - u) is drawn per collision and spent across the
+/// segments it spans, so crossing a segment without a collision costs a
+/// multiply instead of a logarithm and a random number (the same
+/// distribution as restarting per segment, by memorylessness, but cheaper
+/// where a majorant grid cuts rays into many cells).
+struct FreePath {
+    remaining: f32,
+}
+
+impl FreePath {
+    fn new(rng: &mut Pcg32) -> Self {
+        Self {
+            remaining: -(-rng.next_f32()).ln_1p(),
+        }
+    }
+
+    /// The next tentative collision after `t` at `rate` per scene unit
+    /// before `t_max`, drawing the following depth; or `None`, spending the
+    /// depth the stretch up to `t_max` takes. A NaN anywhere also gives
+    /// `None`, so a corrupt segment ends the walk instead of hanging it.
+    #[inline]
+    fn next(&mut self, t: f32, rate: f32, t_max: f32, rng: &mut Pcg32) -> Option<f32> {
+        let next = t + self.remaining / rate;
+        if next < t_max {
+            *self = Self::new(rng);
+            Some(next)
+        } else {
+            self.remaining = (self.remaining - (t_max - t) * rate).max(0.0);
+            None
+        }
+    }
 }
 
 /// Russian roulette on a small ratio-tracking weight: below
