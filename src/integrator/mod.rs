@@ -7,6 +7,8 @@
 //! sample count the image is bit-identical whatever the thread count.
 //! (`--time` budgets stop after a number of passes that depends on speed.)
 
+mod gathered;
+mod media;
 mod path;
 
 use std::time::{Duration, Instant};

@@ -23,18 +23,19 @@
 use glam::{Vec2, Vec3};
 use obvhs::ray::Ray;
 
+use super::gathered::{lobe_shares, Gathered, VOLUME_EVENT};
+use super::media::{equiangular_sample, free_flight, EquiangularRay, FlightEnd};
 use super::{PathSettings, RayCounts, Strategy, VolumeEstimator};
 use crate::geometry::SurfacePoint;
 use crate::lights::LightSample;
-use crate::materials::{Bsdf, LobeValues};
+use crate::materials::Bsdf;
 use crate::output::aov::{AovSample, CameraHit};
 use crate::render_state::RenderState;
-use crate::sampling::warp::{power_heuristic, Equiangular};
+use crate::sampling::warp::power_heuristic;
 use crate::sampling::{Pcg32, Sampler};
 use crate::scene::NO_MATERIAL;
 use crate::volumes::{
-    ratio_tracking_with_null_ratio, transmittance, walk_tentative_collisions, HenyeyGreenstein,
-    MajorantSegment, MediaRay, TrackingStats,
+    ratio_tracking_with_null_ratio, transmittance, HenyeyGreenstein, TrackingStats,
 };
 
 /// Depth (bounces) from which Russian roulette may end a path.
@@ -292,81 +293,6 @@ pub fn radiance(
     gathered.finish(settings.clamp)
 }
 
-/// What a path has gathered: its radiance and the same contributions split
-/// into the light-path AOVs, plus the other AOVs' values.
-#[derive(Default)]
-struct Gathered {
-    radiance: Vec3,
-    aovs: AovSample,
-    /// Each first-event kind's share of what the path carries after its
-    /// first event (see [`AovSample::add`]).
-    first: [Vec3; 4],
-    albedo_set: bool,
-}
-
-impl Gathered {
-    /// Adds a contribution that reached the camera after `events` events.
-    fn add(&mut self, contribution: Vec3, events: u32) {
-        self.radiance += contribution;
-        self.aovs.add(contribution, events, &self.first);
-    }
-
-    /// Adds light reaching the camera straight after the first event, split
-    /// by that event's own `shares` (next-event estimation at a surface).
-    fn add_first(&mut self, contribution: Vec3, shares: &[Vec3; 4]) {
-        self.radiance += contribution;
-        self.aovs.add(contribution, 1, shares);
-    }
-
-    /// Records how the first event (at `depth` 0) splits what follows.
-    fn first_event(&mut self, depth: u32, shares: [Vec3; 4]) {
-        if depth == 0 {
-            self.first = shares;
-        }
-    }
-
-    /// The albedo AOV takes the first non-Dirac event's reflectance.
-    fn set_albedo(&mut self, albedo: Vec3) {
-        if !self.albedo_set {
-            self.aovs.albedo = albedo;
-            self.albedo_set = true;
-        }
-    }
-
-    /// The radiance (clamped if asked; the AOVs are scaled alike so they
-    /// still sum to it) and the AOV values.
-    fn finish(mut self, clamp: Option<f32>) -> (Vec3, AovSample) {
-        // Clamping would hide a NaN (f32::min drops it): non-finite samples
-        // pass through for the film to count.
-        match clamp {
-            Some(max) if self.radiance.is_finite() => {
-                let clamped = self.radiance.min(Vec3::splat(max));
-                let scale = Vec3::select(
-                    self.radiance.cmpgt(Vec3::ZERO),
-                    clamped / self.radiance,
-                    Vec3::ONE,
-                );
-                self.aovs.scale(scale);
-                (clamped, self.aovs)
-            }
-            _ => (self.radiance, self.aovs),
-        }
-    }
-}
-
-/// Each lobe kind's share of the BSDF value (per RGB channel; 0 where the
-/// BSDF is).
-fn lobe_shares(split: LobeValues) -> [Vec3; 4] {
-    let total = split.total();
-    let share = |part: Vec3| Vec3::select(total.cmpgt(Vec3::ZERO), part / total, Vec3::ZERO);
-    [
-        share(split.diffuse),
-        share(split.specular),
-        share(split.transmission),
-        Vec3::ZERO,
-    ]
-}
-
 /// A scattering vertex of a path, where next-event estimation samples a
 /// light: a surface point with its BSDF, or a real collision in a medium
 /// with its phase function; `wo` points back along the path.
@@ -485,7 +411,7 @@ fn roulette(throughput: &mut Vec3, depth: u32, u: f32) -> bool {
 /// and the factor that turns the vertex's directional sampling density into
 /// its density for the whole null-scattering path (ratio tracking's
 /// product of sigma_n / sigma_maj under null-scattering MIS, else 1).
-fn visibility(
+pub(super) fn visibility(
     state: &RenderState,
     settings: &PathSettings,
     shadow: &Ray,
@@ -522,201 +448,4 @@ fn visibility(
             (tr, 1.0)
         }
     }
-}
-
-/// How a free flight through media ended.
-enum FlightEnd {
-    /// It reached the end of the ray (the surface, light or infinity).
-    Left,
-    /// A real collision absorbed it.
-    Absorbed,
-    /// A real collision at ray parameter `t` scattered it; the throughput
-    /// takes `weight` (sigma_s over the mean sigma_s that chose scattering);
-    /// `albedo` = sigma_s / sigma_t there; `sigma_s` is that mean.
-    Scattered {
-        t: f32,
-        weight: Vec3,
-        albedo: Vec3,
-        sigma_s: f32,
-    },
-}
-
-/// A free flight and what it gathered on the way.
-struct FreeFlight {
-    end: FlightEnd,
-    /// Emission collected at the tentative collisions, sum of
-    /// sigma_a Le / sigma_maj, W/(m^2 sr), to be multiplied by the throughput.
-    emission: Vec3,
-    /// Product of sigma_maj / sigma_n over the null collisions: the light
-    /// strategy's density of these null vertices over delta tracking's.
-    null_ratio: f32,
-}
-
-/// Samples a free flight along `along` over `[t_min, t_max)` by delta
-/// tracking with absorption, scattering and null events (pbrt-v4's
-/// `VolPathIntegrator`, Miller et al. 2019): at each tentative collision the
-/// emission sigma_a Le / sigma_maj is added (unbiased: tentative collisions
-/// have rate sigma_maj, and each is reached with probability T), then one
-/// uniform number picks absorption (mean sigma_a / sigma_maj), scattering
-/// (mean sigma_s / sigma_maj) or a null collision. Choosing by the mean over
-/// RGB channels is the balance-heuristic spectral MIS of a uniformly chosen
-/// hero channel, averaged over the choice; extinction is grey
-/// (CONVENTIONS.md), so the null probability is exact for every channel.
-fn free_flight(
-    along: &MediaRay,
-    segments: &[MajorantSegment],
-    rng: &mut Pcg32,
-    stats: &mut TrackingStats,
-) -> FreeFlight {
-    let mut flight = FreeFlight {
-        end: FlightEnd::Left,
-        emission: Vec3::ZERO,
-        null_ratio: 1.0,
-    };
-    walk_tentative_collisions(segments.iter().copied(), rng, |t, sigma_maj, rng| {
-        let point = along.at(t);
-        stats.count_lookup(point.sigma_t, sigma_maj);
-        flight.emission += point.emission / sigma_maj;
-        let u = rng.next_f32() * sigma_maj;
-        if u < point.sigma_t {
-            stats.real_collisions += 1;
-            let sigma_s = (point.sigma_s.element_sum() / 3.0).min(point.sigma_t);
-            flight.end = if u < sigma_s {
-                FlightEnd::Scattered {
-                    t,
-                    weight: point.sigma_s / sigma_s,
-                    albedo: point.sigma_s / point.sigma_t,
-                    sigma_s,
-                }
-            } else {
-                FlightEnd::Absorbed
-            };
-            return false;
-        }
-        stats.null_collisions += 1;
-        flight.null_ratio *= sigma_maj / (sigma_maj - point.sigma_t);
-        true
-    });
-    flight
-}
-
-/// A first event in a volume takes all of what follows.
-const VOLUME_EVENT: [Vec3; 4] = [Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ONE];
-
-/// Equiangular sampling's view of one ray through media: the stretch
-/// [a, b] of the ray inside them, and the point from which it picks a light.
-struct EquiangularRay {
-    origin: Vec3,
-    direction: Vec3,
-    a: f32,
-    b: f32,
-    reference: Vec3,
-}
-
-impl EquiangularRay {
-    /// Over the span of `segments`; `None` when they are empty.
-    fn new(origin: Vec3, direction: Vec3, segments: &[MajorantSegment]) -> Option<Self> {
-        let (a, b) = (segments.first()?.t_min, segments.last()?.t_max);
-        (b > a).then(|| Self {
-            origin,
-            direction,
-            a,
-            b,
-            reference: origin + direction * (0.5 * (a + b)),
-        })
-    }
-
-    /// The distribution of distances towards `centre`.
-    fn towards(&self, centre: Vec3) -> Option<Equiangular> {
-        Equiangular::new(self.origin, self.direction, centre, self.a, self.b)
-    }
-
-    /// Distance sampling's share of the NEE weight at a real scattering
-    /// event it found at `t` (with mean sigma_s and the free flight's product
-    /// of sigma_maj / sigma_n over its null collisions), when NEE there
-    /// picked `light`: p1^2 / (p1^2 + p3^2), p3 / p1 = null ratio x
-    /// P_eq(light) pdf_eq(t) / (sigma_s P_nee(light)) being equiangular
-    /// sampling's density of the same null-scattering path over distance
-    /// sampling's (the light point's density is common to both).
-    fn distance_share(
-        &self,
-        state: &RenderState,
-        light: usize,
-        (t, sigma_s, null_ratio): (f32, f32, f32),
-    ) -> f32 {
-        let lights = &state.lights;
-        let Some(eq) = lights.centre(light).and_then(|c| self.towards(c)) else {
-            return 1.0;
-        };
-        let p = self.origin + self.direction * t;
-        let p3 = null_ratio * lights.probability(self.reference, light) * eq.pdf(t);
-        let p1 = sigma_s * lights.probability(p, light);
-        power_heuristic(p1, p3)
-    }
-}
-
-/// One equiangular sample of single scattering along a ray through media
-/// (Kulla & Fajardo 2012), to be multiplied by the path throughput: a
-/// sphere or point light picked from the ray's midpoint, a distance t
-/// towards it, the transmittance up to t by ratio tracking, the medium's
-/// sigma_s and phase function at t, and next-event estimation of that light
-/// from there. It joins the two strategies of [`next_event`] and phase
-/// sampling by a nested power heuristic: the light-sampled weight
-/// p1^2 / (p1^2 + p2^2) of distance sampling with NEE (p1) against phase
-/// sampling (p2), split between distance (p1) and equiangular (p3)
-/// sampling as p1^2 / (p1^2 + p3^2) and p3^2 / (p1^2 + p3^2); the weights of
-/// every path still sum to one.
-fn equiangular_sample(
-    state: &RenderState,
-    settings: &PathSettings,
-    (along, segments, eq): (&MediaRay, &[MajorantSegment], &EquiangularRay),
-    rng: &mut Pcg32,
-    counts: &mut PathCounts,
-) -> Option<Vec3> {
-    let lights = &state.lights;
-    let (light, centre, p_pick) = lights.pick_point_like(eq.reference, rng.next_f32())?;
-    let distances = eq.towards(centre)?;
-    let t = distances.sample(rng.next_f32()).clamp(eq.a, eq.b);
-    let p_t = distances.pdf(t);
-    let prefix = segments
-        .iter()
-        .filter(|s| s.t_min < t)
-        .map(|s| MajorantSegment {
-            t_max: s.t_max.min(t),
-            ..*s
-        });
-    let (tr, null_prefix) =
-        ratio_tracking_with_null_ratio(prefix, |x| along.sigma_t(x), rng, counts.tracking);
-    if tr == 0.0 {
-        return None;
-    }
-    let point = along.at(t);
-    counts.tracking.density_lookups += 1;
-    let sigma_s = (point.sigma_s.element_sum() / 3.0).min(point.sigma_t);
-    if sigma_s <= 0.0 {
-        return None;
-    }
-    let p = eq.origin + eq.direction * t;
-    let wo = -eq.direction;
-    let phase = along.phase(t, rng.next_f32());
-    let u = Vec2::new(rng.next_f32(), rng.next_f32());
-    let ls = lights.sample_light(&state.materials, light, p, u)?;
-    let p_select = lights.probability(p, light);
-    if ls.pdf.is_nan() || ls.pdf <= 0.0 || p_select <= 0.0 {
-        return None;
-    }
-    let shadow = Ray::new(p.into(), ls.wi.into(), 0.0, ls.distance);
-    let (tr_shadow, null_shadow) = visibility(state, settings, &shadow, rng, counts);
-    if tr_shadow == 0.0 {
-        return None;
-    }
-    let f = phase.eval(wo, ls.wi);
-    let light_weight = if ls.delta || settings.strategy == Strategy::Nee {
-        1.0
-    } else {
-        power_heuristic(p_select * ls.pdf, f * null_shadow)
-    };
-    let p1 = null_prefix * sigma_s * p_select;
-    let weight = light_weight * power_heuristic(p_pick * p_t, p1);
-    Some(point.sigma_s * f * ls.radiance * (tr * tr_shadow * weight / (p_pick * p_t * ls.pdf)))
 }
