@@ -435,3 +435,61 @@ fn overlapping_volumes_add_their_extinctions() {
         }
     }
 }
+
+/// A density grid whose background is not 0 renders as 0 outside its data
+/// (the majorant grid and the media's bounds cover the stored data only),
+/// and `cirrus render` says so with a warning naming the volume and grid.
+#[test]
+fn non_zero_background_is_reported() {
+    let dir = common::scratch("volumes_background");
+    let vdb = dir.join("box.vdb");
+    let out = std::process::Command::new("/usr/bin/python3")
+        .arg(common::python_script("make_volume_box.py"))
+        .args([
+            vdb.as_os_str(),
+            "4".as_ref(),
+            "0.25".as_ref(),
+            "0.5".as_ref(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let usda = dir.join("scene.usda");
+    std::fs::write(
+        &usda,
+        r#"#usda 1.0
+(
+    defaultPrim = "World"
+)
+def Xform "World"
+{
+    def Volume "Fog"
+    {
+        rel field:density = </World/Fog/density>
+        def OpenVDBAsset "density"
+        {
+            asset filePath = @./box.vdb@
+            token fieldName = "density"
+        }
+    }
+}
+"#,
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .args(["render".as_ref(), usda.as_os_str(), "-o".as_ref()])
+        .arg(dir.join("out.exr"))
+        .args(["--res", "8x8", "--spp", "1", "--aovs", "beauty"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("volume /World/Fog: grid density") && stderr.contains("background 0.5"),
+        "no background warning in:\n{stderr}"
+    );
+}

@@ -275,6 +275,16 @@ impl Media {
                     None => {
                         let grid = VdbFile::open(&field.file)?
                             .read_float_grid(&field.grid, field.index as usize)?;
+                        if grid.background() != 0.0 {
+                            log::warn!(
+                                "volume {}: grid {} of {} has background {}; it is rendered as \
+                                 0 outside the grid's stored data",
+                                volume.path,
+                                field.grid,
+                                field.file.display(),
+                                grid.background()
+                            );
+                        }
                         let majorant = MajorantGrid::build(&grid, kind);
                         let entry = (Arc::new(grid), Arc::new(majorant));
                         grids.insert(key, entry.clone());
