@@ -10,6 +10,8 @@
 
 mod common;
 
+use std::path::Path;
+
 use cirrus::sampling::{warp, Pcg32};
 use cirrus::scene::{self, Scene};
 use cirrus::volumes::{
@@ -436,6 +438,60 @@ fn overlapping_volumes_add_their_extinctions() {
     }
 }
 
+/// `cirrus render` of a one-volume scene over `vdb` (8x8, 4 spp, beauty
+/// only) in `dir`: it must succeed; its stderr.
+fn render_volume(dir: &Path, vdb: &Path) -> String {
+    let usda = dir.join("scene.usda");
+    std::fs::write(
+        &usda,
+        format!(
+            r#"#usda 1.0
+(
+    defaultPrim = "World"
+)
+def Xform "World"
+{{
+    def Volume "Fog"
+    {{
+        rel field:density = </World/Fog/density>
+        def OpenVDBAsset "density"
+        {{
+            asset filePath = @{}@
+            token fieldName = "density"
+        }}
+    }}
+}}
+"#,
+            vdb.display()
+        ),
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .args(["render".as_ref(), usda.as_os_str(), "-o".as_ref()])
+        .arg(dir.join("out.exr"))
+        .args(["--res", "8x8", "--spp", "4", "--aovs", "beauty"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{stderr}");
+    stderr
+}
+
+/// Runs `/usr/bin/python3` (Debian's pyopenvdb) on `script` with `args`.
+fn pyopenvdb(script: &str, args: &[&std::ffi::OsStr]) {
+    let out = std::process::Command::new("/usr/bin/python3")
+        .arg("-c")
+        .arg(script)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// A density grid whose background is not 0 renders as 0 outside its data
 /// (the majorant grid and the media's bounds cover the stored data only),
 /// and `cirrus render` says so with a warning naming the volume and grid.
@@ -458,38 +514,41 @@ fn non_zero_background_is_reported() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let usda = dir.join("scene.usda");
-    std::fs::write(
-        &usda,
-        r#"#usda 1.0
-(
-    defaultPrim = "World"
-)
-def Xform "World"
-{
-    def Volume "Fog"
-    {
-        rel field:density = </World/Fog/density>
-        def OpenVDBAsset "density"
-        {
-            asset filePath = @./box.vdb@
-            token fieldName = "density"
-        }
-    }
-}
-"#,
-    )
-    .unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cirrus"))
-        .args(["render".as_ref(), usda.as_os_str(), "-o".as_ref()])
-        .arg(dir.join("out.exr"))
-        .args(["--res", "8x8", "--spp", "1", "--aovs", "beauty"])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
+    let stderr = render_volume(&dir, &vdb);
     assert!(
         stderr.contains("volume /World/Fog: grid density") && stderr.contains("background 0.5"),
         "no background warning in:\n{stderr}"
     );
+}
+
+/// NaN, infinite and negative densities neither hang tracking (an infinite
+/// majorant would) nor reach the image: they are read as 0, the render
+/// reports how many there were and the smallest value, and no sample is
+/// dropped as non-finite.
+#[test]
+fn non_finite_and_negative_densities_are_read_as_zero_and_reported() {
+    let dir = common::scratch("volumes_bad_values");
+    let vdb = dir.join("bad.vdb");
+    pyopenvdb(
+        r#"
+import sys, pyopenvdb as vdb
+g = vdb.FloatGrid()
+g.name = "density"
+g.fill((0, 0, 0), (7, 7, 7), 1.0)
+a = g.getAccessor()
+a.setValueOn((2, 2, 2), float("nan"))
+a.setValueOn((4, 4, 4), float("inf"))
+a.setValueOn((5, 5, 5), -5.0)
+g.transform = vdb.createLinearTransform(voxelSize=0.25)
+vdb.write(sys.argv[1], grids=[g])
+"#,
+        &[vdb.as_os_str()],
+    );
+    let stderr = render_volume(&dir, &vdb);
+    assert!(
+        stderr.contains("has 2 NaN or infinite values and a smallest value of -5"),
+        "no bad-value warning in:\n{stderr}"
+    );
+    assert!(!stderr.contains("NaN/Inf sample"), "{stderr}");
+    assert!(!stderr.contains("exceeded their majorant"), "{stderr}");
 }

@@ -330,10 +330,13 @@ impl MajorantGrid {
 }
 
 impl DensityRange {
-    /// Widens the range to hold `v`; NaN is ignored.
+    /// Widens the range to hold `v`; NaN and infinities are ignored (media
+    /// read them as 0, see `Medium::density`).
     fn include(&mut self, v: f32) {
-        self.max = self.max.max(v);
-        self.min = self.min.min(v);
+        if v.is_finite() {
+            self.max = self.max.max(v);
+            self.min = self.min.min(v);
+        }
     }
 
     /// Negative densities count as zero (see the module doc); `min <= max`.

@@ -47,6 +47,22 @@ pub struct Medium {
     emission: Option<Emission>,
 }
 
+impl Medium {
+    /// Density at index-space point `p`: trilinear, with negative values
+    /// read as 0 and non-finite ones (and their trilinear neighbourhood) as
+    /// 0 too, so bad voxels can neither make extinction negative nor stall
+    /// tracking with an infinite majorant; `Media::build` reports them.
+    #[inline]
+    fn density(&self, p: Vec3) -> f32 {
+        let v = self.density.trilinear_index(p);
+        if v.is_finite() {
+            v.max(0.0)
+        } else {
+            0.0
+        }
+    }
+}
+
 /// A medium's emission: its temperature grid and how to read it.
 struct Emission {
     temperature: Arc<SparseGrid>,
@@ -145,7 +161,7 @@ impl MediaRay<'_> {
     pub fn sigma_t(&self, t: f32) -> f32 {
         self.media
             .iter()
-            .map(|(m, o, d)| m.density_scale * m.density.trilinear_index(*o + *d * t).max(0.0))
+            .map(|(m, o, d)| m.density_scale * m.density(*o + *d * t))
             .sum()
     }
 
@@ -158,7 +174,7 @@ impl MediaRay<'_> {
             emission: Vec3::ZERO,
         };
         for (m, o, d) in &self.media {
-            let sigma = m.density_scale * m.density.trilinear_index(*o + *d * t).max(0.0);
+            let sigma = m.density_scale * m.density(*o + *d * t);
             point.sigma_t += sigma;
             point.sigma_s += m.albedo * sigma;
             if let (Some(e), Some(table)) = (&m.emission, self.blackbody) {
@@ -183,9 +199,7 @@ impl MediaRay<'_> {
             return m.phase;
         }
         let weight = |(m, o, d): &(&Medium, Vec3, Vec3)| {
-            m.albedo.element_sum()
-                * m.density_scale
-                * m.density.trilinear_index(*o + *d * t).max(0.0)
+            m.albedo.element_sum() * m.density_scale * m.density(*o + *d * t)
         };
         let mut pick = u * self.media.iter().map(weight).sum::<f32>();
         for medium in &self.media {
@@ -275,6 +289,19 @@ impl Media {
                     None => {
                         let grid = VdbFile::open(&field.file)?
                             .read_float_grid(&field.grid, field.index as usize)?;
+                        let stats = grid.stats();
+                        if stats.non_finite_count > 0 || stats.min_value < 0.0 {
+                            log::warn!(
+                                "volume {}: grid {} of {} has {} NaN or infinite values and a \
+                                 smallest value of {}: non-finite values (with their trilinear \
+                                 neighbourhood) and negative densities are read as 0",
+                                volume.path,
+                                field.grid,
+                                field.file.display(),
+                                stats.non_finite_count,
+                                stats.min_value
+                            );
+                        }
                         if grid.background() != 0.0 {
                             log::warn!(
                                 "volume {}: grid {} of {} has background {}; it is rendered as \
