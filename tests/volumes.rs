@@ -477,20 +477,8 @@ def Xform "World"
     stderr
 }
 
-/// Runs `/usr/bin/python3` (Debian's pyopenvdb) on `script` with `args`.
-fn pyopenvdb(script: &str, args: &[&std::ffi::OsStr]) {
-    let out = std::process::Command::new("/usr/bin/python3")
-        .arg("-c")
-        .arg(script)
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
+/// Debian's Python, which has pyopenvdb.
+const SYSTEM_PYTHON: &str = "/usr/bin/python3";
 
 /// A density grid whose background is not 0 renders as 0 outside its data
 /// (the majorant grid and the media's bounds cover the stored data only),
@@ -499,20 +487,10 @@ fn pyopenvdb(script: &str, args: &[&std::ffi::OsStr]) {
 fn non_zero_background_is_reported() {
     let dir = common::scratch("volumes_background");
     let vdb = dir.join("box.vdb");
-    let out = std::process::Command::new("/usr/bin/python3")
-        .arg(common::python_script("make_volume_box.py"))
-        .args([
-            vdb.as_os_str(),
-            "4".as_ref(),
-            "0.25".as_ref(),
-            "0.5".as_ref(),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    common::run_python(
+        Path::new(SYSTEM_PYTHON),
+        &common::python_script("make_volume_box.py"),
+        &[&vdb.to_string_lossy(), "4", "0.25", "0.5"],
     );
     let stderr = render_volume(&dir, &vdb);
     assert!(
@@ -529,7 +507,9 @@ fn non_zero_background_is_reported() {
 fn non_finite_and_negative_densities_are_read_as_zero_and_reported() {
     let dir = common::scratch("volumes_bad_values");
     let vdb = dir.join("bad.vdb");
-    pyopenvdb(
+    let script = dir.join("bad_values.py");
+    std::fs::write(
+        &script,
         r#"
 import sys, pyopenvdb as vdb
 g = vdb.FloatGrid()
@@ -542,8 +522,9 @@ a.setValueOn((5, 5, 5), -5.0)
 g.transform = vdb.createLinearTransform(voxelSize=0.25)
 vdb.write(sys.argv[1], grids=[g])
 "#,
-        &[vdb.as_os_str()],
-    );
+    )
+    .unwrap();
+    common::run_python(Path::new(SYSTEM_PYTHON), &script, &[&vdb.to_string_lossy()]);
     let stderr = render_volume(&dir, &vdb);
     assert!(
         stderr.contains("has 2 NaN or infinite values and a smallest value of -5"),
