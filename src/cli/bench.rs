@@ -3,7 +3,7 @@
 //! several repeats; never used by tests.
 
 use std::hint::black_box;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Result;
@@ -147,11 +147,7 @@ pub fn run(bench: Bench) -> Result<()> {
             threads,
             out,
         } => {
-            let scenes = if scenes.is_empty() {
-                super::bench_aovs::default_scenes(&crate::scene::repo_root())
-            } else {
-                scenes
-            };
+            let scenes = scenes_or_default(scenes, super::bench_aovs::default_scenes);
             let bench = super::bench_aovs::AovsBench {
                 scenes,
                 resolution: res,
@@ -181,12 +177,8 @@ pub fn run(bench: Bench) -> Result<()> {
             threads,
             out,
         } => {
-            let scenes = if scenes.is_empty() {
-                super::bench_render::default_scenes(&crate::scene::repo_root())
-            } else {
-                scenes
-            };
-            let bench = super::bench_render::RenderBench {
+            let scenes = scenes_or_default(scenes, super::bench_render::default_scenes);
+            let bench = super::bench_equal_time::EqualTimeBench {
                 scenes,
                 resolution: res,
                 reference_spp,
@@ -207,28 +199,38 @@ pub fn run(bench: Bench) -> Result<()> {
             out,
             charts,
         } => {
-            let scenes = if scenes.is_empty() {
-                super::bench_volumes::default_scenes(&crate::scene::repo_root())
-            } else {
-                scenes
-            };
+            let scenes = scenes_or_default(scenes, super::bench_volumes::default_scenes);
             let (reference_spp, times, repeats) = if quick {
                 (32, vec![0.1, 0.2], 1)
             } else {
                 (reference_spp, times, repeats)
             };
-            let bench = super::bench_volumes::VolumesBench {
+            let bench = super::bench_equal_time::EqualTimeBench {
                 scenes,
                 resolution: res,
                 reference_spp,
                 times,
                 repeats,
                 out,
-                charts,
             };
-            with_threads(threads, || super::bench_volumes::run(&bench))
+            with_threads(threads, || {
+                super::bench_volumes::run(&bench, charts.as_deref())
+            })
         }
         Bench::InstancesMemory { scene } => super::bench_instances::print_memory(&scene),
+    }
+}
+
+/// The scenes named on the command line, or the benchmark's defaults
+/// (`default_scenes(repo root)`) when none are.
+fn scenes_or_default(
+    scenes: Vec<PathBuf>,
+    default_scenes: fn(&Path) -> Vec<PathBuf>,
+) -> Vec<PathBuf> {
+    if scenes.is_empty() {
+        default_scenes(&crate::scene::repo_root())
+    } else {
+        scenes
     }
 }
 

@@ -15,6 +15,22 @@ use crate::integrator::{self, Budget, RenderSettings, RenderStats};
 use crate::output::{read_image, Compression};
 use crate::render_state::RenderState;
 
+/// What an equal-time benchmark measures (`bench render`, `bench volumes`).
+pub struct EqualTimeBench {
+    /// Scenes (USD or exported).
+    pub scenes: Vec<PathBuf>,
+    /// Image size.
+    pub resolution: UVec2,
+    /// Samples per pixel of each scene's reference.
+    pub reference_spp: u32,
+    /// Equal-time budgets, seconds.
+    pub times: Vec<f64>,
+    /// Seeds per method; the tables show the median error.
+    pub repeats: u32,
+    /// Folder for references and charts.
+    pub out: PathBuf,
+}
+
 /// Path depth of the equal-time benchmarks (the CLI's default).
 pub(super) const MAX_DEPTH: u32 = 16;
 

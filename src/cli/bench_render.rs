@@ -9,12 +9,12 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use glam::UVec2;
 
 use super::bench::{machine_line, median};
 use super::bench_equal_time::{
     error_cells, error_columns, ladder, median_curve, median_errors, reference_path, render,
-    spp_per_second, svg_chart, write_chart, ErrorMetric, Rung, MAX_DEPTH, REFERENCE_SEED,
+    spp_per_second, svg_chart, write_chart, EqualTimeBench, ErrorMetric, Rung, MAX_DEPTH,
+    REFERENCE_SEED,
 };
 use crate::integrator::{
     Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
@@ -35,24 +35,8 @@ const METHODS: [(Strategy, SamplerKind); 6] = [
     (Strategy::Mis, SamplerKind::Sobol),
 ];
 
-/// What to measure.
-pub struct RenderBench {
-    /// Scenes (USD or exported).
-    pub scenes: Vec<PathBuf>,
-    /// Image size.
-    pub resolution: UVec2,
-    /// Samples per pixel of the reference.
-    pub reference_spp: u32,
-    /// Equal-time budgets, seconds.
-    pub times: Vec<f64>,
-    /// Seeds per (method, time); the table shows the median error.
-    pub repeats: u32,
-    /// Folder for references and charts.
-    pub out: PathBuf,
-}
-
 /// Runs the benchmark and prints its tables.
-pub fn run(bench: &RenderBench) -> Result<()> {
+pub fn run(bench: &EqualTimeBench) -> Result<()> {
     std::fs::create_dir_all(&bench.out)
         .with_context(|| format!("cannot create {}", bench.out.display()))?;
     println!("{}\n", machine_line());
@@ -138,7 +122,7 @@ fn throughput(state: &RenderState, repeats: u32) {
 
 /// The reference image, rendered once and kept in the output folder (the
 /// file name holds the resolution and spp).
-fn reference(state: &RenderState, bench: &RenderBench, name: &str) -> Result<Vec<f32>> {
+fn reference(state: &RenderState, bench: &EqualTimeBench, name: &str) -> Result<Vec<f32>> {
     let path = reference_path(&bench.out, name, state.resolution, bench.reference_spp);
     let s = settings(
         Budget::Samples(bench.reference_spp),
@@ -155,7 +139,7 @@ fn reference(state: &RenderState, bench: &RenderBench, name: &str) -> Result<Vec
 /// budget is interpolated log-log between the renders around it.
 fn equal_time(
     state: &RenderState,
-    bench: &RenderBench,
+    bench: &EqualTimeBench,
     name: &str,
     reference: &[f32],
 ) -> Result<()> {

@@ -14,12 +14,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::ValueEnum;
-use glam::UVec2;
 
 use super::bench::{machine_line, median};
 use super::bench_equal_time::{
     error_cells, error_columns, ladder, median_curve, median_errors, reference_path,
-    spp_per_second, svg_chart, write_chart, ErrorMetric, Rung, MAX_DEPTH, REFERENCE_SEED,
+    spp_per_second, svg_chart, write_chart, EqualTimeBench, ErrorMetric, Rung, MAX_DEPTH,
+    REFERENCE_SEED,
 };
 use crate::integrator::{Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
 use crate::output::aov::AovSet;
@@ -36,25 +36,6 @@ const LOOKUP_RATIO_TARGET: f64 = 3.0;
 const ERROR_RATIO_TARGET: f64 = 2.0;
 /// ... and null collisions under this share of all collisions (grid).
 const NULL_SHARE_TARGET: f64 = 0.5;
-
-/// What to measure.
-pub struct VolumesBench {
-    /// Scenes (USD or exported).
-    pub scenes: Vec<PathBuf>,
-    /// Image size.
-    pub resolution: UVec2,
-    /// Samples per pixel of the reference (null-scattering MIS, grid majorant).
-    pub reference_spp: u32,
-    /// Equal-time budgets, seconds.
-    pub times: Vec<f64>,
-    /// Seeds per method; the table shows the median error.
-    pub repeats: u32,
-    /// Folder for references and charts.
-    pub out: PathBuf,
-    /// Folder that also receives each chart as `volumes-<scene>-equal-time.svg`
-    /// (the README's `docs/bench`), when given.
-    pub charts: Option<PathBuf>,
-}
 
 /// One (majorant, estimator) pair's measurements on one scene.
 struct Measurement {
@@ -97,8 +78,11 @@ impl Measurement {
 }
 
 /// Runs the benchmark and prints its tables.
-pub fn run(bench: &VolumesBench) -> Result<()> {
-    for dir in std::iter::once(&bench.out).chain(&bench.charts) {
+/// Runs the benchmark and prints its tables; `charts` is a folder that also
+/// receives each chart as `volumes-<scene>-equal-time.svg` (the README's
+/// `docs/bench`), when given.
+pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
+    for dir in std::iter::once(bench.out.as_path()).chain(charts) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     println!("{}\n", machine_line());
@@ -149,7 +133,7 @@ pub fn run(bench: &VolumesBench) -> Result<()> {
         }
         print_measurements(bench, &measurements);
         print_ratios(bench, &measurements);
-        write_charts(bench, &name, &measurements)?;
+        write_charts(bench, charts, &name, &measurements)?;
     }
     Ok(())
 }
@@ -180,7 +164,7 @@ fn settings(
 /// Ladders of one (majorant, estimator) pair, one per seed, summarised.
 fn measure(
     state: &RenderState,
-    bench: &VolumesBench,
+    bench: &EqualTimeBench,
     reference: &[f32],
     majorant: MajorantKind,
     (estimator, equiangular): (VolumeEstimator, bool),
@@ -241,7 +225,7 @@ fn print_extinction(scene: &Scene) -> Result<()> {
 }
 
 /// The per-method table.
-fn print_measurements(bench: &VolumesBench, measurements: &[Measurement]) {
+fn print_measurements(bench: &EqualTimeBench, measurements: &[Measurement]) {
     let max_time = bench.times.iter().copied().fold(0.0, f64::max);
     let (errors_header, errors_rule) = error_columns(ErrorMetric::RelMse, &bench.times);
     println!(
@@ -263,7 +247,7 @@ fn print_measurements(bench: &VolumesBench, measurements: &[Measurement]) {
 }
 
 /// The global / grid ratios per estimator, and whether the targets hold.
-fn print_ratios(bench: &VolumesBench, measurements: &[Measurement]) {
+fn print_ratios(bench: &EqualTimeBench, measurements: &[Measurement]) {
     let max_time = bench.times.iter().copied().fold(0.0, f64::max);
     let (errors_header, errors_rule) = error_columns(ErrorMetric::RelMse, &bench.times);
     println!(
@@ -306,7 +290,12 @@ fn print_ratios(bench: &VolumesBench, measurements: &[Measurement]) {
 
 /// The relMSE-against-time chart of one scene, in the output folder and, when
 /// asked, in the charts folder as `volumes-<scene>-equal-time.svg`.
-fn write_charts(bench: &VolumesBench, name: &str, measurements: &[Measurement]) -> Result<()> {
+fn write_charts(
+    bench: &EqualTimeBench,
+    charts: Option<&Path>,
+    name: &str,
+    measurements: &[Measurement],
+) -> Result<()> {
     let curves: Vec<(String, Vec<(f64, f64)>)> = measurements
         .iter()
         .map(|m| {
@@ -320,7 +309,7 @@ fn write_charts(bench: &VolumesBench, name: &str, measurements: &[Measurement]) 
     let chart = bench.out.join(format!("{name}-equal-time.svg"));
     write_chart(&chart, &svg)?;
     println!("Chart: {}", chart.display());
-    if let Some(dir) = &bench.charts {
+    if let Some(dir) = charts {
         let published = dir.join(format!("volumes-{name}-equal-time.svg"));
         write_chart(&published, &svg)?;
         println!("Chart: {}", published.display());

@@ -37,11 +37,9 @@ impl Gathered {
         self.aovs.add(contribution, 1, shares);
     }
 
-    /// Records how the first event (at `depth` 0) splits what follows.
-    pub(super) fn first_event(&mut self, depth: u32, shares: [Vec3; 4]) {
-        if depth == 0 {
-            self.first = shares;
-        }
+    /// Records how the path's first event splits what follows.
+    pub(super) fn first_event(&mut self, shares: [Vec3; 4]) {
+        self.first = shares;
     }
 
     /// The albedo AOV takes the first non-Dirac event's reflectance.

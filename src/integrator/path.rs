@@ -178,7 +178,9 @@ pub fn radiance(
                     albedo,
                     sigma_s,
                 } => {
-                    gathered.first_event(depth, VOLUME_EVENT);
+                    if depth == 0 {
+                        gathered.first_event(VOLUME_EVENT);
+                    }
                     gathered.set_albedo(albedo);
                     throughput *= weight;
                     if depth >= settings.max_depth {
@@ -278,7 +280,7 @@ pub fn radiance(
             } else {
                 lobe_shares(bsdf.eval_split(wo, bs.wi))
             };
-            gathered.first_event(depth, shares);
+            gathered.first_event(shares);
         }
         throughput *= bs.weight;
         bounce = Bounce {

@@ -336,29 +336,33 @@ impl Film {
             .collect();
         let width = channels.len();
         let mut pixels = vec![0.0f32; width * self.pixels.len()];
+        let summed = self.aovs.summed.iter().find(|(a, _)| *a == aov);
+        let coverage = match aov {
+            Aov::CryptoObject => self.aovs.crypto[0].as_ref().zip(crypto),
+            Aov::CryptoMaterial => self.aovs.crypto[1].as_ref().zip(crypto),
+            _ => None,
+        };
         for (i, (p, out)) in self.pixels.iter().zip(pixels.chunks_mut(width)).enumerate() {
-            let n = p.count.max(1);
-            let mean = |c: usize| p.rgb[c] / f64::from(n);
+            let n = f64::from(p.count.max(1));
             match aov {
                 Aov::SampleCount => out[0] = p.count as f32,
                 Aov::Variance => {
+                    // Sample variance (n - 1 in the denominator) over n.
                     for (c, v) in out.iter_mut().enumerate() {
-                        let m = mean(c);
-                        let var = (p.rgb_squared[c] / f64::from(n) - m * m).max(0.0) * f64::from(n)
-                            / f64::from(n.saturating_sub(1).max(1));
-                        *v = (var / f64::from(n)) as f32;
+                        let mean = p.rgb[c] / n;
+                        let second_moment = (p.rgb_squared[c] / n - mean * mean).max(0.0);
+                        *v = (second_moment / (n - 1.0).max(1.0)) as f32;
                     }
                 }
                 Aov::Z => out[0] = self.aovs.depth.as_ref().map_or(f32::INFINITY, |d| d[i]),
                 Aov::CryptoObject | Aov::CryptoMaterial => {
-                    let index = usize::from(aov == Aov::CryptoMaterial);
-                    if let (Some(coverage), Some(layer)) = (&self.aovs.crypto[index], crypto) {
+                    if let Some((coverage, layer)) = coverage {
                         debug_assert_eq!(width, CHANNELS);
                         coverage[i].ranks(layer, p.count, out);
                     }
                 }
                 _ => {
-                    if let Some((_, offset)) = self.aovs.summed.iter().find(|(a, _)| *a == aov) {
+                    if let Some((_, offset)) = summed {
                         let sums = &self.aovs.sums[i * self.aovs.stride + offset..][..3];
                         for (v, s) in out.iter_mut().zip(sums) {
                             *v = s / n as f32;
