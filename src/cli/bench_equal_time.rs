@@ -237,9 +237,10 @@ pub(super) fn error_cells(errors: &[f64]) -> String {
     errors.iter().map(|e| format!(" {e:.3e} |")).collect()
 }
 
-/// Writes `svg` to `path`.
+/// Writes `svg` to `path` (atomically).
 pub(super) fn write_chart(path: &Path, svg: &str) -> Result<()> {
-    std::fs::write(path, svg).with_context(|| format!("cannot write {}", path.display()))
+    crate::output::atomic::write_file(path, svg.as_bytes())
+        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// A log-log chart of the error against seconds, one polyline per labelled
@@ -320,6 +321,7 @@ mod tests {
                 rays: RayCounts::default(),
                 non_finite: Default::default(),
                 tracking: TrackingStats::default(),
+                complete: true,
             },
         }
     }

@@ -8,6 +8,7 @@ mod bench_equal_time;
 mod bench_instances;
 mod bench_render;
 mod bench_volumes;
+mod checkpoint;
 mod info;
 mod render;
 
@@ -77,10 +78,16 @@ pub fn run() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
+        Err(e) => match e.downcast_ref::<checkpoint::Interrupted>() {
+            Some(stop) => {
+                eprintln!("{stop}");
+                ExitCode::from((128 + stop.signal) as u8)
+            }
+            None => {
+                eprintln!("error: {e:#}");
+                ExitCode::FAILURE
+            }
+        },
     }
 }
 

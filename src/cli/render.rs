@@ -12,8 +12,10 @@ use anyhow::{bail, Context, Result};
 use glam::UVec2;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use super::checkpoint::{self, Fingerprint, Interrupted, OutputFiles, StopSignal};
 use crate::integrator::{
-    self, Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
+    self, Budget, Checkpointing, FilmState, PathSettings, RenderControl, RenderSettings,
+    RenderStats, Strategy, VolumeEstimator,
 };
 use crate::output::aov::{Aov, AovSet};
 use crate::output::cryptomatte::CryptoLayer;
@@ -92,6 +94,17 @@ pub struct RenderArgs {
     /// USD time code to export (USD input only).
     #[arg(long)]
     frame: Option<f64>,
+    /// Overwrite existing outputs (and drop an unfinished render's checkpoint).
+    #[arg(long)]
+    force: bool,
+    /// Save the film state to OUT.checkpoint every this many seconds (it is
+    /// always saved when SIGINT or SIGTERM stops the render).
+    #[arg(long, value_name = "SECONDS")]
+    checkpoint_every: Option<f64>,
+    /// Continue the render saved in OUT.checkpoint (same scene and settings;
+    /// the result is bit-identical to an uninterrupted render).
+    #[arg(long)]
+    resume: bool,
 }
 
 /// The Cryptomatte layers chosen in `aovs`, named by the scene's Mesh and
@@ -139,23 +152,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.clamp.is_some_and(|c| c.is_nan() || c <= 0.0) {
         bail!("--clamp must be positive");
     }
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = args.threads {
-        pool = pool.num_threads(n);
+    if args
+        .checkpoint_every
+        .is_some_and(|t| !(t.is_finite() && t > 0.0))
+    {
+        bail!("--checkpoint-every must be a positive number of seconds");
     }
-    let pool = pool.build().context("cannot start worker threads")?;
-    let start = Instant::now();
-    let scene = super::load_scene(&args.scene, args.frame)?;
-    let state = pool.install(|| RenderState::build(&scene, args.res, args.majorant))?;
-    let crypto = cryptomatte_layers(&scene, &args.aovs);
-    drop(scene);
-    log::info!(
-        "{}: ready in {:.2} s, {}x{}",
-        args.scene.display(),
-        start.elapsed().as_secs_f64(),
-        state.resolution.x,
-        state.resolution.y
-    );
     let settings = RenderSettings {
         budget,
         seed: args.seed,
@@ -170,9 +172,55 @@ pub fn run(args: RenderArgs) -> Result<()> {
         },
         aovs: args.aovs,
     };
+    let files = OutputFiles::new(&args.output, args.aov_files, &settings);
+    files.claim(args.force, args.resume)?;
+    let signal = StopSignal::install().context("cannot install the SIGINT/SIGTERM handlers")?;
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = args.threads {
+        pool = pool.num_threads(n);
+    }
+    let pool = pool.build().context("cannot start worker threads")?;
+    let start = Instant::now();
+    let scene = super::load_scene(&args.scene, args.frame)?;
+    let state = pool.install(|| RenderState::build(&scene, args.res, args.majorant))?;
+    let crypto = cryptomatte_layers(&scene, &settings.aovs);
+    let fingerprint = Fingerprint::new(&scene, state.resolution, &settings, args.majorant)?;
+    drop(scene);
+    let resumed = if args.resume {
+        let resumed =
+            checkpoint::load(&files.checkpoint, &fingerprint, state.resolution, &settings)?;
+        log::info!(
+            "resuming {} at {} spp",
+            files.checkpoint.display(),
+            resumed.progress.samples_per_pixel()
+        );
+        resumed
+    } else {
+        FilmState::new(state.resolution, settings.aovs.clone())
+    };
+    log::info!(
+        "{}: ready in {:.2} s, {}x{}",
+        args.scene.display(),
+        start.elapsed().as_secs_f64(),
+        state.resolution.x,
+        state.resolution.y
+    );
     let progress = Progress::new();
-    let (film, stats) =
-        pool.install(|| integrator::render(&state, &settings, &|f| progress.update(f)));
+    let save = |s: &FilmState| {
+        if let Err(e) = checkpoint::save(&files.checkpoint, s, &fingerprint) {
+            log::warn!("checkpoint not saved: {e:#}");
+        }
+    };
+    let control = RenderControl {
+        progress: &|f| progress.update(f),
+        stop: &|| signal.requested(),
+        checkpoint: args.checkpoint_every.map(|t| Checkpointing {
+            every: Duration::from_secs_f64(t),
+            save: &save,
+        }),
+    };
+    let (end, stats) =
+        pool.install(|| integrator::render_from(&state, &settings, resumed, &control));
     progress.finish();
     let header = Header {
         state: &state,
@@ -180,13 +228,59 @@ pub fn run(args: RenderArgs) -> Result<()> {
         stats: &stats,
         compression: args.compression,
     };
-    write_film(&args.output, args.aov_files, &film, &crypto, &header)?;
-    let rgb = film.rgb();
+    if !stats.complete {
+        return Err(interrupted(
+            &files,
+            &end,
+            &fingerprint,
+            &crypto,
+            &header,
+            &signal,
+        ));
+    }
+    write_film(&args.output, args.aov_files, &end.film, &crypto, &header)?;
+    let rgb = end.film.rgb();
     let r = state.resolution;
     let preview = args.output.with_extension("png");
     write_preview(&preview, r.x, r.y, &rgb)?;
+    files.finish()?;
     report(&args.output, &preview, &stats);
     Ok(())
+}
+
+/// After a stop by signal: saves the checkpoint and a partial EXR (when any
+/// sample was taken) and returns the [`Interrupted`] error saying how to resume.
+fn interrupted(
+    files: &OutputFiles,
+    end: &FilmState,
+    fingerprint: &Fingerprint,
+    crypto: &[Option<CryptoLayer>; 2],
+    header: &Header,
+    signal: &StopSignal,
+) -> anyhow::Error {
+    let signal = signal.signal().unwrap_or(signal_hook::consts::SIGINT);
+    if end.progress.tile_samples.iter().all(|&s| s == 0) {
+        return Interrupted {
+            signal,
+            message: "interrupted before the first sample; nothing written".into(),
+        }
+        .into();
+    }
+    let saved = checkpoint::save(&files.checkpoint, end, fingerprint)
+        .and_then(|()| write_film(&files.partial, AovFiles::Single, &end.film, crypto, header));
+    if let Err(e) = saved {
+        return e.context("interrupted, and the checkpoint could not be saved");
+    }
+    Interrupted {
+        signal,
+        message: format!(
+            "interrupted at {} spp: saved {} and {}; run the same command with --resume to finish",
+            end.progress.samples_per_pixel(),
+            files.checkpoint.display(),
+            files.partial.display()
+        ),
+    }
+    .into()
 }
 
 /// How AOVs are split over files (`--aov-files`).
@@ -280,6 +374,7 @@ fn write_layers(
         ),
         attribute("version", env!("CARGO_PKG_VERSION").into()),
         attribute("spp", stats.samples_per_pixel.to_string()),
+        attribute("complete", stats.complete.to_string()),
         attribute(
             "render_seconds",
             format!("{:.3}", stats.elapsed.as_secs_f64()),

@@ -2,15 +2,18 @@
 //! paths in parallel over image tiles (rayon).
 //!
 //! Determinism: each pixel sample draws from a sampler keyed by (pixel,
-//! sample index, seed) only, each tile sums its pixels in sample order, and
-//! tiles merge into the film in a fixed order; so for a given `--seed` and
-//! sample count the image is bit-identical whatever the thread count.
+//! sample index, seed) only, each tile sums its pixels in sample order within
+//! fixed passes, and tiles cover disjoint pixels; so for a given `--seed` and
+//! sample count the image is bit-identical whatever the thread count, and
+//! whether or not the render was stopped and resumed (see `progress.rs`).
 //! (`--time` budgets stop after a number of passes that depends on speed.)
 
 mod gathered;
 mod media;
 mod path;
+mod progress;
 
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use glam::{UVec2, Vec2};
@@ -22,16 +25,8 @@ use crate::output::filter::{FilterKind, PixelFilter};
 use crate::render_state::RenderState;
 use crate::sampling::{Pcg32, Sampler, SamplerKind};
 use crate::volumes::{TrackingStats, TransmittanceEstimator};
-
-/// Tile edge in pixels: enough tiles for load balance on many cores, big
-/// enough that per-tile overhead vanishes.
-const TILE_SIZE: u32 = 16;
-
-/// Longest pass in samples per pixel under a time budget. Passes are 1, 1,
-/// 2, 4, 8, 16, 16, ... samples, so the total doubles (1, 2, 4 .. 32) and then
-/// grows by this much (48, 64, ...): Sobol points are best balanced at powers
-/// of two and multiples of this; the budget is checked between passes.
-const MAX_PASS_SAMPLES: u32 = 16;
+use progress::{next_pass_end, TILE_SIZE};
+pub use progress::{Checkpointing, FilmState, RenderControl, RenderProgress};
 
 /// How light is found, for comparing the estimators (`--strategy`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -126,7 +121,7 @@ pub struct RenderSettings {
 }
 
 /// Rays traced, by kind.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct RayCounts {
     /// Camera rays.
     pub camera: u64,
@@ -157,83 +152,126 @@ pub struct RenderStats {
     pub non_finite: NonFiniteSamples,
     /// Density lookups and collisions in media.
     pub tracking: TrackingStats,
+    /// The budget was spent (false when the render was stopped early).
+    pub complete: bool,
 }
 
-/// Renders `state` into a film. `progress` is called after every tile with
-/// the fraction done (of the samples, or of the time budget).
+/// Renders `state` into a film from scratch to the end of the budget.
+/// `progress` is called after every tile with the fraction done (of the
+/// samples, or of the time budget).
 pub fn render(
     state: &RenderState,
     settings: &RenderSettings,
     progress: &(dyn Fn(f64) + Sync),
 ) -> (Film, RenderStats) {
-    let mut film = Film::new(state.resolution, settings.aovs.clone());
-    let tiles = film.tiles(TILE_SIZE);
+    let start = FilmState::new(state.resolution, settings.aovs.clone());
+    let control = RenderControl {
+        progress,
+        stop: &|| false,
+        checkpoint: None,
+    };
+    let (end, stats) = render_from(state, settings, start, &control);
+    (end.film, stats)
+}
+
+/// Continues a render from `start` (an empty [`FilmState`] or a
+/// checkpoint's) until the budget is spent or `control.stop` asks to stop,
+/// then returns the state reached. Every tile takes its samples in the same
+/// passes whether or not the render is stopped and resumed in between, so a
+/// resumed render is bit-identical to an uninterrupted one.
+pub fn render_from(
+    state: &RenderState,
+    settings: &RenderSettings,
+    start: FilmState,
+    control: &RenderControl,
+) -> (FilmState, RenderStats) {
+    let tiles = start.film.tiles(TILE_SIZE);
     let filter = PixelFilter::new(settings.filter);
-    let start = Instant::now();
-    let mut rays = RayCounts::default();
-    let mut tracking = TrackingStats::default();
-    let mut done = 0u32;
-    let mut pass = 1u32;
-    loop {
-        let count = match settings.budget {
-            Budget::Samples(n) => n - done,
-            Budget::Time(_) => pass,
-        };
-        let tiles_done = std::sync::atomic::AtomicUsize::new(0);
-        let results: Vec<(TileFilm, RayCounts, TrackingStats)> = tiles
-            .par_iter()
-            .map(|tile| {
-                let mut out = TileFilm::new(*tile, &settings.aovs);
-                let mut counts = RayCounts::default();
-                let mut media = TrackingStats::default();
-                let samples = done..done + count;
-                render_tile(
-                    state,
-                    settings,
-                    &filter,
-                    samples,
-                    &mut out,
-                    (&mut counts, &mut media),
-                );
-                let n = tiles_done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                progress(match settings.budget {
-                    Budget::Samples(total) => {
-                        (f64::from(done) + f64::from(count) * n as f64 / tiles.len() as f64)
-                            / f64::from(total)
-                    }
-                    Budget::Time(limit) => start.elapsed().as_secs_f64() / limit.as_secs_f64(),
-                });
-                (out, counts, media)
-            })
-            .collect();
-        for (tile, counts, media) in &results {
-            film.merge(tile);
-            rays.add(counts);
-            tracking.merge(media);
+    let clock = Instant::now();
+    let earlier = start.progress.seconds;
+    let seconds = || earlier + clock.elapsed().as_secs_f64();
+    let target = match settings.budget {
+        Budget::Samples(n) => Some(n),
+        Budget::Time(_) => None,
+    };
+    let pixels_total = f64::from(state.resolution.x) * f64::from(state.resolution.y);
+    let fraction = |progress: &RenderProgress| match settings.budget {
+        Budget::Samples(n) => {
+            let taken: f64 = tiles
+                .iter()
+                .zip(&progress.tile_samples)
+                .map(|(t, &s)| f64::from(t.size.x * t.size.y) * f64::from(s))
+                .sum();
+            taken / (pixels_total * f64::from(n))
         }
-        done += count;
-        match settings.budget {
-            Budget::Samples(_) => break,
-            Budget::Time(limit) => {
-                // Stop when the next pass would overrun.
-                let elapsed = start.elapsed();
-                let next = done.min(MAX_PASS_SAMPLES);
-                let per_sample = elapsed.as_secs_f64() / f64::from(done);
-                if elapsed.as_secs_f64() + per_sample * f64::from(next) > limit.as_secs_f64() {
-                    break;
-                }
-                pass = next;
+        Budget::Time(limit) => seconds() / limit.as_secs_f64(),
+    };
+    let shared = Mutex::new(start);
+    let last_checkpoint = Mutex::new(Instant::now());
+    loop {
+        let done = lock(&shared).progress.samples_per_pixel();
+        let end = next_pass_end(done, target);
+        if end == done || (control.stop)() {
+            break;
+        }
+        if let Budget::Time(limit) = settings.budget {
+            // Stop when the next pass would overrun (after at least one sample).
+            let per_sample = seconds() / f64::from(done.max(1));
+            if done > 0 && seconds() + per_sample * f64::from(end - done) > limit.as_secs_f64() {
+                break;
             }
         }
+        let pending: Vec<usize> = lock(&shared)
+            .progress
+            .tile_samples
+            .iter()
+            .enumerate()
+            .filter(|&(_, &s)| s == done)
+            .map(|(i, _)| i)
+            .collect();
+        pending.par_iter().for_each(|&i| {
+            if (control.stop)() {
+                return;
+            }
+            let mut out = TileFilm::new(tiles[i], &settings.aovs);
+            let mut rays = RayCounts::default();
+            let mut tracking = TrackingStats::default();
+            let counts = (&mut rays, &mut tracking);
+            render_tile(state, settings, &filter, done..end, &mut out, counts);
+            let mut now = lock(&shared);
+            now.film.merge(&out);
+            now.progress.tile_samples[i] = end;
+            now.progress.rays.add(&rays);
+            now.progress.tracking.merge(&tracking);
+            (control.progress)(fraction(&now.progress));
+            if let Some(checkpoint) = &control.checkpoint {
+                let mut last = lock(&last_checkpoint);
+                if last.elapsed() >= checkpoint.every {
+                    now.progress.seconds = seconds();
+                    (checkpoint.save)(&now);
+                    *last = Instant::now();
+                }
+            }
+        });
     }
+    let mut end = shared.into_inner().unwrap_or_else(|e| e.into_inner());
+    end.progress.seconds = seconds();
+    let p = &end.progress;
+    let samples_per_pixel = p.samples_per_pixel();
     let stats = RenderStats {
-        samples_per_pixel: done,
-        elapsed: start.elapsed(),
-        rays,
-        non_finite: film.non_finite,
-        tracking,
+        samples_per_pixel,
+        elapsed: Duration::from_secs_f64(p.seconds),
+        rays: p.rays,
+        non_finite: end.film.non_finite,
+        tracking: p.tracking,
+        complete: !(control.stop)() || target.is_some_and(|n| samples_per_pixel >= n),
     };
-    (film, stats)
+    (end, stats)
+}
+
+/// Locks `m`; a panicked worker's poison is ignored (its panic propagates).
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// Samples `samples` of every pixel of one tile into `out`.

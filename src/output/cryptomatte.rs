@@ -224,6 +224,12 @@ impl CryptoCoverage {
         }
     }
 
+    /// (object index, samples) of every object recorded, in first-hit
+    /// order: what a film-state file stores.
+    pub(super) fn counts(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        self.hits().map(|h| (h.index, h.count))
+    }
+
     /// Every recorded (index, count), in first-hit order.
     fn hits(&self) -> impl Iterator<Item = &Hit> {
         self.inline[..usize::from(self.inline_len)]
@@ -232,7 +238,7 @@ impl CryptoCoverage {
     }
 
     /// Adds `count` samples to object `index`, keeping one entry per index.
-    fn add_count(&mut self, index: u32, count: u32) {
+    pub(super) fn add_count(&mut self, index: u32, count: u32) {
         let inline_len = usize::from(self.inline_len);
         let existing = self.inline[..inline_len]
             .iter_mut()

@@ -129,37 +129,37 @@ pub fn write_exr(path: &Path, image: &ExrImage) -> Result<(), ImageError> {
             image.channels.len()
         )));
     }
-    let temp = temp_path(path);
-    let request = ffi::ExrRequest {
-        path: &temp.to_string_lossy(),
-        width: image.width,
-        height: image.height,
-        channel_names: image.channels.iter().map(|c| c.name.clone()).collect(),
-        channel_half: image
-            .channels
-            .iter()
-            .map(|c| c.pixel_type == PixelType::Half)
-            .collect(),
-        compression: image.compression.oiio_name(),
-        strings: image
-            .strings
-            .iter()
-            .map(|(name, value)| ffi::StringAttribute {
-                name: name.clone(),
-                value: value.clone(),
-            })
-            .collect(),
-        matrices: image
-            .matrices
-            .iter()
-            .map(|(name, values)| ffi::MatrixAttribute {
-                name: name.clone(),
-                values: *values,
-            })
-            .collect(),
-        pixels: image.pixels,
-    };
-    write_atomically(path, &temp, || ffi::write_exr(&request))
+    write_atomically(path, |temp| {
+        ffi::write_exr(&ffi::ExrRequest {
+            path: temp,
+            width: image.width,
+            height: image.height,
+            channel_names: image.channels.iter().map(|c| c.name.clone()).collect(),
+            channel_half: image
+                .channels
+                .iter()
+                .map(|c| c.pixel_type == PixelType::Half)
+                .collect(),
+            compression: image.compression.oiio_name(),
+            strings: image
+                .strings
+                .iter()
+                .map(|(name, value)| ffi::StringAttribute {
+                    name: name.clone(),
+                    value: value.clone(),
+                })
+                .collect(),
+            matrices: image
+                .matrices
+                .iter()
+                .map(|(name, values)| ffi::MatrixAttribute {
+                    name: name.clone(),
+                    values: *values,
+                })
+                .collect(),
+            pixels: image.pixels,
+        })
+    })
 }
 
 /// Reads an image (png, jpg, tga, exr, ...) into linear f32. `color_space`
@@ -318,47 +318,42 @@ pub(super) fn write_display_png(
     rgb: &[f32],
     labels: &[TextLabel],
 ) -> Result<bool, ImageError> {
-    let temp = temp_path(path);
-    let request = ffi::DisplayPngRequest {
-        path: &temp.to_string_lossy(),
-        width,
-        height,
-        pixels: rgb,
-        labels: labels
-            .iter()
-            .map(|l| ffi::TextLabel {
-                text: l.text.clone(),
-                x: l.x,
-                y: l.y,
-            })
-            .collect(),
-    };
+    let labels: Vec<ffi::TextLabel> = labels
+        .iter()
+        .map(|l| ffi::TextLabel {
+            text: l.text.clone(),
+            x: l.x,
+            y: l.y,
+        })
+        .collect();
     let mut labelled = false;
-    write_atomically(path, &temp, || {
-        labelled = ffi::write_display_png(&request)?;
+    write_atomically(path, |temp| {
+        labelled = ffi::write_display_png(&ffi::DisplayPngRequest {
+            path: temp,
+            width,
+            height,
+            pixels: rgb,
+            labels,
+        })?;
         Ok(())
     })?;
     Ok(labelled)
 }
 
-/// Runs `write` (which writes `temp`), then renames `temp` to `path`; on any
-/// failure removes `temp` and reports a [`ImageError::Write`] naming `path`.
+/// Writes `path` through `write` (an OpenImageIO call given the temporary
+/// path) with [`super::atomic::replace_file`], reporting failures as
+/// [`ImageError::Write`] naming `path`.
 fn write_atomically(
     path: &Path,
-    temp: &Path,
-    write: impl FnOnce() -> Result<(), cxx::Exception>,
+    write: impl FnOnce(&str) -> Result<(), cxx::Exception>,
 ) -> Result<(), ImageError> {
-    let fail = |message: String| ImageError::Write {
+    super::atomic::replace_file(path, |temp| {
+        write(&temp.to_string_lossy()).map_err(|e| std::io::Error::other(e.what().to_owned()))
+    })
+    .map_err(|e| ImageError::Write {
         path: path.to_path_buf(),
-        message,
-    };
-    let written = write()
-        .map_err(|e| fail(e.what().to_owned()))
-        .and_then(|()| std::fs::rename(temp, path).map_err(|e| fail(e.to_string())));
-    if written.is_err() {
-        let _ = std::fs::remove_file(temp);
-    }
-    written
+        message: e.to_string(),
+    })
 }
 
 /// The sRGB electro-optical transfer function (IEC 61966-2-1).
@@ -368,20 +363,6 @@ pub(super) fn srgb_to_linear(v: f32) -> f32 {
     } else {
         ((v + 0.055) / 1.055).powf(2.4)
     }
-}
-
-/// `dir/.name.PID.tmp.exr`: same folder (so rename is atomic), same extension
-/// (OpenImageIO picks the writer from it).
-fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let ext = path
-        .extension()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "exr".into());
-    path.with_file_name(format!(".{name}.{}.tmp.{ext}", std::process::id()))
 }
 
 #[cfg(test)]
@@ -395,13 +376,5 @@ mod tests {
         // sRGB 0.5 is 21.4% linear.
         assert!((srgb_to_linear(0.5) - 0.214_041_14).abs() < 1e-6);
         assert!((srgb_to_linear(0.04) - 0.04 / 12.92).abs() < 1e-9);
-    }
-
-    #[test]
-    fn temp_file_stays_beside_the_target_with_its_extension() {
-        let t = temp_path(Path::new("/a/b/beauty.exr"));
-        assert_eq!(t.parent(), Some(Path::new("/a/b")));
-        assert_eq!(t.extension().unwrap(), "exr");
-        assert_ne!(t.file_name().unwrap(), "beauty.exr");
     }
 }

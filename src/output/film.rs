@@ -38,15 +38,16 @@ impl PixelSum {
 /// order), the minimum depth, and Cryptomatte coverage. Unchosen AOVs cost
 /// nothing.
 #[derive(Clone, Debug)]
-struct AovBuffers {
+pub(super) struct AovBuffers {
     /// (AOV, offset of its 3 floats within a pixel's `sums`).
     summed: Vec<(Aov, usize)>,
     stride: usize,
-    sums: Vec<f32>,
+    /// `stride` floats per pixel.
+    pub(super) sums: Vec<f32>,
     /// Minimum camera-space depth per pixel, when `Z` is chosen.
-    depth: Option<Vec<f32>>,
+    pub(super) depth: Option<Vec<f32>>,
     /// Coverage per pixel for CryptoObject and CryptoMaterial, when chosen.
-    crypto: [Option<Vec<CryptoCoverage>>; 2],
+    pub(super) crypto: [Option<Vec<CryptoCoverage>>; 2],
 }
 
 impl AovBuffers {
@@ -237,11 +238,13 @@ impl TileFilm {
 pub struct Film {
     /// Image size in pixels.
     pub resolution: UVec2,
-    pixels: Vec<PixelSum>,
+    /// Row-major pixel sums.
+    pub(super) pixels: Vec<PixelSum>,
     /// Every dropped sample so far.
     pub non_finite: NonFiniteSamples,
     set: AovSet,
-    aovs: AovBuffers,
+    /// The chosen AOVs' accumulators.
+    pub(super) aovs: AovBuffers,
 }
 
 impl Film {

@@ -2,10 +2,12 @@
 //! through OpenImageIO (`ffi/oiio/`), and image reading through the same bridge.
 
 pub mod aov;
+pub mod atomic;
 pub mod contact_sheet;
 pub mod cryptomatte;
 mod exr;
 pub mod film;
+pub mod film_state;
 pub mod filter;
 mod preview;
 

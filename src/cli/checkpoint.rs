@@ -1,0 +1,288 @@
+//! Long renders lose nothing: the files a render writes and the refusal to
+//! overwrite them without `--force`, checkpoints (`--checkpoint-every`,
+//! SIGINT/SIGTERM) and `--resume`, refused when the checkpoint belongs to
+//! another scene or other settings.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
+
+use anyhow::{bail, Context, Result};
+use glam::UVec2;
+use serde::{Deserialize, Serialize};
+
+use super::render::AovFiles;
+use crate::integrator::{Budget, FilmState, RenderProgress, RenderSettings};
+use crate::output::film_state::{read_film_state, write_film_state};
+use crate::scene::{Scene, BLOB_FILE, MANIFEST_FILE};
+use crate::volumes::MajorantKind;
+
+/// The files a render of `-o OUT.exr` writes.
+pub(super) struct OutputFiles {
+    /// The EXR and everything written beside it on success: the PNG preview
+    /// and, with `--aov-files separate`, one EXR per AOV.
+    pub finals: Vec<PathBuf>,
+    /// `OUT.checkpoint`: the film state of an unfinished render.
+    pub checkpoint: PathBuf,
+    /// `OUT.partial.exr`: the image so far of an interrupted render.
+    pub partial: PathBuf,
+}
+
+impl OutputFiles {
+    /// The files of a render to `exr` with the AOVs of `settings`.
+    pub fn new(exr: &Path, files: AovFiles, settings: &RenderSettings) -> Self {
+        let mut finals = vec![exr.to_path_buf(), exr.with_extension("png")];
+        if files == AovFiles::Separate {
+            finals.extend(
+                settings
+                    .aovs
+                    .aovs()
+                    .iter()
+                    .map(|a| exr.with_extension(format!("{}.exr", a.name()))),
+            );
+        }
+        Self {
+            finals,
+            checkpoint: exr.with_extension("checkpoint"),
+            partial: exr.with_extension("partial.exr"),
+        }
+    }
+
+    /// Refuses to start a render that would overwrite a finished output or
+    /// drop an unfinished one, unless `force`; `resume` needs the checkpoint.
+    /// With `force` and no `resume`, a stale checkpoint is removed.
+    pub fn claim(&self, force: bool, resume: bool) -> Result<()> {
+        if resume && !self.checkpoint.exists() {
+            bail!(
+                "--resume: there is no checkpoint {} to continue",
+                self.checkpoint.display()
+            );
+        }
+        if force {
+            if !resume {
+                remove_if_present(&self.checkpoint)?;
+            }
+            return Ok(());
+        }
+        if let Some(existing) = self.finals.iter().find(|p| p.exists()) {
+            bail!(
+                "{} exists; pass --force to overwrite it",
+                existing.display()
+            );
+        }
+        if !resume && self.checkpoint.exists() {
+            bail!(
+                "{} holds an unfinished render: pass --resume to continue it, or --force to start over",
+                self.checkpoint.display()
+            );
+        }
+        Ok(())
+    }
+
+    /// Removes the checkpoint and the partial image once the render is done.
+    pub fn finish(&self) -> Result<()> {
+        remove_if_present(&self.checkpoint)?;
+        remove_if_present(&self.partial)
+    }
+}
+
+fn remove_if_present(path: &Path) -> Result<()> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            Err(e).with_context(|| format!("cannot remove {}", path.display()))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Everything a checkpoint must match to be resumed, by name: the scene's
+/// content, the files it reads, and every setting that changes pixels
+/// (not the thread count, which does not).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub(super) struct Fingerprint(BTreeMap<String, String>);
+
+impl Fingerprint {
+    /// The fingerprint of rendering `scene` at `resolution` with `settings`.
+    pub fn new(
+        scene: &Scene,
+        resolution: UVec2,
+        settings: &RenderSettings,
+        majorant: MajorantKind,
+    ) -> Result<Self> {
+        let p = &settings.path;
+        let entries = [
+            ("cirrus", env!("CARGO_PKG_VERSION").to_string()),
+            ("scene", scene_hash(scene)?),
+            ("scene files", files_hash(scene)),
+            ("resolution", format!("{}x{}", resolution.x, resolution.y)),
+            (
+                "budget",
+                match settings.budget {
+                    Budget::Samples(n) => format!("--spp {n}"),
+                    Budget::Time(t) => format!("--time {}", t.as_secs_f64()),
+                },
+            ),
+            ("seed", settings.seed.to_string()),
+            ("sampler", format!("{:?}", settings.sampler)),
+            ("filter", format!("{:?}", settings.filter)),
+            ("strategy", format!("{:?}", p.strategy)),
+            ("max-depth", p.max_depth.to_string()),
+            ("clamp", format!("{:?}", p.clamp)),
+            ("volume-estimator", format!("{:?}", p.volume_estimator)),
+            ("equiangular", p.equiangular.to_string()),
+            ("majorant", format!("{majorant:?}")),
+            ("aovs", settings.aovs.to_string()),
+        ];
+        Ok(Self(
+            entries
+                .into_iter()
+                .map(|(k, v)| (k.to_string(), v))
+                .collect(),
+        ))
+    }
+
+    /// One line per entry that differs from `now`.
+    fn differences(&self, now: &Fingerprint) -> Vec<String> {
+        let keys: std::collections::BTreeSet<&String> = self.0.keys().chain(now.0.keys()).collect();
+        keys.into_iter()
+            .filter(|k| self.0.get(*k) != now.0.get(*k))
+            .map(|k| {
+                let show = |m: &BTreeMap<String, String>| {
+                    m.get(k).cloned().unwrap_or_else(|| "(none)".into())
+                };
+                format!(
+                    "{k}: checkpoint {}, this render {}",
+                    show(&self.0),
+                    show(&now.0)
+                )
+            })
+            .collect()
+    }
+}
+
+/// CRC-32 of `scene.json` and `scene.bin` together, as hex.
+fn scene_hash(scene: &Scene) -> Result<String> {
+    let mut crc = crc32fast::Hasher::new();
+    for name in [MANIFEST_FILE, BLOB_FILE] {
+        let path = scene.dir.join(name);
+        let bytes =
+            std::fs::read(&path).with_context(|| format!("cannot read {}", path.display()))?;
+        crc.update(&bytes);
+    }
+    Ok(format!("{:08x}", crc.finalize()))
+}
+
+/// The VDB and texture files the scene reads: their count and a CRC-32 of
+/// their paths, sizes and modification times (a changed file changes it).
+fn files_hash(scene: &Scene) -> String {
+    let m = &scene.manifest;
+    let files: Vec<&Path> = m
+        .volumes
+        .iter()
+        .flat_map(|v| v.fields.values().map(|f| f.file.as_path()))
+        .chain(m.textures.iter().map(|t| t.file.as_path()))
+        .collect();
+    let mut crc = crc32fast::Hasher::new();
+    for file in &files {
+        crc.update(file.as_os_str().as_encoded_bytes());
+        if let Ok(meta) = std::fs::metadata(file) {
+            crc.update(&meta.len().to_le_bytes());
+            let modified = meta.modified().ok();
+            let since = modified.and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok());
+            crc.update(&since.unwrap_or_default().as_nanos().to_le_bytes());
+        }
+    }
+    format!("{} files, {:08x}", files.len(), crc.finalize())
+}
+
+/// What a checkpoint file holds besides the film.
+#[derive(Serialize, Deserialize)]
+struct CheckpointHeader {
+    fingerprint: Fingerprint,
+    progress: RenderProgress,
+}
+
+/// Writes `state` to `path` (atomically) with its fingerprint.
+pub(super) fn save(path: &Path, state: &FilmState, fingerprint: &Fingerprint) -> Result<()> {
+    let header = CheckpointHeader {
+        fingerprint: fingerprint.clone(),
+        progress: state.progress.clone(),
+    };
+    Ok(write_film_state(path, &state.film, &header)?)
+}
+
+/// Reads the checkpoint at `path` for a render with `fingerprint`,
+/// `resolution` and `settings`; refuses a damaged one or one made by
+/// another scene or other settings, listing every difference.
+pub(super) fn load(
+    path: &Path,
+    fingerprint: &Fingerprint,
+    resolution: UVec2,
+    settings: &RenderSettings,
+) -> Result<FilmState> {
+    let (header, film) = read_film_state::<CheckpointHeader>(path)?;
+    let differences = header.fingerprint.differences(fingerprint);
+    if !differences.is_empty() {
+        bail!(
+            "{} was made by another render; resume with its settings or pass --force to start over:\n  {}",
+            path.display(),
+            differences.join("\n  ")
+        );
+    }
+    let state = FilmState {
+        film,
+        progress: header.progress,
+    };
+    state
+        .check(resolution, settings)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok(state)
+}
+
+/// SIGINT and SIGTERM: the first asks the render to stop after the tiles
+/// in flight (it then saves a checkpoint); a second one exits at once.
+pub(super) struct StopSignal {
+    stop: Arc<AtomicBool>,
+    signal: Arc<AtomicUsize>,
+}
+
+impl StopSignal {
+    /// Installs the handlers.
+    pub fn install() -> Result<Self> {
+        use signal_hook::consts::{SIGINT, SIGTERM};
+        let stop = Arc::new(AtomicBool::new(false));
+        let signal = Arc::new(AtomicUsize::new(0));
+        for sig in [SIGINT, SIGTERM] {
+            // Registered first, so it sees the flag as the previous signal left it.
+            signal_hook::flag::register_conditional_shutdown(sig, 128 + sig, Arc::clone(&stop))?;
+            signal_hook::flag::register(sig, Arc::clone(&stop))?;
+            signal_hook::flag::register_usize(sig, Arc::clone(&signal), sig as usize)?;
+        }
+        Ok(Self { stop, signal })
+    }
+
+    /// Whether a stop was asked.
+    pub fn requested(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    /// The signal that asked, if any (for the exit code, 128 + signal).
+    pub fn signal(&self) -> Option<i32> {
+        match self.signal.load(Ordering::Relaxed) {
+            0 => None,
+            s => Some(s as i32),
+        }
+    }
+}
+
+/// A render stopped by a signal after saving its checkpoint: exits with
+/// 128 + the signal number, like a shell reports it.
+#[derive(Debug, thiserror::Error)]
+#[error("{message}")]
+pub(super) struct Interrupted {
+    /// The signal that stopped the render.
+    pub signal: i32,
+    /// What was saved and how to resume.
+    pub message: String,
+}

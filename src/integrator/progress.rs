@@ -1,0 +1,177 @@
+//! How far a render has got, and the hooks that watch it: the state a
+//! checkpoint saves and a resumed render continues from.
+//!
+//! Every tile takes its samples in fixed passes (sample index ranges 0..1,
+//! 1..2, 2..4, 4..8, 8..16, 16..32, then 16 more each), summed into the film
+//! pass by pass. A render stopped between tiles and resumed later therefore
+//! adds exactly the same partial sums in the same order as one that was never
+//! stopped: the image is bit-identical.
+
+use std::time::Duration;
+
+use glam::UVec2;
+use serde::{Deserialize, Serialize};
+
+use super::{RayCounts, RenderSettings};
+use crate::output::aov::AovSet;
+use crate::output::film::Film;
+use crate::volumes::TrackingStats;
+
+/// Tile edge in pixels: enough tiles for load balance on many cores, big
+/// enough that per-tile overhead vanishes.
+pub(super) const TILE_SIZE: u32 = 16;
+
+/// Longest pass in samples per pixel: passes are 1, 1, 2, 4, 8, 16, 16, ...
+/// samples, so the total doubles (1, 2, 4 .. 32) and then grows by this much
+/// (48, 64, ...). Sobol points are best balanced at powers of two and
+/// multiples of this; time budgets are checked between passes.
+const MAX_PASS_SAMPLES: u32 = 16;
+
+/// Samples taken per tile and what the render has spent so far.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RenderProgress {
+    /// Samples per pixel taken in each tile of [`TILE_SIZE`] pixels, in
+    /// [`Film::tiles`] order; always a pass boundary.
+    pub tile_samples: Vec<u32>,
+    /// Wall-clock seconds of sampling, over every run of the render.
+    pub seconds: f64,
+    /// Rays traced, over every run.
+    pub rays: RayCounts,
+    /// Media counters, over every run.
+    pub tracking: TrackingStats,
+}
+
+impl RenderProgress {
+    /// Samples per pixel that every tile has taken.
+    pub fn samples_per_pixel(&self) -> u32 {
+        self.tile_samples.iter().copied().min().unwrap_or(0)
+    }
+}
+
+/// A film and its progress: what a checkpoint holds.
+#[derive(Clone, Debug)]
+pub struct FilmState {
+    /// The sums so far.
+    pub film: Film,
+    /// How far each tile has got.
+    pub progress: RenderProgress,
+}
+
+impl FilmState {
+    /// An empty state: no samples anywhere.
+    pub fn new(resolution: UVec2, aovs: AovSet) -> Self {
+        let film = Film::new(resolution, aovs);
+        let tiles = film.tiles(TILE_SIZE).len();
+        Self {
+            film,
+            progress: RenderProgress {
+                tile_samples: vec![0; tiles],
+                seconds: 0.0,
+                rays: RayCounts::default(),
+                tracking: TrackingStats::default(),
+            },
+        }
+    }
+
+    /// Checks that a saved state can continue a render of `resolution` with
+    /// `settings`: same image size, same AOVs, one entry per tile, each a
+    /// pass boundary within the budget. The error says what differs.
+    pub fn check(&self, resolution: UVec2, settings: &RenderSettings) -> Result<(), String> {
+        let film = &self.film;
+        if film.resolution != resolution {
+            return Err(format!(
+                "it is {}x{}, this render is {}x{}",
+                film.resolution.x, film.resolution.y, resolution.x, resolution.y
+            ));
+        }
+        if film.aov_set() != &settings.aovs {
+            return Err(format!(
+                "it holds AOVs {}, this render asks for {}",
+                film.aov_set(),
+                settings.aovs
+            ));
+        }
+        let tiles = film.tiles(TILE_SIZE).len();
+        let p = &self.progress;
+        if p.tile_samples.len() != tiles {
+            return Err(format!(
+                "it records {} tiles, the image has {tiles}",
+                p.tile_samples.len()
+            ));
+        }
+        let target = match settings.budget {
+            super::Budget::Samples(n) => Some(n),
+            super::Budget::Time(_) => None,
+        };
+        match p.tile_samples.iter().find(|&&s| !is_pass_end(s, target)) {
+            Some(s) => Err(format!(
+                "a tile records {s} samples, not a pass boundary of this budget"
+            )),
+            None => Ok(()),
+        }
+    }
+}
+
+/// What a running render reports to and asks of its caller.
+pub struct RenderControl<'a> {
+    /// Called after every tile with the fraction done (of the samples, or of
+    /// the time budget).
+    pub progress: &'a (dyn Fn(f64) + Sync),
+    /// Polled before every tile: true stops the render once the tiles in
+    /// flight are done (their samples are kept).
+    pub stop: &'a (dyn Fn() -> bool + Sync),
+    /// Periodic saving of the state, if asked.
+    pub checkpoint: Option<Checkpointing<'a>>,
+}
+
+/// When and how a render's state is saved while it runs.
+pub struct Checkpointing<'a> {
+    /// Wall-clock time between saves.
+    pub every: Duration,
+    /// Saves a consistent snapshot (called between tiles, with the film locked).
+    pub save: &'a (dyn Fn(&FilmState) + Sync),
+}
+
+/// The sample count at the end of the pass that starts at `done` (a pass
+/// boundary), capped at `target`; `done` itself when the target is reached.
+pub(super) fn next_pass_end(done: u32, target: Option<u32>) -> u32 {
+    let end = (2 * done).min(done + MAX_PASS_SAMPLES).max(1);
+    target.map_or(end, |n| end.min(n).max(done))
+}
+
+/// Whether `samples` is a pass boundary of a render towards `target`.
+fn is_pass_end(samples: u32, target: Option<u32>) -> bool {
+    let mut end = 0;
+    while end < samples {
+        let next = next_pass_end(end, target);
+        if next == end {
+            return false;
+        }
+        end = next;
+    }
+    end == samples
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn passes_double_then_grow_by_sixteen_and_stop_at_the_target() {
+        let ends = |target| {
+            let mut ends = vec![0];
+            loop {
+                let e = next_pass_end(*ends.last().unwrap(), target);
+                if e == *ends.last().unwrap() || ends.len() > 10 {
+                    return ends;
+                }
+                ends.push(e);
+            }
+        };
+        assert_eq!(ends(Some(40)), [0, 1, 2, 4, 8, 16, 32, 40]);
+        assert_eq!(ends(None), [0, 1, 2, 4, 8, 16, 32, 48, 64, 80, 96]);
+        assert!(is_pass_end(40, Some(40)) && is_pass_end(32, Some(40)));
+        assert!(!is_pass_end(40, None) && !is_pass_end(3, Some(40)));
+        assert!(!is_pass_end(41, Some(40)));
+    }
+}
