@@ -11,6 +11,7 @@ pub mod geometry;
 pub mod integrator;
 pub mod lights;
 pub mod materials;
+pub mod memory;
 pub mod output;
 pub mod render_state;
 pub mod sampling;

@@ -82,7 +82,7 @@ impl RenderState {
 
 /// The image size: the command line's, else the stage's render settings',
 /// else [`DEFAULT_WIDTH`] wide with the camera aperture's aspect.
-fn resolution_for(scene: &Scene, requested: Option<UVec2>) -> UVec2 {
+pub fn resolution_for(scene: &Scene, requested: Option<UVec2>) -> UVec2 {
     let m = &scene.manifest;
     requested
         .or(m.render.resolution.map(UVec2::from))

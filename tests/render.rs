@@ -686,7 +686,10 @@ fn render_command_line_contract() {
     for (bad, expected) in [
         (vec![os("--spp"), os("0")], "--spp 0"),
         (vec![os("--res"), os("0x16")], "is not a size"),
-        (vec![os("--time"), os("0")], "--time 0"),
+        (
+            vec![os("--time"), os("0")],
+            "must be a positive number of seconds",
+        ),
         (
             vec![os("--spp"), os("4"), os("--time"), os("1")],
             "cannot be used with",

@@ -90,7 +90,9 @@ pub(super) mod ffi {
         include!("cirrus/ffi/oiio/shim.h");
 
         fn write_exr(request: &ExrRequest) -> Result<()>;
-        fn read_image(path: &str) -> Result<ImageData>;
+        /// Reads an image as f32; refuses (before allocating) one whose
+        /// pixels would take more than `max_bytes` while read.
+        fn read_image(path: &str, max_bytes: u64) -> Result<ImageData>;
         fn read_exr(path: &str) -> Result<ExrData>;
         /// Returns whether the labels were drawn (false: no font found).
         fn write_display_png(request: &DisplayPngRequest) -> Result<bool>;

@@ -124,7 +124,7 @@ void write_exr(const ExrRequest &req) {
   });
 }
 
-ImageData read_image(rust::Str path_str) {
+ImageData read_image(rust::Str path_str, uint64_t max_bytes) {
   return guard("OpenImageIO", [&] {
     const std::string path(path_str);
     auto in = OIIO::ImageInput::open(path);
@@ -142,7 +142,16 @@ ImageData read_image(rust::Str path_str) {
     out.alpha_channel = spec.alpha_channel;
     const std::string space = spec.get_string_attribute("oiio:ColorSpace");
     out.is_srgb = space == "sRGB" || (space.empty() && spec.format == OIIO::TypeDesc::UINT8);
-    std::vector<float> pixels(size_t(spec.width) * spec.height * spec.nchannels);
+    // The pixels are held twice while read (here and in the Rust vector).
+    const uint64_t values = uint64_t(spec.width) * uint64_t(spec.height) * uint64_t(spec.nchannels);
+    if (values > max_bytes / (2 * sizeof(float))) {
+      throw std::runtime_error(std::to_string(spec.width) + "x" + std::to_string(spec.height) +
+                               " pixels of " + std::to_string(spec.nchannels) + " channels need " +
+                               std::to_string(values * 2 * sizeof(float) >> 20) +
+                               " MiB to read; only " + std::to_string(max_bytes >> 20) +
+                               " MiB are available");
+    }
+    std::vector<float> pixels(values);
     if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data())) {
       throw std::runtime_error(or_default(in->geterror(), "read failed"));
     }

@@ -12,7 +12,7 @@ struct ExrData;
 struct DisplayPngRequest;
 
 void write_exr(const ExrRequest &request);
-ImageData read_image(rust::Str path);
+ImageData read_image(rust::Str path, uint64_t max_bytes);
 ExrData read_exr(rust::Str path);
 bool write_display_png(const DisplayPngRequest &request);
 

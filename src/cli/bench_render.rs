@@ -144,7 +144,7 @@ fn equal_time(
     reference: &[f32],
 ) -> Result<()> {
     let max_time = bench.times.iter().copied().fold(0.0, f64::max);
-    let pixels = f64::from(state.resolution.x * state.resolution.y);
+    let pixels = f64::from(state.resolution.x) * f64::from(state.resolution.y);
     let (errors_header, errors_rule) = error_columns(ErrorMetric::Mse, &bench.times);
     println!("| estimator | sampler | samples/s (M) |{errors_header}\n|---|---|---:|{errors_rule}");
     let mut curves = Vec::new();

@@ -17,12 +17,13 @@ use crate::integrator::{
     self, Budget, Checkpointing, FilmState, PathSettings, RenderControl, RenderSettings,
     RenderStats, Strategy, VolumeEstimator,
 };
+use crate::memory;
 use crate::output::aov::{Aov, AovSet};
 use crate::output::cryptomatte::CryptoLayer;
 use crate::output::film::{Film, Layer};
 use crate::output::filter::FilterKind;
 use crate::output::{write_exr, write_preview, Channel, Compression, ExrImage, PixelType};
-use crate::render_state::RenderState;
+use crate::render_state::{self, RenderState};
 use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 use crate::volumes::MajorantKind;
@@ -42,8 +43,8 @@ pub struct RenderArgs {
     #[arg(long, conflicts_with = "time")]
     spp: Option<u32>,
     /// Render for about this many seconds instead (whole passes; at least one sample).
-    #[arg(long)]
-    time: Option<f64>,
+    #[arg(long, value_parser = parse_seconds)]
+    time: Option<Duration>,
     /// Image size WIDTHxHEIGHT (default: the stage's render settings, else 960 wide).
     #[arg(long, value_parser = parse_resolution)]
     res: Option<UVec2>,
@@ -51,8 +52,8 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Worker threads (default: all cores).
-    #[arg(long)]
-    threads: Option<usize>,
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    threads: Option<u16>,
     /// Sample sequence.
     #[arg(long, value_enum, default_value_t = SamplerKind::Sobol)]
     sampler: SamplerKind,
@@ -99,12 +100,16 @@ pub struct RenderArgs {
     force: bool,
     /// Save the film state to OUT.checkpoint every this many seconds (it is
     /// always saved when SIGINT or SIGTERM stops the render).
-    #[arg(long, value_name = "SECONDS")]
-    checkpoint_every: Option<f64>,
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    checkpoint_every: Option<Duration>,
     /// Continue the render saved in OUT.checkpoint (same scene and settings;
     /// the result is bit-identical to an uninterrupted render).
     #[arg(long)]
     resume: bool,
+    /// Refuse to start when the estimated peak memory exceeds this (e.g.
+    /// 8G, 512M; default: the memory available to this process).
+    #[arg(long, value_parser = memory::parse_bytes)]
+    memory_limit: Option<u64>,
 }
 
 /// The Cryptomatte layers chosen in `aovs`, named by the scene's Mesh and
@@ -141,22 +146,24 @@ pub(super) fn parse_resolution(s: &str) -> Result<UVec2, String> {
     Ok(UVec2::new(side(w)?, side(h)?))
 }
 
+/// Parses a positive, finite number of seconds (`--time`, `--checkpoint-every`).
+fn parse_seconds(s: &str) -> Result<Duration, String> {
+    s.parse::<f64>()
+        .ok()
+        .filter(|t| *t > 0.0)
+        .and_then(|t| Duration::try_from_secs_f64(t).ok())
+        .ok_or_else(|| format!("{s:?}: must be a positive number of seconds"))
+}
+
 /// Runs `cirrus render`.
 pub fn run(args: RenderArgs) -> Result<()> {
     let budget = match (args.spp, args.time) {
-        (_, Some(t)) if !(t.is_finite() && t > 0.0) => bail!("--time {t}: must be positive"),
-        (_, Some(t)) => Budget::Time(Duration::from_secs_f64(t)),
+        (_, Some(t)) => Budget::Time(t),
         (Some(0), _) => bail!("--spp 0: at least one sample per pixel"),
         (spp, None) => Budget::Samples(spp.unwrap_or(DEFAULT_SPP)),
     };
     if args.clamp.is_some_and(|c| c.is_nan() || c <= 0.0) {
         bail!("--clamp must be positive");
-    }
-    if args
-        .checkpoint_every
-        .is_some_and(|t| !(t.is_finite() && t > 0.0))
-    {
-        bail!("--checkpoint-every must be a positive number of seconds");
     }
     let settings = RenderSettings {
         budget,
@@ -177,11 +184,15 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let signal = StopSignal::install().context("cannot install the SIGINT/SIGTERM handlers")?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
-        pool = pool.num_threads(n);
+        pool = pool.num_threads(n.into());
     }
     let pool = pool.build().context("cannot start worker threads")?;
     let start = Instant::now();
     let scene = super::load_scene(&args.scene, args.frame)?;
+    let resolution = render_state::resolution_for(&scene, args.res);
+    let needs = pool.install(|| memory::estimate(&scene, resolution, &settings.aovs))?;
+    memory::check(&needs, args.memory_limit)?;
+    log::debug!("estimated peak memory: {needs}");
     let state = pool.install(|| RenderState::build(&scene, args.res, args.majorant))?;
     let crypto = cryptomatte_layers(&scene, &settings.aovs);
     let fingerprint = Fingerprint::new(&scene, state.resolution, &settings, args.majorant)?;
@@ -214,10 +225,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let control = RenderControl {
         progress: &|f| progress.update(f),
         stop: &|| signal.requested(),
-        checkpoint: args.checkpoint_every.map(|t| Checkpointing {
-            every: Duration::from_secs_f64(t),
-            save: &save,
-        }),
+        checkpoint: args
+            .checkpoint_every
+            .map(|every| Checkpointing { every, save: &save }),
     };
     let (end, stats) =
         pool.install(|| integrator::render_from(&state, &settings, resumed, &control));
@@ -356,7 +366,7 @@ fn write_layers(
     header: &Header,
 ) -> Result<()> {
     let r = header.state.resolution;
-    let pixel_count = (r.x * r.y) as usize;
+    let pixel_count = r.x as usize * r.y as usize;
     let channels: Vec<Channel> = layers.iter().flat_map(|l| l.channels.clone()).collect();
     let mut pixels = Vec::with_capacity(channels.len() * pixel_count);
     for i in 0..pixel_count {

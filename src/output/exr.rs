@@ -166,7 +166,8 @@ pub fn write_exr(path: &Path, image: &ExrImage) -> Result<(), ImageError> {
 /// is `UsdUVTexture`'s `sourceColorSpace`: `Auto` decodes colour channels with
 /// the sRGB transfer function when the file says it is sRGB (or is 8-bit and
 /// untagged), `Srgb` always decodes them, `Raw` never does (normal maps,
-/// roughness). Alpha is never decoded.
+/// roughness). Alpha is never decoded. An image that would take more than
+/// half the memory available is refused before its pixels are allocated.
 pub fn read_image(path: &Path, color_space: ColorSpace) -> Result<Image, ImageError> {
     if let Err(e) = std::fs::metadata(path) {
         return Err(ImageError::Read {
@@ -174,10 +175,13 @@ pub fn read_image(path: &Path, color_space: ColorSpace) -> Result<Image, ImageEr
             message: e.to_string(),
         });
     }
-    let data = ffi::read_image(&path.to_string_lossy()).map_err(|e| ImageError::Read {
-        path: path.to_path_buf(),
-        message: e.what().to_owned(),
-    })?;
+    // Half of what is left: the scene's other textures and data need room too.
+    let max_bytes = crate::memory::available_bytes().map_or(u64::MAX, |b| b / 2);
+    let data =
+        ffi::read_image(&path.to_string_lossy(), max_bytes).map_err(|e| ImageError::Read {
+            path: path.to_path_buf(),
+            message: e.what().to_owned(),
+        })?;
     let mut pixels = data.pixels;
     let decode = match color_space {
         ColorSpace::Auto => data.is_srgb,

@@ -250,7 +250,7 @@ pub struct Film {
 impl Film {
     /// An empty film accumulating the AOVs in `set`.
     pub fn new(resolution: UVec2, set: AovSet) -> Self {
-        let pixels = (resolution.x * resolution.y) as usize;
+        let pixels = resolution.x as usize * resolution.y as usize;
         Self {
             resolution,
             pixels: vec![PixelSum::default(); pixels],

@@ -1,0 +1,513 @@
+//! Memory preflight (`cirrus render --memory-limit`): an estimate of a
+//! render's peak resident memory, made from the loaded scene and the VDB grid
+//! tables before anything large is built, and a check that refuses the
+//! render with that estimate instead of letting the OOM killer end it.
+//!
+//! The estimate is a sum of parts, each the part's peak (a conservative
+//! bound: the scene is dropped before the film exists, so the true peak is
+//! lower than the sum when both are large):
+//! - scene: the bulk arrays of `scene.bin`, held while the render state is built;
+//! - geometry: per triangle the shading copy, the BVH's triangles and nodes,
+//!   and the build's temporaries for the meshes built at once; per placed
+//!   mesh the top-level leaf, box and nodes;
+//! - volumes: per density (and emitting temperature) grid, the sparse grid's
+//!   9^3-value bricks, node arrays and majorant cells from the grid's active
+//!   voxel count (file metadata, no tree read), plus OpenVDB's tree and the
+//!   bridge's copy while the largest one is read;
+//! - film: per pixel the sums (`PixelSum` and the AOV accumulators), once
+//!   (tiles merge as they finish), then the output layers and their
+//!   interleaved copy;
+//! - runtime: code, libraries and thread stacks, measured once.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use glam::UVec2;
+
+use crate::output::aov::{Aov, AovSet};
+use crate::output::cryptomatte::CryptoCoverage;
+use crate::output::film::PixelSum;
+use crate::scene::Scene;
+use crate::volumes::{VdbFile, VolumeError};
+
+/// Bytes in one MiB and one GiB.
+const MIB: f64 = (1u64 << 20) as f64;
+const GIB: f64 = (1u64 << 30) as f64;
+
+/// Resident bytes of the process before the scene: the binary, OpenVDB,
+/// OpenImageIO, TBB and the worker threads' stacks (measured: 131 MiB
+/// for `cirrus info`, 134 MiB for an 8x8 render).
+const RUNTIME_BYTES: u64 = 144 << 20;
+
+/// Per triangle, resident: the BVH's triangle copy (three `Vec3A`, 48
+/// bytes), its primitive index (4) and CWBVH nodes (80 bytes per node, about
+/// one node per four triangles: 20).
+const BVH_BYTES_PER_TRIANGLE: u64 = 48 + 4 + 20;
+/// Per triangle while its mesh's BVH is built: boxes (32 bytes), the
+/// triangle list (48), PLOC's three arrays of 48-byte BVH2 nodes over 2n
+/// nodes (288) and the CWBVH conversion's table of 7 x 16 bytes per node (224).
+const BVH_BUILD_BYTES_PER_TRIANGLE: u64 = 32 + 48 + 288 + 224;
+/// Per placed mesh (instance x prototype mesh): the top-level leaf (an
+/// `Affine3A` and three `u32`, 64 bytes), its box (32) and its share of the
+/// chunked top-level CWBVH and its build (48).
+const TOP_LEVEL_BYTES_PER_PLACEMENT: u64 = 64 + 32 + 48;
+
+/// Voxels per OpenVDB leaf (8^3), and bytes per stored brick: the leaf's
+/// 9^3-value apron copy as `f32` (see `volumes::grid`).
+const LEAF_VOXELS: u64 = 512;
+const BRICK_BYTES: u64 = 9 * 9 * 9 * 4;
+/// Bytes of one 128^3-voxel super-block's node array (16^3 `u32` entries).
+const NODE_BYTES: u64 = 16 * 16 * 16 * 4;
+/// Voxels per super-block edge.
+const SUPER_EDGE: u64 = 128;
+/// Bytes of one 8^3-voxel majorant cell, and the majorant grid's cap (its
+/// cells grow coarser beyond 2^24 cells).
+const MAJORANT_CELL_BYTES: u64 = 8;
+const MAJORANT_MAX_BYTES: u64 = MAJORANT_CELL_BYTES << 24;
+/// Per leaf while a grid is read: OpenVDB's tree (512 `f32` and masks, about
+/// 2.1 kB) and the bridge's flat copy of the values (2 kB).
+const READ_BYTES_PER_LEAF: u64 = 2112 + 2048;
+
+/// A render's estimated peak memory, by part, in bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MemoryEstimate {
+    /// The scene's bulk arrays (`scene.bin`), resident while the render state is built.
+    pub scene: u64,
+    /// Mesh shading copies, per-mesh BVHs and their build, the top-level BVH.
+    pub geometry: u64,
+    /// Sparse density and temperature grids, majorant grids, and the read of the largest.
+    pub volumes: u64,
+    /// Film sums, then the output layers.
+    pub film: u64,
+    /// Code, libraries and thread stacks.
+    pub runtime: u64,
+}
+
+/// Why a render is refused before it starts, or its estimate cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum MemoryError {
+    /// The estimate exceeds the limit.
+    #[error(
+        "the render needs about {needed} ({parts}) but only {limit} is available{source_note}; \
+         lower --res, choose fewer --aovs, or raise --memory-limit",
+        needed = gib(estimate.total()),
+        parts = estimate,
+        limit = gib(*limit),
+        source_note = if *explicit { " (--memory-limit)" } else { "" }
+    )]
+    TooLarge {
+        /// The estimate refused.
+        estimate: MemoryEstimate,
+        /// The limit it exceeds, bytes.
+        limit: u64,
+        /// True when the limit came from `--memory-limit`, false when measured.
+        explicit: bool,
+    },
+    /// A volume's grid table cannot be read.
+    #[error(transparent)]
+    Volume(#[from] VolumeError),
+}
+
+impl MemoryEstimate {
+    /// The estimated peak, bytes: the sum of the parts.
+    pub fn total(&self) -> u64 {
+        self.scene + self.geometry + self.volumes + self.film + self.runtime
+    }
+}
+
+impl fmt::Display for MemoryEstimate {
+    /// `film 2900.0 MiB, volumes 200.0 MiB, ...`: every part, largest first.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut parts = [
+            ("film", self.film),
+            ("volumes", self.volumes),
+            ("geometry", self.geometry),
+            ("scene", self.scene),
+            ("runtime", self.runtime),
+        ];
+        parts.sort_by_key(|p| std::cmp::Reverse(p.1));
+        let text: Vec<String> = parts
+            .iter()
+            .map(|(name, bytes)| format!("{name} {:.1} MiB", *bytes as f64 / MIB))
+            .collect();
+        write!(f, "{}", text.join(", "))
+    }
+}
+
+/// Refuses `estimate` when its total exceeds `limit` bytes (`--memory-limit`),
+/// or, without one, what [`available_bytes`] measures; passes when nothing
+/// can be measured.
+pub fn check(estimate: &MemoryEstimate, limit: Option<u64>) -> Result<(), MemoryError> {
+    let (limit, explicit) = match limit {
+        Some(l) => (l, true),
+        None => match available_bytes() {
+            Some(l) => (l, false),
+            None => return Ok(()),
+        },
+    };
+    if estimate.total() > limit {
+        return Err(MemoryError::TooLarge {
+            estimate: *estimate,
+            limit,
+            explicit,
+        });
+    }
+    Ok(())
+}
+
+/// Estimates the peak memory of rendering `scene` at `resolution` (the
+/// render state's, after the stage's settings and `--res`) with `aovs`,
+/// reading only the VDB grid tables.
+pub fn estimate(
+    scene: &Scene,
+    resolution: UVec2,
+    aovs: &AovSet,
+) -> Result<MemoryEstimate, MemoryError> {
+    let arrays = scene.array_bytes();
+    Ok(MemoryEstimate {
+        scene: arrays.meshes + arrays.instances,
+        geometry: geometry_bytes(scene, arrays.meshes),
+        volumes: volume_bytes(scene)?,
+        film: film_bytes(resolution, aovs),
+        runtime: RUNTIME_BYTES,
+    })
+}
+
+/// Geometry: the shading copy of every mesh array (as large as the scene's
+/// mesh bytes), resident BVHs, the build temporaries of the largest meshes
+/// built at once (one per worker thread), and the top level.
+fn geometry_bytes(scene: &Scene, mesh_bytes: u64) -> u64 {
+    let m = &scene.manifest;
+    let mut triangles: Vec<u64> = m.meshes.iter().map(|x| x.triangles.count).collect();
+    triangles.sort_unstable_by(|a, b| b.cmp(a));
+    let total: u64 = triangles.iter().sum();
+    let building: u64 = triangles.iter().take(rayon::current_num_threads()).sum();
+    let prototypes = scene.view(&m.instances.prototype);
+    let placements: u64 = prototypes
+        .iter()
+        .map(|&p| m.prototypes[p as usize].meshes.len() as u64)
+        .sum();
+    mesh_bytes
+        + total * BVH_BYTES_PER_TRIANGLE
+        + building * BVH_BUILD_BYTES_PER_TRIANGLE
+        + placements * TOP_LEVEL_BYTES_PER_PLACEMENT
+}
+
+/// Volumes: every distinct grid `Media::build` reads (density fields, and
+/// temperature fields of emitting volumes) once, from its active voxel
+/// count, plus the read temporaries of the largest.
+fn volume_bytes(scene: &Scene) -> Result<u64, VolumeError> {
+    let mut fields: Vec<(&Path, &str, u32)> = Vec::new();
+    for volume in &scene.manifest.volumes {
+        for (name, field) in &volume.fields {
+            if name == "density" || (name == "temperature" && volume.heat_scale > 0.0) {
+                fields.push((&field.file, &field.grid, field.index));
+            }
+        }
+    }
+    fields.sort();
+    fields.dedup();
+    let mut files: Vec<(PathBuf, VdbFile)> = Vec::new();
+    let (mut resident, mut largest_read) = (0u64, 0u64);
+    for (file, grid, index) in fields {
+        let vdb = match files.iter().position(|(p, _)| p == file) {
+            Some(i) => &files[i].1,
+            None => {
+                files.push((file.to_path_buf(), VdbFile::open(file)?));
+                &files[files.len() - 1].1
+            }
+        };
+        let info = &vdb.grids()[vdb.find(grid, index as usize)?];
+        let leaves = info.active_voxel_count.div_ceil(LEAF_VOXELS);
+        let dims = info.dims();
+        let blocks = |edge: u64| {
+            dims.to_array()
+                .iter()
+                .map(|d| d.div_ceil(edge) + 1)
+                .product::<u64>()
+        };
+        let majorant = (blocks(8) * MAJORANT_CELL_BYTES).min(MAJORANT_MAX_BYTES);
+        let nodes = blocks(SUPER_EDGE).min(leaves) * NODE_BYTES + blocks(SUPER_EDGE) * 4;
+        resident += leaves * BRICK_BYTES + nodes + majorant;
+        largest_read = largest_read.max(leaves * READ_BYTES_PER_LEAF);
+    }
+    Ok(resident + largest_read)
+}
+
+/// Film: per pixel the accumulators (tile films are merged as they finish,
+/// so only the few in flight add to them), and at output the larger of the
+/// layers (beauty RGBA and every chosen AOV's channels, as `f32`, held with
+/// their interleaved copy and the bridge's) and the preview's buffers.
+fn film_bytes(resolution: UVec2, aovs: &AovSet) -> u64 {
+    let pixels = u64::from(resolution.x) * u64::from(resolution.y);
+    let size = |bytes: usize| bytes as u64;
+    let mut sums = size(std::mem::size_of::<PixelSum>());
+    let mut channels = 4u64;
+    for &aov in aovs.aovs() {
+        sums += match aov {
+            Aov::Z => 4,
+            Aov::CryptoObject | Aov::CryptoMaterial => size(std::mem::size_of::<CryptoCoverage>()),
+            Aov::SampleCount | Aov::Variance => 0,
+            _ => 12,
+        };
+        channels += aov.channels().len() as u64;
+    }
+    // The layers, their interleaved copy, and the bridge's copy for OpenImageIO.
+    let layers = 3 * 4 * channels;
+    // Beauty RGB, its tone-mapped copy, and OpenImageIO's 8-bit buffer.
+    let preview = 12 + 12 + 3;
+    pixels * (sums + layers.max(preview))
+}
+
+/// Bytes this process can still allocate before the system or its control
+/// group runs out: the smaller of `/proc/meminfo`'s `MemAvailable` and the
+/// cgroup (v2 `memory.max`, v1 `memory.limit_in_bytes`) limit minus its
+/// working set, over the cgroup and its ancestors. `None` when neither can
+/// be read (not Linux).
+pub fn available_bytes() -> Option<u64> {
+    let system = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|t| meminfo_available(&t));
+    let cgroup = std::fs::read_to_string("/proc/self/cgroup")
+        .ok()
+        .and_then(|t| cgroup_headroom(&t, Path::new("/sys/fs/cgroup")));
+    match (system, cgroup) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
+}
+
+/// `MemAvailable` of a `/proc/meminfo` text, bytes.
+fn meminfo_available(meminfo: &str) -> Option<u64> {
+    let line = meminfo.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Limits at or above this are "no limit" (cgroup v1 writes 2^63 - 4096).
+const UNLIMITED: u64 = 1 << 60;
+
+/// The smallest headroom (limit minus usage, less reclaimable inactive file
+/// cache) over the memory cgroups named in a `/proc/self/cgroup` text and
+/// their ancestors, under the cgroup mount `root`; `None` when no limit is set.
+fn cgroup_headroom(self_cgroup: &str, root: &Path) -> Option<u64> {
+    let mut best: Option<u64> = None;
+    for line in self_cgroup.lines() {
+        let mut parts = line.splitn(3, ':');
+        let (Some(_), Some(controllers), Some(path)) = (parts.next(), parts.next(), parts.next())
+        else {
+            continue;
+        };
+        // (mount folders, limit file, usage file, inactive-file key in memory.stat)
+        let layouts: &[(&[&str], &str, &str, &str)] = if controllers.is_empty() {
+            &[(
+                &["", "unified"],
+                "memory.max",
+                "memory.current",
+                "inactive_file",
+            )]
+        } else if controllers.split(',').any(|c| c == "memory") {
+            &[(
+                &["memory"],
+                "memory.limit_in_bytes",
+                "memory.usage_in_bytes",
+                "total_inactive_file",
+            )]
+        } else {
+            continue;
+        };
+        for &(mounts, limit_file, usage_file, inactive_key) in layouts {
+            for mount in mounts {
+                let base = root.join(mount);
+                let mut dir = Some(Path::new(path.trim_start_matches('/')));
+                while let Some(rel) = dir {
+                    let at = base.join(rel);
+                    let read = |f: &str| std::fs::read_to_string(at.join(f)).ok();
+                    if let (Some(limit), Some(usage)) = (read(limit_file), read(usage_file)) {
+                        let stat = read("memory.stat").unwrap_or_default();
+                        if let Some(h) = headroom(&limit, &usage, &stat, inactive_key) {
+                            best = Some(best.map_or(h, |b| b.min(h)));
+                        }
+                    }
+                    dir = rel.parent();
+                }
+            }
+        }
+    }
+    best
+}
+
+/// One cgroup's headroom from its limit, usage and `memory.stat` texts;
+/// `None` for "max" or an effectively unlimited limit.
+fn headroom(limit: &str, usage: &str, stat: &str, inactive_key: &str) -> Option<u64> {
+    let limit: u64 = limit.trim().parse().ok().filter(|&l| l < UNLIMITED)?;
+    let usage: u64 = usage.trim().parse().ok()?;
+    let inactive: u64 = stat
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix(inactive_key)?
+                .strip_prefix(' ')?
+                .trim()
+                .parse()
+                .ok()
+        })
+        .unwrap_or(0);
+    Some(limit.saturating_sub(usage.saturating_sub(inactive)))
+}
+
+/// Parses a byte count for `--memory-limit`: a positive number with an
+/// optional binary unit, `K`, `M`, `G` or `T` (powers of 1024), written
+/// alone, with `B` or as `KiB`...; case-insensitive: `8G`, `512M`,
+/// `1.5GiB`, `1073741824`.
+pub fn parse_bytes(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let digits = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(digits);
+    let shift = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 0,
+        "k" | "kb" | "kib" => 10,
+        "m" | "mb" | "mib" => 20,
+        "g" | "gb" | "gib" => 30,
+        "t" | "tb" | "tib" => 40,
+        other => {
+            return Err(format!(
+                "{s:?}: unknown unit {other:?}; use a number of bytes with K, M, G or T, e.g. 8G"
+            ))
+        }
+    };
+    let value: f64 = number
+        .parse()
+        .map_err(|_| format!("{s:?}: expected a size such as 8G, 512M or 1.5GiB"))?;
+    let bytes = value * (1u64 << shift) as f64;
+    if !(bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(format!("{s:?}: must be at least one byte and below 16 EiB"));
+    }
+    Ok(bytes.round() as u64)
+}
+
+/// `bytes` for messages: GiB with one decimal, or MiB below 1 GiB.
+fn gib(bytes: u64) -> String {
+    let b = bytes as f64;
+    if b < GIB {
+        format!("{:.1} MiB", b / MIB)
+    } else {
+        format!("{:.1} GiB", b / GIB)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parse_bytes_reads_binary_units_and_refuses_the_rest() {
+        for (text, bytes) in [
+            ("1024", 1024),
+            ("8G", 8 << 30),
+            ("512M", 512 << 20),
+            ("512mb", 512 << 20),
+            ("1.5GiB", 3 << 29),
+            ("64k", 64 << 10),
+            ("2T", 2 << 40),
+            (" 3 KiB ", 3 << 10),
+            ("100B", 100),
+        ] {
+            assert_eq!(parse_bytes(text), Ok(bytes), "{text}");
+        }
+        for bad in [
+            "",
+            "G",
+            "0",
+            "0.1",
+            "-5G",
+            "8X",
+            "1.2.3G",
+            "nanG",
+            "inf",
+            "99999999T",
+        ] {
+            assert!(parse_bytes(bad).is_err(), "{bad:?} was accepted");
+        }
+    }
+
+    fn default_film(width: u32, height: u32, aovs: &str) -> u64 {
+        film_bytes(UVec2::new(width, height), &aovs.parse().unwrap())
+    }
+
+    #[test]
+    fn film_estimate_grows_with_pixels_and_aovs() {
+        let beauty = default_film(100, 100, "beauty");
+        // The sums (56 B) and the output layers (RGBA three times, 48 B).
+        assert_eq!(beauty, 100 * 100 * (56 + 48));
+        assert!(default_film(200, 100, "beauty") == 2 * beauty);
+        let mut previous = beauty;
+        for aovs in ["albedo", "albedo,Z", "default", "all"] {
+            let bytes = default_film(100, 100, aovs);
+            assert!(bytes > previous, "{aovs}: {bytes} <= {previous}");
+            previous = bytes;
+        }
+        // 65536^2 pixels never wrap around.
+        assert!(default_film(65536, 65536, "beauty") > 400 << 30);
+    }
+
+    fn estimate_of(film: u64) -> MemoryEstimate {
+        MemoryEstimate {
+            scene: 1 << 20,
+            geometry: 2 << 20,
+            volumes: 0,
+            film,
+            runtime: RUNTIME_BYTES,
+        }
+    }
+
+    #[test]
+    fn check_refuses_above_the_limit_and_names_the_parts() {
+        let e = estimate_of(3 << 30);
+        assert!(check(&e, Some(e.total())).is_ok());
+        let err = check(&e, Some(e.total() - 1)).unwrap_err().to_string();
+        assert!(err.contains("needs about 3.1 GiB"), "{err}");
+        assert!(
+            err.contains("film 3072.0 MiB, runtime 144.0 MiB, geometry 2.0 MiB"),
+            "{err}"
+        );
+        assert!(
+            err.contains("(--memory-limit)") && err.contains("lower --res"),
+            "{err}"
+        );
+        // Without a limit, what the machine has: a petabyte is refused here.
+        let huge = estimate_of(1 << 50);
+        if available_bytes().is_some() {
+            assert!(check(&huge, None).is_err());
+            assert!(check(&estimate_of(1 << 20), None).is_ok());
+        }
+    }
+
+    #[test]
+    fn meminfo_and_cgroup_texts_give_the_headroom() {
+        let meminfo = "MemTotal:  100 kB\nMemFree: 10 kB\nMemAvailable:   2048 kB\n";
+        assert_eq!(meminfo_available(meminfo), Some(2 << 20));
+        assert_eq!(meminfo_available("MemTotal: 1 kB\n"), None);
+        assert_eq!(headroom("max\n", "5", "", "inactive_file"), None);
+        assert_eq!(
+            headroom("9223372036854771712", "5", "", "total_inactive_file"),
+            None
+        );
+        let stat = "active_file 7\ninactive_file 300\n";
+        assert_eq!(headroom("1000", "500", stat, "inactive_file"), Some(800));
+        assert_eq!(headroom("1000", "1500", "", "inactive_file"), Some(0));
+
+        // A v2 hierarchy whose parent is tighter than the leaf.
+        let root = std::env::temp_dir().join(format!("cirrus-cgroup-{}", std::process::id()));
+        let leaf = root.join("app/job");
+        std::fs::create_dir_all(&leaf).unwrap();
+        for (dir, max, current) in [(&leaf, "max", "100"), (&root.join("app"), "5000", "1000")] {
+            std::fs::write(dir.join("memory.max"), max).unwrap();
+            std::fs::write(dir.join("memory.current"), current).unwrap();
+        }
+        assert_eq!(cgroup_headroom("0::/app/job\n", &root), Some(4000));
+        assert_eq!(cgroup_headroom("4:cpu:/app/job\n", &root), None);
+        std::fs::remove_dir_all(&root).unwrap();
+    }
+}
