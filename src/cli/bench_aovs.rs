@@ -10,7 +10,7 @@ use anyhow::Result;
 use glam::UVec2;
 
 use super::bench::{machine_line, median};
-use super::render::{cryptomatte_layers, write_film, AovFiles, Header};
+use super::film_output::{write_film, AovFiles, ExrHeader};
 use crate::integrator::{self, Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
 use crate::output::aov::AovSet;
 use crate::output::filter::FilterKind;
@@ -55,7 +55,6 @@ pub fn run(bench: &AovsBench) -> Result<()> {
         let scene = super::load_scene(path, None)?;
         let state = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Grid)?;
         let sets = [AovSet::beauty_only(), AovSet::default()];
-        let crypto = cryptomatte_layers(&scene, &sets[1]);
         let name = path
             .file_stem()
             .map_or("scene".into(), |s| s.to_string_lossy());
@@ -72,14 +71,16 @@ pub fn run(bench: &AovsBench) -> Result<()> {
                     let exr = bench
                         .out
                         .join(format!("{name}-{}.exr", ["beauty", "default"][i]));
-                    let header = Header {
-                        state: &state,
-                        settings: &settings,
-                        stats: &stats,
-                        compression: Compression::Zip,
-                    };
+                    let header = ExrHeader::new(&state, &settings, Some(&scene));
                     let start = Instant::now();
-                    write_film(&exr, AovFiles::Single, &film, &crypto, &header)?;
+                    write_film(
+                        &exr,
+                        AovFiles::Single,
+                        &film,
+                        &header,
+                        &stats,
+                        Compression::Zip,
+                    )?;
                     let write = start.elapsed().as_secs_f64();
                     let bytes = std::fs::metadata(&exr)?.len();
                     let channels: usize = 4 + sets[i]

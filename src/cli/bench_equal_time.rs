@@ -12,7 +12,7 @@ use glam::UVec2;
 
 use super::bench::median;
 use crate::integrator::{self, Budget, RenderSettings, RenderStats};
-use crate::output::{read_image, Compression};
+use crate::output::read_image;
 use crate::render_state::RenderState;
 
 /// What an equal-time benchmark measures (`bench render`, `bench volumes`).
@@ -127,13 +127,8 @@ pub(super) fn reference(
         path.display(),
         stats.elapsed.as_secs_f64()
     );
-    let header = super::render::Header {
-        state,
-        settings,
-        stats: &stats,
-        compression: Compression::Zip,
-    };
-    super::render::write_beauty(path, &rgb, &header)?;
+    let header = super::film_output::ExrHeader::new(state, settings, None);
+    super::film_output::write_beauty(path, state.resolution, &rgb, &header, &stats)?;
     Ok(rgb)
 }
 

@@ -12,16 +12,19 @@ use anyhow::{bail, Context, Result};
 use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
-use super::render::AovFiles;
+use super::film_output::AovFiles;
+use super::film_output::ExrHeader;
+use super::split::PartInfo;
 use crate::integrator::{Budget, FilmState, RenderProgress, RenderSettings};
+use crate::output::film::Film;
 use crate::output::film_state::{read_film_state, write_film_state};
 use crate::scene::{Scene, BLOB_FILE, MANIFEST_FILE};
 use crate::volumes::MajorantKind;
 
 /// The files a render of `-o OUT.exr` writes.
 pub(super) struct OutputFiles {
-    /// The EXR and everything written beside it on success: the PNG preview
-    /// and, with `--aov-files separate`, one EXR per AOV.
+    /// The output and everything written beside it on success: for an EXR,
+    /// the PNG preview and, with `--aov-files separate`, one EXR per AOV.
     pub finals: Vec<PathBuf>,
     /// `OUT.checkpoint`: the film state of an unfinished render.
     pub checkpoint: PathBuf,
@@ -30,10 +33,14 @@ pub(super) struct OutputFiles {
 }
 
 impl OutputFiles {
-    /// The files of a render to `exr` with the AOVs of `settings`.
+    /// The files of a render to `exr` (or to a film state, `.film`) with
+    /// the AOVs of `settings`.
     pub fn new(exr: &Path, files: AovFiles, settings: &RenderSettings) -> Self {
-        let mut finals = vec![exr.to_path_buf(), exr.with_extension("png")];
-        if files == AovFiles::Separate {
+        let mut finals = vec![exr.to_path_buf()];
+        if !super::split::is_film_output(exr) {
+            finals.push(exr.with_extension("png"));
+        }
+        if files == AovFiles::Separate && finals.len() == 2 {
             finals.extend(
                 settings
                     .aovs
@@ -142,19 +149,23 @@ impl Fingerprint {
         ))
     }
 
-    /// One line per entry that differs from `now`.
-    fn differences(&self, now: &Fingerprint) -> Vec<String> {
-        let keys: std::collections::BTreeSet<&String> = self.0.keys().chain(now.0.keys()).collect();
+    /// One line per entry that differs from `other`, e.g. `seed:
+    /// checkpoint 3, this render 4` with `labels` ["checkpoint", "this render"].
+    pub fn differences(&self, other: &Fingerprint, labels: [&str; 2]) -> Vec<String> {
+        let keys: std::collections::BTreeSet<&String> =
+            self.0.keys().chain(other.0.keys()).collect();
+        let show = |m: &BTreeMap<String, String>, k: &String| {
+            m.get(k).cloned().unwrap_or_else(|| "(none)".into())
+        };
         keys.into_iter()
-            .filter(|k| self.0.get(*k) != now.0.get(*k))
+            .filter(|k| self.0.get(*k) != other.0.get(*k))
             .map(|k| {
-                let show = |m: &BTreeMap<String, String>| {
-                    m.get(k).cloned().unwrap_or_else(|| "(none)".into())
-                };
                 format!(
-                    "{k}: checkpoint {}, this render {}",
-                    show(&self.0),
-                    show(&now.0)
+                    "{k}: {} {}, {} {}",
+                    labels[0],
+                    show(&self.0, k),
+                    labels[1],
+                    show(&other.0, k)
                 )
             })
             .collect()
@@ -196,33 +207,71 @@ fn files_hash(scene: &Scene) -> String {
     format!("{} files, {:08x}", files.len(), crc.finalize())
 }
 
-/// What a checkpoint file holds besides the film.
-#[derive(Serialize, Deserialize)]
-struct CheckpointHeader {
-    fingerprint: Fingerprint,
-    progress: RenderProgress,
+/// What identifies a render in its film-state files: the scene and
+/// settings, the EXR header its image will carry, and its place in the frame.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub(super) struct RenderIdentity {
+    /// Scene content and every setting that changes pixels.
+    pub fingerprint: Fingerprint,
+    /// The header of the EXRs written from it.
+    pub exr: ExrHeader,
+    /// The samples it takes of its frame.
+    pub part: PartInfo,
 }
 
-/// Writes `state` to `path` (atomically) with its fingerprint.
-pub(super) fn save(path: &Path, state: &FilmState, fingerprint: &Fingerprint) -> Result<()> {
-    let header = CheckpointHeader {
-        fingerprint: fingerprint.clone(),
-        progress: state.progress.clone(),
+/// A film-state file's header: the render's identity and progress.
+#[derive(Debug, Deserialize)]
+pub(super) struct FilmStateHeader {
+    /// Whose film it is.
+    #[serde(flatten)]
+    pub identity: RenderIdentity,
+    /// How far it got.
+    pub progress: RenderProgress,
+}
+
+/// [`FilmStateHeader`] borrowed, for writing.
+#[derive(Serialize)]
+struct FilmStateHeaderRef<'a> {
+    #[serde(flatten)]
+    identity: &'a RenderIdentity,
+    progress: &'a RenderProgress,
+}
+
+/// Writes `state` of the render `identity` to `path` (atomically): a
+/// checkpoint, or a finished part for `cirrus merge`.
+pub(super) fn write(path: &Path, identity: &RenderIdentity, state: &FilmState) -> Result<()> {
+    let header = FilmStateHeaderRef {
+        identity,
+        progress: &state.progress,
     };
     Ok(write_film_state(path, &state.film, &header)?)
 }
 
-/// Reads the checkpoint at `path` for a render with `fingerprint`,
-/// `resolution` and `settings`; refuses a damaged one or one made by
-/// another scene or other settings, listing every difference.
+/// Reads a film-state file.
+pub(super) fn read(path: &Path) -> Result<(FilmStateHeader, Film)> {
+    Ok(read_film_state::<FilmStateHeader>(path)?)
+}
+
+/// Reads the checkpoint at `path` to continue the render `identity`, which
+/// starts from `fresh`; refuses a damaged one or one made by another scene,
+/// other settings or another part, listing every difference.
 pub(super) fn load(
     path: &Path,
-    fingerprint: &Fingerprint,
-    resolution: UVec2,
+    identity: &RenderIdentity,
+    fresh: &FilmState,
     settings: &RenderSettings,
 ) -> Result<FilmState> {
-    let (header, film) = read_film_state::<CheckpointHeader>(path)?;
-    let differences = header.fingerprint.differences(fingerprint);
+    let (header, film) = read(path)?;
+    let saved = &header.identity;
+    let mut differences = saved
+        .fingerprint
+        .differences(&identity.fingerprint, ["checkpoint", "this render"]);
+    if saved.part != identity.part {
+        differences.push(format!(
+            "part: checkpoint samples {:?}, this render {:?}",
+            saved.part.samples, identity.part.samples
+        ));
+    }
     if !differences.is_empty() {
         bail!(
             "{} was made by another render; resume with its settings or pass --force to start over:\n  {}",
@@ -235,7 +284,7 @@ pub(super) fn load(
         progress: header.progress,
     };
     state
-        .check(resolution, settings)
+        .check(fresh, settings)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     Ok(state)
 }

@@ -9,8 +9,10 @@ mod bench_instances;
 mod bench_render;
 mod bench_volumes;
 mod checkpoint;
+mod film_output;
 mod info;
 mod render;
+mod split;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -50,6 +52,9 @@ enum Command {
     },
     /// Render a scene to an EXR (and a PNG preview beside it).
     Render(render::RenderArgs),
+    /// Join film states of parts of one frame (`cirrus render --tile/--crop/
+    /// --sample-range -o PART.film`) into its EXR, checking that they fit.
+    Merge(split::MergeArgs),
     /// Tile every layer of an EXR (beauty, AOVs, Cryptomattes) into one PNG
     /// contact sheet and list the layers.
     Aovs(aovs::AovsArgs),
@@ -73,6 +78,7 @@ pub fn run() -> ExitCode {
             frame,
         } => export(&input, &output, frame),
         Command::Render(args) => render::run(args),
+        Command::Merge(args) => split::merge(args),
         Command::Aovs(args) => aovs::run(args),
         Command::Bench(b) => bench::run(b),
     };

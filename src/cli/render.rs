@@ -12,20 +12,20 @@ use anyhow::{bail, Context, Result};
 use glam::UVec2;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::checkpoint::{self, Fingerprint, Interrupted, OutputFiles, StopSignal};
+use super::checkpoint::{self, Fingerprint, Interrupted, OutputFiles, RenderIdentity, StopSignal};
+use super::film_output::{write_film, AovFiles, ExrHeader};
+use super::split::{self, PartArgs, PartInfo};
 use crate::integrator::{
     self, Budget, Checkpointing, FilmState, PathSettings, RenderControl, RenderSettings,
     RenderStats, Strategy, VolumeEstimator,
 };
 use crate::memory;
-use crate::output::aov::{Aov, AovSet};
-use crate::output::cryptomatte::CryptoLayer;
-use crate::output::film::{Film, Layer};
+use crate::output::aov::AovSet;
+use crate::output::film::Film;
 use crate::output::filter::FilterKind;
-use crate::output::{write_exr, write_preview, Channel, Compression, ExrImage, PixelType};
+use crate::output::{write_preview, Compression};
 use crate::render_state::{self, RenderState};
 use crate::sampling::SamplerKind;
-use crate::scene::Scene;
 use crate::volumes::MajorantKind;
 
 /// Samples per pixel when neither `--spp` nor `--time` is given.
@@ -95,6 +95,8 @@ pub struct RenderArgs {
     /// USD time code to export (USD input only).
     #[arg(long)]
     frame: Option<f64>,
+    #[command(flatten)]
+    part: PartArgs,
     /// Overwrite existing outputs (and drop an unfinished render's checkpoint).
     #[arg(long)]
     force: bool,
@@ -110,26 +112,6 @@ pub struct RenderArgs {
     /// 8G, 512M; default: the memory available to this process).
     #[arg(long, value_parser = memory::parse_bytes)]
     memory_limit: Option<u64>,
-}
-
-/// The Cryptomatte layers chosen in `aovs`, named by the scene's Mesh and
-/// Material prim paths (indexed like the film's object and material ids).
-pub(super) fn cryptomatte_layers(scene: &Scene, aovs: &AovSet) -> [Option<CryptoLayer>; 2] {
-    let m = &scene.manifest;
-    let layer = |aov: Aov, names: Vec<String>| {
-        aovs.contains(aov)
-            .then(|| CryptoLayer::new(aov.name(), names))
-    };
-    [
-        layer(
-            Aov::CryptoObject,
-            m.meshes.iter().map(|x| x.path.clone()).collect(),
-        ),
-        layer(
-            Aov::CryptoMaterial,
-            m.materials.iter().map(|x| x.path.clone()).collect(),
-        ),
-    ]
 }
 
 /// Parses `WIDTHxHEIGHT`.
@@ -165,7 +147,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.clamp.is_some_and(|c| c.is_nan() || c <= 0.0) {
         bail!("--clamp must be positive");
     }
-    let settings = RenderSettings {
+    let mut settings = RenderSettings {
         budget,
         seed: args.seed,
         sampler: args.sampler,
@@ -179,6 +161,16 @@ pub fn run(args: RenderArgs) -> Result<()> {
         },
         aovs: args.aovs,
     };
+    let film_output = split::is_film_output(&args.output);
+    if args.part.is_part() && !film_output {
+        bail!("--tile, --crop and --sample-range render a part of a frame: write it with -o PART.film and join the parts with cirrus merge");
+    }
+    let frame_spp = match budget {
+        Budget::Samples(n) => n,
+        Budget::Time(_) if film_output => bail!("a film state (-o *.film) needs --spp, not --time"),
+        Budget::Time(_) => 0,
+    };
+    let samples = args.part.samples(frame_spp)?;
     let files = OutputFiles::new(&args.output, args.aov_files, &settings);
     files.claim(args.force, args.resume)?;
     let signal = StopSignal::install().context("cannot install the SIGINT/SIGTERM handlers")?;
@@ -190,16 +182,28 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let scene = super::load_scene(&args.scene, args.frame)?;
     let resolution = render_state::resolution_for(&scene, args.res);
-    let needs = pool.install(|| memory::estimate(&scene, resolution, &settings.aovs))?;
+    let window = args.part.window(resolution)?;
+    let needs = pool.install(|| memory::estimate(&scene, window.size, &settings.aovs))?;
     memory::check(&needs, args.memory_limit)?;
     log::debug!("estimated peak memory: {needs}");
     let state = pool.install(|| RenderState::build(&scene, args.res, args.majorant))?;
-    let crypto = cryptomatte_layers(&scene, &settings.aovs);
-    let fingerprint = Fingerprint::new(&scene, state.resolution, &settings, args.majorant)?;
+    let identity = RenderIdentity {
+        fingerprint: Fingerprint::new(&scene, state.resolution, &settings, args.majorant)?,
+        exr: ExrHeader::new(&state, &settings, Some(&scene)),
+        part: PartInfo {
+            samples: samples.clone(),
+            frame_spp,
+        },
+    };
     drop(scene);
+    if let Budget::Samples(_) = settings.budget {
+        // The integrator's target is the last sample index of this part.
+        settings.budget = Budget::Samples(samples.end);
+    }
+    let film = Film::cropped(state.resolution, window, settings.aovs.clone());
+    let fresh = FilmState::new(film, samples.start);
     let resumed = if args.resume {
-        let resumed =
-            checkpoint::load(&files.checkpoint, &fingerprint, state.resolution, &settings)?;
+        let resumed = checkpoint::load(&files.checkpoint, &identity, &fresh, &settings)?;
         log::info!(
             "resuming {} at {} spp",
             files.checkpoint.display(),
@@ -207,18 +211,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
         );
         resumed
     } else {
-        FilmState::new(state.resolution, settings.aovs.clone())
+        fresh
     };
     log::info!(
         "{}: ready in {:.2} s, {}x{}",
         args.scene.display(),
         start.elapsed().as_secs_f64(),
-        state.resolution.x,
-        state.resolution.y
+        window.size.x,
+        window.size.y
     );
     let progress = Progress::new();
     let save = |s: &FilmState| {
-        if let Err(e) = checkpoint::save(&files.checkpoint, s, &fingerprint) {
+        if let Err(e) = checkpoint::write(&files.checkpoint, &identity, s) {
             log::warn!("checkpoint not saved: {e:#}");
         }
     };
@@ -232,213 +236,86 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let (end, stats) =
         pool.install(|| integrator::render_from(&state, &settings, resumed, &control));
     progress.finish();
-    let header = Header {
-        state: &state,
-        settings: &settings,
-        stats: &stats,
-        compression: args.compression,
-    };
     if !stats.complete {
-        return Err(interrupted(
-            &files,
-            &end,
-            &fingerprint,
-            &crypto,
-            &header,
-            &signal,
-        ));
+        let partial = Partial {
+            files: &files,
+            identity: &identity,
+            stats: &stats,
+            compression: args.compression,
+        };
+        return Err(partial.save(&end, &signal));
     }
-    write_film(&args.output, args.aov_files, &end.film, &crypto, &header)?;
-    let rgb = end.film.rgb();
-    let r = state.resolution;
-    let preview = args.output.with_extension("png");
-    write_preview(&preview, r.x, r.y, &rgb)?;
-    files.finish()?;
-    report(&args.output, &preview, &stats);
-    Ok(())
-}
-
-/// After a stop by signal: saves the checkpoint and a partial EXR (when any
-/// sample was taken) and returns the [`Interrupted`] error saying how to resume.
-fn interrupted(
-    files: &OutputFiles,
-    end: &FilmState,
-    fingerprint: &Fingerprint,
-    crypto: &[Option<CryptoLayer>; 2],
-    header: &Header,
-    signal: &StopSignal,
-) -> anyhow::Error {
-    let signal = signal.signal().unwrap_or(signal_hook::consts::SIGINT);
-    if end.progress.tile_samples.iter().all(|&s| s == 0) {
-        return Interrupted {
-            signal,
-            message: "interrupted before the first sample; nothing written".into(),
-        }
-        .into();
+    if film_output {
+        checkpoint::write(&args.output, &identity, &end)?;
+        files.finish()?;
+        report(&[&args.output], &stats);
+        return Ok(());
     }
-    let saved = checkpoint::save(&files.checkpoint, end, fingerprint)
-        .and_then(|()| write_film(&files.partial, AovFiles::Single, &end.film, crypto, header));
-    if let Err(e) = saved {
-        return e.context("interrupted, and the checkpoint could not be saved");
-    }
-    Interrupted {
-        signal,
-        message: format!(
-            "interrupted at {} spp: saved {} and {}; run the same command with --resume to finish",
-            end.progress.samples_per_pixel(),
-            files.checkpoint.display(),
-            files.partial.display()
-        ),
-    }
-    .into()
-}
-
-/// How AOVs are split over files (`--aov-files`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
-pub enum AovFiles {
-    /// One multi-channel EXR: beauty in the base layer, AOVs as layers.
-    #[default]
-    Single,
-    /// The beauty in OUT.exr and each AOV in OUT.<aov>.exr.
-    Separate,
-}
-
-/// Writes the film: the beauty layer and every chosen AOV, in one EXR or
-/// one per AOV, each with the render's metadata (and a Cryptomatte's own).
-pub(super) fn write_film(
-    output: &Path,
-    files: AovFiles,
-    film: &Film,
-    crypto: &[Option<CryptoLayer>; 2],
-    header: &Header,
-) -> Result<()> {
-    let crypto_of = |aov| match aov {
-        Aov::CryptoObject => crypto[0].as_ref(),
-        Aov::CryptoMaterial => crypto[1].as_ref(),
-        _ => None,
-    };
-    let layers: Vec<(Aov, Layer)> = film
-        .aov_set()
-        .aovs()
-        .iter()
-        .map(|&aov| (aov, film.aov_layer(aov, crypto_of(aov))))
-        .collect();
-    let beauty = film.beauty_layer();
-    match files {
-        AovFiles::Single => {
-            let mut all = vec![&beauty];
-            all.extend(layers.iter().map(|(_, l)| l));
-            let crypto_metadata = crypto.iter().flatten().flat_map(CryptoLayer::metadata);
-            write_layers(output, &all, crypto_metadata.collect(), header)
-        }
-        AovFiles::Separate => {
-            write_layers(output, &[&beauty], Vec::new(), header)?;
-            for (aov, layer) in &layers {
-                let path = output.with_extension(format!("{}.exr", aov.name()));
-                let metadata = crypto_of(*aov).map(CryptoLayer::metadata);
-                write_layers(&path, &[layer], metadata.unwrap_or_default(), header)?;
-            }
-            Ok(())
-        }
-    }
-}
-
-/// What every EXR of a render carries in its header.
-pub(super) struct Header<'a> {
-    /// The camera, for `worldToCamera` and `worldToNDC`.
-    pub state: &'a RenderState,
-    /// How it was rendered.
-    pub settings: &'a RenderSettings,
-    /// What the render did.
-    pub stats: &'a RenderStats,
-    /// EXR compression.
-    pub compression: Compression,
-}
-
-/// Writes `layers` (interleaved into one image) with `strings` and the
-/// header's metadata: `software`, the camera matrices (Imath's row-vector
-/// layout, which is glam's column-major array of the column-vector matrix)
-/// and the settings as `cirrus/*` strings.
-fn write_layers(
-    path: &Path,
-    layers: &[&Layer],
-    mut strings: Vec<(String, String)>,
-    header: &Header,
-) -> Result<()> {
-    let r = header.state.resolution;
-    let pixel_count = r.x as usize * r.y as usize;
-    let channels: Vec<Channel> = layers.iter().flat_map(|l| l.channels.clone()).collect();
-    let mut pixels = Vec::with_capacity(channels.len() * pixel_count);
-    for i in 0..pixel_count {
-        for layer in layers {
-            let n = layer.channels.len();
-            pixels.extend_from_slice(&layer.pixels[i * n..(i + 1) * n]);
-        }
-    }
-    let (settings, stats) = (header.settings, header.stats);
-    let attribute = |k: &str, v: String| (format!("cirrus/{k}"), v);
-    strings.extend([
-        (
-            "software".to_string(),
-            format!("Cirrus {}", env!("CARGO_PKG_VERSION")),
-        ),
-        attribute("version", env!("CARGO_PKG_VERSION").into()),
-        attribute("spp", stats.samples_per_pixel.to_string()),
-        attribute("complete", stats.complete.to_string()),
-        attribute(
-            "render_seconds",
-            format!("{:.3}", stats.elapsed.as_secs_f64()),
-        ),
-        attribute("seed", settings.seed.to_string()),
-        attribute("sampler", format!("{:?}", settings.sampler)),
-        attribute("strategy", format!("{:?}", settings.path.strategy)),
-        attribute("max_depth", settings.path.max_depth.to_string()),
-        attribute(
-            "volume_estimator",
-            format!("{:?}", settings.path.volume_estimator),
-        ),
-        attribute("equiangular", settings.path.equiangular.to_string()),
-        attribute("aovs", settings.aovs.to_string()),
-    ]);
-    let camera = &header.state.camera;
-    write_exr(
-        path,
-        &ExrImage {
-            width: r.x,
-            height: r.y,
-            channels,
-            pixels: &pixels,
-            compression: header.compression,
-            strings,
-            matrices: vec![
-                (
-                    "worldToCamera".into(),
-                    camera.world_to_camera().to_cols_array(),
-                ),
-                ("worldToNDC".into(), camera.world_to_ndc().to_cols_array()),
-            ],
-        },
+    write_film(
+        &args.output,
+        args.aov_files,
+        &end.film,
+        &identity.exr,
+        &stats,
+        args.compression,
     )?;
+    let preview = args.output.with_extension("png");
+    let r = end.film.window.size;
+    write_preview(&preview, r.x, r.y, &end.film.rgb())?;
+    files.finish()?;
+    report(&[&args.output, &preview], &stats);
     Ok(())
 }
 
-/// Writes a beauty-only EXR (float R, G, B) with the render's metadata: the
-/// benchmarks' references.
-pub(super) fn write_beauty(path: &Path, rgb: &[f32], header: &Header) -> Result<()> {
-    let layer = Layer {
-        channels: ["R", "G", "B"]
-            .map(|name| Channel {
-                name: name.into(),
-                pixel_type: PixelType::Float,
-            })
-            .to_vec(),
-        pixels: rgb.to_vec(),
-    };
-    write_layers(path, &[&layer], Vec::new(), header)
+/// What an interrupted render saves.
+struct Partial<'a> {
+    files: &'a OutputFiles,
+    identity: &'a RenderIdentity,
+    stats: &'a RenderStats,
+    compression: Compression,
+}
+
+impl Partial<'_> {
+    /// Saves the checkpoint and a partial EXR (when any sample was taken)
+    /// and returns the [`Interrupted`] error saying how to resume.
+    fn save(&self, end: &FilmState, signal: &StopSignal) -> anyhow::Error {
+        let signal = signal.signal().unwrap_or(signal_hook::consts::SIGINT);
+        if end.progress.is_empty() {
+            return Interrupted {
+                signal,
+                message: "interrupted before the first sample; nothing written".into(),
+            }
+            .into();
+        }
+        let files = self.files;
+        let saved = checkpoint::write(&files.checkpoint, self.identity, end).and_then(|()| {
+            write_film(
+                &files.partial,
+                AovFiles::Single,
+                &end.film,
+                &self.identity.exr,
+                self.stats,
+                self.compression,
+            )
+        });
+        if let Err(e) = saved {
+            return e.context("interrupted, and the checkpoint could not be saved");
+        }
+        Interrupted {
+            signal,
+            message: format!(
+                "interrupted at {} spp: saved {} and {}; run the same command with --resume to finish",
+                end.progress.samples_per_pixel(),
+                files.checkpoint.display(),
+                files.partial.display()
+            ),
+        }
+        .into()
+    }
 }
 
 /// Prints what was written and how the render went; warns about dropped samples.
-fn report(exr: &Path, preview: &Path, stats: &RenderStats) {
+fn report(written: &[&Path], stats: &RenderStats) {
     let secs = stats.elapsed.as_secs_f64();
     let rays = stats.rays.closest + stats.rays.shadow;
     log::info!(
@@ -472,7 +349,8 @@ fn report(exr: &Path, preview: &Path, stats: &RenderStats) {
             pixel.y
         );
     }
-    println!("wrote {} and {}", exr.display(), preview.display());
+    let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+    println!("wrote {}", names.join(" and "));
 }
 
 /// A progress bar with ETA on a terminal; on anything else, a log line

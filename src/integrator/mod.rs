@@ -132,7 +132,8 @@ pub struct RayCounts {
 }
 
 impl RayCounts {
-    fn add(&mut self, other: &RayCounts) {
+    /// Adds another count (of a tile, or of a part of a split frame).
+    pub fn add(&mut self, other: &RayCounts) {
         self.camera += other.camera;
         self.closest += other.closest;
         self.shadow += other.shadow;
@@ -164,7 +165,7 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(f64) + Sync),
 ) -> (Film, RenderStats) {
-    let start = FilmState::new(state.resolution, settings.aovs.clone());
+    let start = FilmState::new(Film::new(state.resolution, settings.aovs.clone()), 0);
     let control = RenderControl {
         progress,
         stop: &|| false,
@@ -194,22 +195,24 @@ pub fn render_from(
         Budget::Samples(n) => Some(n),
         Budget::Time(_) => None,
     };
-    let pixels_total = f64::from(state.resolution.x) * f64::from(state.resolution.y);
+    let window = start.film.window.size;
+    let pixels_total = f64::from(window.x) * f64::from(window.y);
     let fraction = |progress: &RenderProgress| match settings.budget {
         Budget::Samples(n) => {
+            let first = progress.first_sample;
             let taken: f64 = tiles
                 .iter()
                 .zip(&progress.tile_samples)
-                .map(|(t, &s)| f64::from(t.size.x * t.size.y) * f64::from(s))
+                .map(|(t, &s)| f64::from(t.size.x * t.size.y) * f64::from(s - first))
                 .sum();
-            taken / (pixels_total * f64::from(n))
+            taken / (pixels_total * f64::from(n - first))
         }
         Budget::Time(limit) => seconds() / limit.as_secs_f64(),
     };
     let shared = Mutex::new(start);
     let last_checkpoint = Mutex::new(Instant::now());
     loop {
-        let done = lock(&shared).progress.samples_per_pixel();
+        let done = lock(&shared).progress.next_sample();
         let end = next_pass_end(done, target);
         if end == done || (control.stop)() {
             break;
@@ -264,7 +267,7 @@ pub fn render_from(
         rays: p.rays,
         non_finite: end.film.non_finite,
         tracking: p.tracking,
-        complete: !(control.stop)() || target.is_some_and(|n| samples_per_pixel >= n),
+        complete: !(control.stop)() || target.is_some_and(|n| p.next_sample() >= n),
     };
     (end, stats)
 }

@@ -9,11 +9,9 @@
 
 use std::time::Duration;
 
-use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
 use super::{RayCounts, RenderSettings};
-use crate::output::aov::AovSet;
 use crate::output::film::Film;
 use crate::volumes::TrackingStats;
 
@@ -30,7 +28,10 @@ const MAX_PASS_SAMPLES: u32 = 16;
 /// Samples taken per tile and what the render has spent so far.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RenderProgress {
-    /// Samples per pixel taken in each tile of [`TILE_SIZE`] pixels, in
+    /// The first sample index this render takes (0, or the start of a
+    /// `--sample-range` part).
+    pub first_sample: u32,
+    /// The next sample index of each tile of [`TILE_SIZE`] pixels, in
     /// [`Film::tiles`] order; always a pass boundary.
     pub tile_samples: Vec<u32>,
     /// Wall-clock seconds of sampling, over every run of the render.
@@ -42,9 +43,23 @@ pub struct RenderProgress {
 }
 
 impl RenderProgress {
+    /// The sample index every tile has reached.
+    pub fn next_sample(&self) -> u32 {
+        self.tile_samples
+            .iter()
+            .copied()
+            .min()
+            .unwrap_or(self.first_sample)
+    }
+
     /// Samples per pixel that every tile has taken.
     pub fn samples_per_pixel(&self) -> u32 {
-        self.tile_samples.iter().copied().min().unwrap_or(0)
+        self.next_sample() - self.first_sample
+    }
+
+    /// Whether no tile has taken a sample yet.
+    pub fn is_empty(&self) -> bool {
+        self.tile_samples.iter().all(|&s| s == self.first_sample)
     }
 }
 
@@ -58,14 +73,15 @@ pub struct FilmState {
 }
 
 impl FilmState {
-    /// An empty state: no samples anywhere.
-    pub fn new(resolution: UVec2, aovs: AovSet) -> Self {
-        let film = Film::new(resolution, aovs);
+    /// A state with no samples yet, for the empty `film` (of the whole
+    /// image or a window of it), whose samples start at `first_sample`.
+    pub fn new(film: Film, first_sample: u32) -> Self {
         let tiles = film.tiles(TILE_SIZE).len();
         Self {
             film,
             progress: RenderProgress {
-                tile_samples: vec![0; tiles],
+                first_sample,
+                tile_samples: vec![first_sample; tiles],
                 seconds: 0.0,
                 rays: RayCounts::default(),
                 tracking: TrackingStats::default(),
@@ -73,15 +89,23 @@ impl FilmState {
         }
     }
 
-    /// Checks that a saved state can continue a render of `resolution` with
-    /// `settings`: same image size, same AOVs, one entry per tile, each a
-    /// pass boundary within the budget. The error says what differs.
-    pub fn check(&self, resolution: UVec2, settings: &RenderSettings) -> Result<(), String> {
-        let film = &self.film;
-        if film.resolution != resolution {
+    /// Checks that a saved state can continue the render that `fresh` (its
+    /// empty state) starts, with `settings`: same image size, window, first
+    /// sample and AOVs, one entry per tile, each a pass boundary within the
+    /// budget. The error says what differs.
+    pub fn check(&self, fresh: &FilmState, settings: &RenderSettings) -> Result<(), String> {
+        let (film, expected) = (&self.film, &fresh.film);
+        if (film.resolution, film.window) != (expected.resolution, expected.window) {
             return Err(format!(
-                "it is {}x{}, this render is {}x{}",
-                film.resolution.x, film.resolution.y, resolution.x, resolution.y
+                "it holds {:?} of {}, this render {:?} of {}",
+                film.window, film.resolution, expected.window, expected.resolution
+            ));
+        }
+        let first = self.progress.first_sample;
+        if first != fresh.progress.first_sample {
+            return Err(format!(
+                "it starts at sample {first}, this render at {}",
+                fresh.progress.first_sample
             ));
         }
         if film.aov_set() != &settings.aovs {
@@ -103,7 +127,11 @@ impl FilmState {
             super::Budget::Samples(n) => Some(n),
             super::Budget::Time(_) => None,
         };
-        match p.tile_samples.iter().find(|&&s| !is_pass_end(s, target)) {
+        match p
+            .tile_samples
+            .iter()
+            .find(|&&s| !is_pass_end(s, first, target))
+        {
             Some(s) => Err(format!(
                 "a tile records {s} samples, not a pass boundary of this budget"
             )),
@@ -139,9 +167,10 @@ pub(super) fn next_pass_end(done: u32, target: Option<u32>) -> u32 {
     target.map_or(end, |n| end.min(n).max(done))
 }
 
-/// Whether `samples` is a pass boundary of a render towards `target`.
-fn is_pass_end(samples: u32, target: Option<u32>) -> bool {
-    let mut end = 0;
+/// Whether sample index `samples` is a pass boundary of a render from
+/// `first` towards `target`.
+fn is_pass_end(samples: u32, first: u32, target: Option<u32>) -> bool {
+    let mut end = first;
     while end < samples {
         let next = next_pass_end(end, target);
         if next == end {
@@ -170,8 +199,11 @@ mod tests {
         };
         assert_eq!(ends(Some(40)), [0, 1, 2, 4, 8, 16, 32, 40]);
         assert_eq!(ends(None), [0, 1, 2, 4, 8, 16, 32, 48, 64, 80, 96]);
-        assert!(is_pass_end(40, Some(40)) && is_pass_end(32, Some(40)));
-        assert!(!is_pass_end(40, None) && !is_pass_end(3, Some(40)));
-        assert!(!is_pass_end(41, Some(40)));
+        assert!(is_pass_end(40, 0, Some(40)) && is_pass_end(32, 0, Some(40)));
+        assert!(!is_pass_end(40, 0, None) && !is_pass_end(3, 0, Some(40)));
+        assert!(!is_pass_end(41, 0, Some(40)));
+        // A sample-range part from 20: 20, 36, 52, 60.
+        assert!(is_pass_end(36, 20, Some(60)) && is_pass_end(52, 20, Some(60)));
+        assert!(!is_pass_end(40, 20, Some(60)) && !is_pass_end(10, 20, Some(60)));
     }
 }

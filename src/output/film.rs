@@ -96,6 +96,20 @@ impl AovBuffers {
         }
     }
 
+    /// Replaces this one's pixel `to` by `other`'s pixel `from`.
+    fn copy(&mut self, to: usize, other: &AovBuffers, from: usize) {
+        let n = self.stride;
+        self.sums[to * n..(to + 1) * n].copy_from_slice(&other.sums[from * n..(from + 1) * n]);
+        if let (Some(d), Some(s)) = (&mut self.depth, &other.depth) {
+            d[to] = s[from];
+        }
+        for (d, s) in self.crypto.iter_mut().zip(&other.crypto) {
+            if let (Some(d), Some(s)) = (d, s) {
+                d[to] = s[from].clone();
+            }
+        }
+    }
+
     /// Adds `other`'s pixel `from` into this one's pixel `to`.
     fn merge(&mut self, to: usize, other: &AovBuffers, from: usize) {
         let n = self.stride;
@@ -233,11 +247,14 @@ impl TileFilm {
     }
 }
 
-/// The whole image's sums.
+/// The sums of a window of the image (all of it unless the render was
+/// cropped), row-major within the window.
 #[derive(Clone, Debug)]
 pub struct Film {
-    /// Image size in pixels.
+    /// The whole image's size in pixels.
     pub resolution: UVec2,
+    /// The pixels this film holds.
+    pub window: Tile,
     /// Row-major pixel sums.
     pub(super) pixels: Vec<PixelSum>,
     /// Every dropped sample so far.
@@ -248,11 +265,21 @@ pub struct Film {
 }
 
 impl Film {
-    /// An empty film accumulating the AOVs in `set`.
+    /// An empty film of the whole image, accumulating the AOVs in `set`.
     pub fn new(resolution: UVec2, set: AovSet) -> Self {
-        let pixels = resolution.x as usize * resolution.y as usize;
+        let whole = Tile {
+            origin: UVec2::ZERO,
+            size: resolution,
+        };
+        Self::cropped(resolution, whole, set)
+    }
+
+    /// An empty film of `window` (inside an image of `resolution`).
+    pub fn cropped(resolution: UVec2, window: Tile, set: AovSet) -> Self {
+        let pixels = window.size.x as usize * window.size.y as usize;
         Self {
             resolution,
+            window,
             pixels: vec![PixelSum::default(); pixels],
             non_finite: NonFiniteSamples::default(),
             aovs: AovBuffers::new(&set, pixels),
@@ -266,34 +293,63 @@ impl Film {
     }
 
     /// The tiles of `size` pixels (smaller at the right and bottom edges)
-    /// covering the image, row-major.
+    /// covering the window, row-major.
     pub fn tiles(&self, size: u32) -> Vec<Tile> {
-        let r = self.resolution;
+        let (start, end) = (self.window.origin, self.window.origin + self.window.size);
         let mut tiles = Vec::new();
-        for y in (0..r.y).step_by(size as usize) {
-            for x in (0..r.x).step_by(size as usize) {
+        for y in (start.y..end.y).step_by(size as usize) {
+            for x in (start.x..end.x).step_by(size as usize) {
                 let origin = UVec2::new(x, y);
                 tiles.push(Tile {
                     origin,
-                    size: (r - origin).min(UVec2::splat(size)),
+                    size: (end - origin).min(UVec2::splat(size)),
                 });
             }
         }
         tiles
     }
 
-    /// Adds a tile's sums into the image.
+    /// Index in `pixels` of image pixel `p` (inside the window).
+    fn index(&self, p: UVec2) -> usize {
+        let local = p - self.window.origin;
+        local.y as usize * self.window.size.x as usize + local.x as usize
+    }
+
+    /// Adds a tile's sums into the film.
     pub fn merge(&mut self, tile: &TileFilm) {
         let t = tile.tile;
         for y in 0..t.size.y {
             for x in 0..t.size.x {
                 let from = (y * t.size.x + x) as usize;
-                let to = ((t.origin.y + y) * self.resolution.x + t.origin.x + x) as usize;
+                let to = self.index(t.origin + UVec2::new(x, y));
                 self.pixels[to].add(&tile.pixels[from]);
                 self.aovs.merge(to, &tile.aovs, from);
             }
         }
         self.non_finite.merge(&tile.non_finite);
+    }
+
+    /// Adds another film of the same image and AOVs (a part of a split
+    /// render) into this one: its window's pixels add to the same pixels
+    /// here. A pixel that has no sample yet takes the part's sums as they
+    /// are, so a frame assembled from disjoint windows is bit-identical to
+    /// one rendered whole.
+    pub fn add_part(&mut self, part: &Film) {
+        let w = part.window;
+        for y in 0..w.size.y {
+            for x in 0..w.size.x {
+                let from = part.index(w.origin + UVec2::new(x, y));
+                let to = self.index(w.origin + UVec2::new(x, y));
+                if self.pixels[to].count == 0 {
+                    self.pixels[to] = part.pixels[from];
+                    self.aovs.copy(to, &part.aovs, from);
+                } else {
+                    self.pixels[to].add(&part.pixels[from]);
+                    self.aovs.merge(to, &part.aovs, from);
+                }
+            }
+        }
+        self.non_finite.merge(&part.non_finite);
     }
 
     /// Mean radiance per pixel, RGB interleaved, row-major from the top row:

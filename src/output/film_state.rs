@@ -9,8 +9,8 @@
 //! | 8 | magic `CIRRUSFS` |
 //! | 4 | format version, u32 |
 //! | 8 | length of the JSON frame, u64 |
-//! | .. | JSON frame: `{"resolution": [w, h], "aovs": "...", "non_finite": {...}, "header": {...}}` |
-//! | 56 per pixel | `rgb` 3 x f64, `rgb_squared` 3 x f64, `count` u32, `opaque` u32, row-major |
+//! | .. | JSON frame: `{"resolution": [w, h], "window": [x, y, w, h], "aovs": "...", "non_finite": {...}, "header": {...}}` |
+//! | 56 per pixel | `rgb` 3 x f64, `rgb_squared` 3 x f64, `count` u32, `opaque` u32, row-major over the window |
 //! | 4 x stride per pixel | summed AOVs (light paths, albedo, N, P) as f32, in set order |
 //! | 4 per pixel | minimum depth f32, when `Z` is chosen |
 //! | .. per pixel | Cryptomatte object then material coverage, when chosen: u32 n, then n x (u32 index, u32 samples) |
@@ -26,7 +26,7 @@ use thiserror::Error;
 
 use super::aov::AovSet;
 use super::cryptomatte::CryptoCoverage;
-use super::film::{Film, NonFiniteSamples, PixelSum};
+use super::film::{Film, NonFiniteSamples, PixelSum, Tile};
 
 /// The first bytes of every film-state file.
 const MAGIC: &[u8; 8] = b"CIRRUSFS";
@@ -60,6 +60,7 @@ pub enum FilmStateError {
 #[derive(Serialize, Deserialize)]
 struct Frame<H> {
     resolution: [u32; 2],
+    window: [u32; 4],
     aovs: String,
     non_finite: NonFiniteRecord,
     header: H,
@@ -81,6 +82,12 @@ pub fn write_film_state<H: Serialize>(
 ) -> Result<(), FilmStateError> {
     let frame = Frame {
         resolution: film.resolution.to_array(),
+        window: [
+            film.window.origin.x,
+            film.window.origin.y,
+            film.window.size.x,
+            film.window.size.y,
+        ],
         aovs: film.aov_set().to_string(),
         non_finite: NonFiniteRecord {
             count: film.non_finite.count,
@@ -178,14 +185,20 @@ fn decode<H: DeserializeOwned>(bytes: &[u8]) -> Result<(H, Film), String> {
         serde_json::from_slice(r.take(json_len)?).map_err(|e| format!("bad JSON frame: {e}"))?;
     let set: AovSet = frame.aovs.parse()?;
     let resolution = UVec2::from(frame.resolution);
-    let pixels = resolution.x as usize * resolution.y as usize;
-    if pixels == 0 || pixels.saturating_mul(PIXEL_BYTES) > r.bytes.len() {
-        return Err(format!(
-            "{}x{} pixels do not fit in the file",
-            resolution.x, resolution.y
-        ));
+    let [x, y, w, h] = frame.window;
+    let window = Tile {
+        origin: UVec2::new(x, y),
+        size: UVec2::new(w, h),
+    };
+    let end = window.origin.as_u64vec2() + window.size.as_u64vec2();
+    if end.x > u64::from(resolution.x) || end.y > u64::from(resolution.y) {
+        return Err(format!("window {:?} outside the image", frame.window));
     }
-    let mut film = Film::new(resolution, set);
+    let pixels = w as usize * h as usize;
+    if pixels == 0 || pixels.saturating_mul(PIXEL_BYTES) > r.bytes.len() {
+        return Err(format!("{w}x{h} pixels do not fit in the file"));
+    }
+    let mut film = Film::cropped(resolution, window, set);
     for p in &mut film.pixels {
         *p = PixelSum {
             rgb: [r.f64()?, r.f64()?, r.f64()?],
@@ -275,10 +288,14 @@ mod tests {
     use crate::output::film::TileFilm;
     use glam::Vec3;
 
-    /// A small film with every AOV, a few samples per pixel and one NaN.
+    /// A small cropped film with every AOV, a few samples per pixel and one NaN.
     fn film() -> Film {
         let set: AovSet = "all".parse().unwrap();
-        let mut film = Film::new(UVec2::new(5, 3), set.clone());
+        let window = Tile {
+            origin: UVec2::new(2, 3),
+            size: UVec2::new(5, 3),
+        };
+        let mut film = Film::cropped(UVec2::new(9, 7), window, set.clone());
         for tile in film.tiles(4) {
             let mut t = TileFilm::new(tile, &set);
             for y in tile.origin.y..tile.origin.y + tile.size.y {
@@ -335,7 +352,10 @@ mod tests {
         write_film_state(&path, &film, &"header").unwrap();
         let (header, back): (String, Film) = read_film_state(&path).unwrap();
         assert_eq!(header, "header");
-        assert_eq!(back.resolution, film.resolution);
+        assert_eq!(
+            (back.resolution, back.window),
+            (film.resolution, film.window)
+        );
         assert_eq!(back.non_finite, film.non_finite);
         assert_eq!(layers(&back), layers(&film));
         std::fs::remove_dir_all(&dir).unwrap();

@@ -1,0 +1,234 @@
+//! Writing a film as EXRs: the beauty and AOV layers in one file or one per
+//! AOV, with the header every render's EXR carries. The header is computed
+//! once from the render state and settings and kept in film-state files, so
+//! `cirrus merge` writes the same EXR as the render would, without the scene.
+
+use std::path::Path;
+
+use anyhow::Result;
+use glam::UVec2;
+use serde::{Deserialize, Serialize};
+
+use crate::integrator::{RenderSettings, RenderStats};
+use crate::output::aov::{Aov, AovSet};
+use crate::output::cryptomatte::CryptoLayer;
+use crate::output::film::{Film, Layer};
+use crate::output::{write_exr, Channel, Compression, ExrImage, PixelType};
+use crate::render_state::RenderState;
+use crate::scene::Scene;
+
+/// How AOVs are split over files (`--aov-files`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum AovFiles {
+    /// One multi-channel EXR: beauty in the base layer, AOVs as layers.
+    #[default]
+    Single,
+    /// The beauty in OUT.exr and each AOV in OUT.<aov>.exr.
+    Separate,
+}
+
+/// What every EXR of a render carries besides its pixels and run statistics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub(super) struct ExrHeader {
+    /// `software` and the settings as `cirrus/*` strings.
+    strings: Vec<(String, String)>,
+    /// `worldToCamera` and `worldToNDC` (Imath's row-vector layout, which is
+    /// glam's column-major array of the column-vector matrix).
+    matrices: Vec<(String, [f32; 16])>,
+    /// Names of the CryptoObject and CryptoMaterial ids (Mesh and Material
+    /// prim paths, indexed like the film's ids), when chosen.
+    crypto_names: [Option<Vec<String>>; 2],
+}
+
+impl ExrHeader {
+    /// The header of a render of `state` with `settings`; Cryptomatte names
+    /// come from `scene` (none without one: beauty-only references).
+    pub fn new(state: &RenderState, settings: &RenderSettings, scene: Option<&Scene>) -> Self {
+        let attribute = |k: &str, v: String| (format!("cirrus/{k}"), v);
+        let p = &settings.path;
+        let strings = vec![
+            (
+                "software".to_string(),
+                format!("Cirrus {}", env!("CARGO_PKG_VERSION")),
+            ),
+            attribute("version", env!("CARGO_PKG_VERSION").into()),
+            attribute("seed", settings.seed.to_string()),
+            attribute("sampler", format!("{:?}", settings.sampler)),
+            attribute("strategy", format!("{:?}", p.strategy)),
+            attribute("max_depth", p.max_depth.to_string()),
+            attribute("volume_estimator", format!("{:?}", p.volume_estimator)),
+            attribute("equiangular", p.equiangular.to_string()),
+            attribute("aovs", settings.aovs.to_string()),
+        ];
+        let camera = &state.camera;
+        let names = |aov: Aov, paths: Vec<String>| settings.aovs.contains(aov).then_some(paths);
+        let crypto_names = scene.map_or([None, None], |scene| {
+            let m = &scene.manifest;
+            [
+                names(
+                    Aov::CryptoObject,
+                    m.meshes.iter().map(|x| x.path.clone()).collect(),
+                ),
+                names(
+                    Aov::CryptoMaterial,
+                    m.materials.iter().map(|x| x.path.clone()).collect(),
+                ),
+            ]
+        });
+        Self {
+            strings,
+            matrices: vec![
+                (
+                    "worldToCamera".into(),
+                    camera.world_to_camera().to_cols_array(),
+                ),
+                ("worldToNDC".into(), camera.world_to_ndc().to_cols_array()),
+            ],
+            crypto_names,
+        }
+    }
+
+    /// The Cryptomatte layers of the chosen AOVs.
+    fn crypto_layers(&self, aovs: &AovSet) -> [Option<CryptoLayer>; 2] {
+        let layer = |aov: Aov, names: &Option<Vec<String>>| {
+            names
+                .as_ref()
+                .filter(|_| aovs.contains(aov))
+                .map(|n| CryptoLayer::new(aov.name(), n.clone()))
+        };
+        [
+            layer(Aov::CryptoObject, &self.crypto_names[0]),
+            layer(Aov::CryptoMaterial, &self.crypto_names[1]),
+        ]
+    }
+}
+
+/// Writes the film: the beauty layer and every chosen AOV, in one EXR or
+/// one per AOV (`OUT.<aov>.exr`), each with the header, the run's
+/// statistics and a Cryptomatte's own metadata.
+pub(super) fn write_film(
+    output: &Path,
+    files: AovFiles,
+    film: &Film,
+    header: &ExrHeader,
+    stats: &RenderStats,
+    compression: Compression,
+) -> Result<()> {
+    let crypto = header.crypto_layers(film.aov_set());
+    let crypto_of = |aov| match aov {
+        Aov::CryptoObject => crypto[0].as_ref(),
+        Aov::CryptoMaterial => crypto[1].as_ref(),
+        _ => None,
+    };
+    let layers: Vec<(Aov, Layer)> = film
+        .aov_set()
+        .aovs()
+        .iter()
+        .map(|&aov| (aov, film.aov_layer(aov, crypto_of(aov))))
+        .collect();
+    let beauty = film.beauty_layer();
+    let write = |path: &Path, layers: &[&Layer], strings: Vec<(String, String)>| {
+        let image = Image {
+            size: film.window.size,
+            layers,
+            compression,
+        };
+        write_layers(path, &image, strings, header, stats)
+    };
+    match files {
+        AovFiles::Single => {
+            let mut all = vec![&beauty];
+            all.extend(layers.iter().map(|(_, l)| l));
+            let crypto_metadata = crypto.iter().flatten().flat_map(CryptoLayer::metadata);
+            write(output, &all, crypto_metadata.collect())
+        }
+        AovFiles::Separate => {
+            write(output, &[&beauty], Vec::new())?;
+            for (aov, layer) in &layers {
+                let path = output.with_extension(format!("{}.exr", aov.name()));
+                let metadata = crypto_of(*aov).map(CryptoLayer::metadata);
+                write(&path, &[layer], metadata.unwrap_or_default())?;
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Writes a beauty-only EXR (float R, G, B) of `size` pixels with the
+/// header: the benchmarks' references.
+pub(super) fn write_beauty(
+    path: &Path,
+    size: UVec2,
+    rgb: &[f32],
+    header: &ExrHeader,
+    stats: &RenderStats,
+) -> Result<()> {
+    let layer = Layer {
+        channels: ["R", "G", "B"]
+            .map(|name| Channel {
+                name: name.into(),
+                pixel_type: PixelType::Float,
+            })
+            .to_vec(),
+        pixels: rgb.to_vec(),
+    };
+    let image = Image {
+        size,
+        layers: &[&layer],
+        compression: Compression::Zip,
+    };
+    write_layers(path, &image, Vec::new(), header, stats)
+}
+
+/// Layers of one size to interleave into one EXR.
+struct Image<'a> {
+    size: UVec2,
+    layers: &'a [&'a Layer],
+    compression: Compression,
+}
+
+/// Writes `image`'s layers interleaved, with `strings`, the header and the
+/// run's statistics (`cirrus/spp`, `cirrus/complete`, `cirrus/render_seconds`).
+fn write_layers(
+    path: &Path,
+    image: &Image,
+    mut strings: Vec<(String, String)>,
+    header: &ExrHeader,
+    stats: &RenderStats,
+) -> Result<()> {
+    let pixel_count = image.size.x as usize * image.size.y as usize;
+    let channels: Vec<Channel> = image
+        .layers
+        .iter()
+        .flat_map(|l| l.channels.clone())
+        .collect();
+    let mut pixels = Vec::with_capacity(channels.len() * pixel_count);
+    for i in 0..pixel_count {
+        for layer in image.layers {
+            let n = layer.channels.len();
+            pixels.extend_from_slice(&layer.pixels[i * n..(i + 1) * n]);
+        }
+    }
+    strings.extend(header.strings.iter().cloned());
+    strings.extend([
+        ("cirrus/spp".into(), stats.samples_per_pixel.to_string()),
+        ("cirrus/complete".into(), stats.complete.to_string()),
+        (
+            "cirrus/render_seconds".into(),
+            format!("{:.3}", stats.elapsed.as_secs_f64()),
+        ),
+    ]);
+    write_exr(
+        path,
+        &ExrImage {
+            width: image.size.x,
+            height: image.size.y,
+            channels,
+            pixels: &pixels,
+            compression: image.compression,
+            strings,
+            matrices: header.matrices.clone(),
+        },
+    )?;
+    Ok(())
+}
