@@ -247,3 +247,91 @@ fn part_flags_are_checked() {
         assert!(!out.exists(), "{extra:?}: wrote {}", out.display());
     }
 }
+
+/// Stops the single-host Slurm cluster of a folder when dropped.
+struct SlurmCluster {
+    dir: PathBuf,
+    env: Vec<(String, String)>,
+}
+
+impl SlurmCluster {
+    /// Starts (installing Slurm and munge if missing) the cluster of
+    /// `.ci/slurm/start` with its state under `dir`.
+    fn start(dir: &Path) -> Self {
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci/slurm/start");
+        let out = Command::new(script).arg(dir).output().unwrap();
+        assert!(
+            out.status.success(),
+            "starting Slurm failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let env = String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .filter_map(|l| l.strip_prefix("export ")?.split_once('='))
+            .map(|(k, v)| {
+                let path = std::env::var("PATH").unwrap_or_default();
+                (k.to_string(), v.replace("$PATH", &path))
+            })
+            .collect();
+        Self {
+            dir: dir.to_path_buf(),
+            env,
+        }
+    }
+}
+
+impl Drop for SlurmCluster {
+    fn drop(&mut self) {
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci/slurm/stop");
+        let _ = Command::new(script).arg(&self.dir).output();
+    }
+}
+
+/// `cirrus farm submit` on a real single-host Slurm cluster (slurmctld,
+/// slurmd and munged on loopback): a parts array and a dependent merge
+/// array run, every task records exit code 0, and the merged frame equals a
+/// single-process render bit for bit.
+#[test]
+fn a_frame_split_over_slurm_matches_a_single_process_render() {
+    let dir = common::scratch("farm_slurm");
+    let cluster = SlurmCluster::start(&dir.join("slurm"));
+    let out = dir.join("frame.exr");
+    let scene = scene();
+    let mut submit = Command::new(env!("CARGO_BIN_EXE_cirrus"));
+    submit
+        .arg("farm")
+        .arg("submit")
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .args(["--split", "3", "--spp", "24", "--res", "96x70"])
+        .args(["--render-args", "--aovs all --seed 5"])
+        .envs(cluster.env.iter().map(|(k, v)| (k, v)));
+    let submitted = submit.output().unwrap();
+    assert!(
+        submitted.status.success(),
+        "{}",
+        String::from_utf8_lossy(&submitted.stderr)
+    );
+    let status = dir.join("farm-frame/status");
+    let start = std::time::Instant::now();
+    while !status.join("merge-0").exists() {
+        assert!(
+            start.elapsed().as_secs() < 300,
+            "the merge job did not finish; logs in {}",
+            dir.join("farm-frame/logs").display()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    }
+    for task in ["part-0", "part-1", "part-2", "merge-0"] {
+        let code = std::fs::read_to_string(status.join(task)).unwrap();
+        assert_eq!(code.trim(), "0", "{task} exited with {code}");
+    }
+    let whole = whole(&dir);
+    let merged = channels(&out);
+    assert_eq!(whole.len(), merged.len());
+    for ((name, _, a), (_, _, b)) in whole.iter().zip(&merged) {
+        let same = a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(same, "{name} differs from the single-process render");
+    }
+}

@@ -298,7 +298,12 @@ const CORRUPTIONS: &[Corruption] = &[
     Corruption {
         name: "NaN point",
         apply: Apply::Content(|f| f.poke("/meshes/0/points", 5, f32::NAN.to_bits())),
-        expect: &["scene.json: meshes[0].points: non-finite value NaN at scalar 5"],
+        expect: &["scene.json: meshes[0].points: value NaN at scalar 5 is not finite"],
+    },
+    Corruption {
+        name: "huge point",
+        apply: Apply::Content(|f| f.poke("/meshes/0/points", 3, f32::MAX.to_bits())),
+        expect: &["meshes[0].points: value 340282350000000000000000000000000000000 at scalar 3 is not finite or beyond ±1e9"],
     },
     Corruption {
         name: "bad prototype mesh index",
@@ -333,12 +338,12 @@ const CORRUPTIONS: &[Corruption] = &[
     Corruption {
         name: "NaN instance transform",
         apply: Apply::Content(|f| f.poke("/instances/transform", 12 + 3, f32::NAN.to_bits())),
-        expect: &["scene.json: instances.transform: non-finite value NaN at scalar 15"],
+        expect: &["scene.json: instances.transform: value NaN at scalar 15 is not finite"],
     },
     Corruption {
         name: "infinite light transform",
         apply: Apply::Content(|f| set(f, "/lights/1/transform/0", json!(1e39))),
-        expect: &["scene.json: lights[1].transform: non-finite value inf"],
+        expect: &["scene.json: lights[1].transform: value inf"],
     },
     Corruption {
         name: "bad material texture index",

@@ -9,6 +9,7 @@ mod bench_instances;
 mod bench_render;
 mod bench_volumes;
 mod checkpoint;
+mod farm;
 mod film_output;
 mod info;
 mod render;
@@ -58,6 +59,9 @@ enum Command {
     /// Tile every layer of an EXR (beauty, AOVs, Cryptomattes) into one PNG
     /// contact sheet and list the layers.
     Aovs(aovs::AovsArgs),
+    /// Split frames over a Slurm cluster: part renders and their merges.
+    #[command(subcommand)]
+    Farm(farm::Farm),
     /// Run a benchmark and print a Markdown table (machine, date, medians).
     #[command(subcommand)]
     Bench(bench::Bench),
@@ -79,6 +83,7 @@ pub fn run() -> ExitCode {
         } => export(&input, &output, frame),
         Command::Render(args) => render::run(args),
         Command::Merge(args) => split::merge(args),
+        Command::Farm(f) => farm::run(f),
         Command::Aovs(args) => aovs::run(args),
         Command::Bench(b) => bench::run(b),
     };

@@ -11,6 +11,10 @@ use bytemuck::{Pod, Zeroable};
 
 use super::format::{Array, Element, Manifest, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL};
 
+/// Largest magnitude of a position, normal, UV or transform entry: a point
+/// at 1e9 scene units under a transform entry of 1e9 stays below 1e19, whose
+/// squared box extents still fit in f32.
+const MAX_MAGNITUDE: f32 = 1e9;
 /// The manifest's file name inside a scene folder.
 pub const MANIFEST_FILE: &str = "scene.json";
 /// The bulk data's file name inside a scene folder.
@@ -373,12 +377,19 @@ impl Checker<'_> {
         Ok(())
     }
 
+    /// Refuses NaN, infinite and huge values: positions and transform
+    /// entries beyond [`MAX_MAGNITUDE`], composed, would overflow the BVH's
+    /// f32 box areas.
     fn finite(&self, field: &str, values: &[f32]) -> Result<(), SceneError> {
-        match values.iter().position(|v| !v.is_finite()) {
+        let bad = |v: &f32| !v.is_finite() || v.abs() > MAX_MAGNITUDE;
+        match values.iter().position(bad) {
             None => Ok(()),
             Some(at) => Err(self.invalid(
                 field,
-                format!("non-finite value {} at scalar {at}", values[at]),
+                format!(
+                    "value {} at scalar {at} is not finite or beyond ±{MAX_MAGNITUDE:e}",
+                    values[at]
+                ),
             )),
         }
     }

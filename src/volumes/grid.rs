@@ -39,6 +39,10 @@ const SUPER_LOG2: i32 = BRICK_LOG2 + NODE_LOG2;
 const NODE_ENTRIES: usize = 1 << (3 * NODE_LOG2);
 /// Largest `top` array accepted (entries, 4 bytes each): 256 MiB.
 const MAX_TOP_ENTRIES: u64 = 1 << 26;
+/// Stored voxels lie in `[-INDEX_LIMIT, INDEX_LIMIT)` on every axis: half the
+/// i32 range, so block arithmetic near the data (the +1 apron, majorant cells
+/// one block beyond the bounds) cannot overflow.
+const INDEX_LIMIT: i32 = 1 << 30;
 
 /// Index-space <-> world-space affine maps of a grid (OpenVDB's linear transform,
 /// composed with the volume's own placement by the caller when needed).
@@ -51,12 +55,18 @@ pub struct GridTransform {
 }
 
 impl GridTransform {
-    /// Both directions of an invertible affine map; `None` if it is singular.
+    /// Both directions of an invertible affine map; `None` if it is singular
+    /// or either direction has a non-finite entry (a NaN translation, or an
+    /// inverse too large for f64).
     pub fn new(world_from_index: DAffine3) -> Option<Self> {
         let det = world_from_index.matrix3.determinant();
-        (det.is_finite() && det.abs() > 1e-300).then(|| Self {
+        if !(det.is_finite() && det.abs() > 1e-300) {
+            return None;
+        }
+        let index_from_world = world_from_index.inverse();
+        (world_from_index.is_finite() && index_from_world.is_finite()).then_some(Self {
             world_from_index,
-            index_from_world: world_from_index.inverse(),
+            index_from_world,
         })
     }
 }
@@ -111,9 +121,17 @@ pub enum LayoutError {
     /// Leaf values and leaf origins disagree in count.
     #[error("{0} leaf values for {1} leaves (expected 512 each)")]
     LeafValueCount(usize, usize),
+    /// A leaf or tile reaches outside the index range the layout supports.
+    #[error("leaf or tile at {origin} (edge {edge}) reaches outside the supported index range [-2^30, 2^30)")]
+    OutOfRange {
+        /// Min corner, in voxels.
+        origin: IVec3,
+        /// Edge length, in voxels.
+        edge: u32,
+    },
     /// The dense top level would exceed its size limit.
-    #[error("the grid spans {0} blocks of 128^3 voxels, more than the {MAX_TOP_ENTRIES} the sparse layout accepts")]
-    TooLarge(u64),
+    #[error("the grid spans {}x{}x{} blocks of 128^3 voxels, more than the {MAX_TOP_ENTRIES} the sparse layout accepts", .0.x, .0.y, .0.z)]
+    TooLarge(IVec3),
 }
 
 /// A sparse float grid: OpenVDB's leaves and tiles in flat Rust arrays.
@@ -211,7 +229,10 @@ impl SparseGrid {
             for (dx, plane) in v.iter_mut().enumerate() {
                 for (dy, row) in plane.iter_mut().enumerate() {
                     for (dz, value) in row.iter_mut().enumerate() {
-                        *value = self.value(ijk + IVec3::new(dx as i32, dy as i32, dz as i32));
+                        // Wrapping past i32::MAX lands at i32::MIN: background
+                        // either way, as data ends at INDEX_LIMIT.
+                        let corner = ijk.wrapping_add(IVec3::new(dx as i32, dy as i32, dz as i32));
+                        *value = self.value(corner);
                     }
                 }
             }
@@ -400,6 +421,7 @@ impl SparseGrid {
             if o & IVec3::splat((1 << BRICK_LOG2) - 1) != IVec3::ZERO {
                 return Err(LayoutError::MisalignedLeaf(o));
             }
+            check_range(o, 1 << BRICK_LOG2)?;
             lo = lo.min(o >> SUPER_LOG2);
             hi = hi.max(o >> SUPER_LOG2);
         }
@@ -410,6 +432,7 @@ impl SparseGrid {
                     edge: t.edge,
                 });
             }
+            check_range(t.origin, t.edge)?;
             lo = lo.min(t.origin >> SUPER_LOG2);
             hi = hi.max((t.origin + IVec3::splat(t.edge as i32 - 1)) >> SUPER_LOG2);
         }
@@ -418,9 +441,10 @@ impl SparseGrid {
             hi = IVec3::splat(-1);
         }
         let top_dims = hi - lo + IVec3::ONE;
-        let entries = top_dims.as_i64vec3().element_product().max(0) as u64;
-        if entries > MAX_TOP_ENTRIES {
-            return Err(LayoutError::TooLarge(entries));
+        // In u128: up to 2^24 super-blocks per axis, whose product overflows i64.
+        let entries: u128 = top_dims.to_array().iter().map(|&d| d as u128).product();
+        if entries > MAX_TOP_ENTRIES.into() {
+            return Err(LayoutError::TooLarge(top_dims));
         }
 
         let mut grid = SparseGrid {
@@ -536,6 +560,15 @@ impl SparseGrid {
         *cell = entry;
         Ok(())
     }
+}
+
+/// `Ok` if the `edge`^3 block at `origin` lies inside `[-INDEX_LIMIT, INDEX_LIMIT)`.
+fn check_range(origin: IVec3, edge: u32) -> Result<(), LayoutError> {
+    let inside = origin.cmpge(IVec3::splat(-INDEX_LIMIT)).all()
+        && origin.cmple(IVec3::splat(INDEX_LIMIT - edge as i32)).all();
+    inside
+        .then_some(())
+        .ok_or(LayoutError::OutOfRange { origin, edge })
 }
 
 /// Trilinear lookups that remember the last 8^3 block visited, as OpenVDB's
@@ -690,6 +723,79 @@ mod tests {
             SparseGrid::build(0.0, &far, vec![0.0; 1024], &[], t),
             Err(LayoutError::TooLarge(_))
         ));
+    }
+
+    /// Regression (fuzz target `sparse_grid`): a lookup whose cell saturates
+    /// at i32::MAX overflowed reading its +1 corners (a panic in debug builds).
+    #[test]
+    fn lookups_at_the_ends_of_the_index_range_read_background() {
+        let grid = linear_leaf(IVec3::ZERO);
+        for p in [
+            Vec3::splat(2.4e24),
+            Vec3::splat(-2.4e24),
+            Vec3::splat(f32::MAX),
+        ] {
+            assert_eq!(grid.trilinear_index(p), 0.0, "at {p}");
+            assert_eq!(grid.accessor().trilinear_index(p), 0.0, "at {p}");
+        }
+    }
+
+    /// Regression (fuzz target `sparse_grid`): a leaf at the end of the i32
+    /// range overflowed while its apron was copied, and majorant cells one
+    /// block beyond such data overflowed too; such trees are now refused.
+    #[test]
+    fn data_outside_the_supported_index_range_is_refused() {
+        let t = identity();
+        let out = |origin: IVec3, edge: u32| Err(LayoutError::OutOfRange { origin, edge });
+        for o in [IVec3::new(0, 0, i32::MAX - 7), IVec3::new(i32::MIN, 0, 0)] {
+            assert_eq!(
+                SparseGrid::build(0.0, &[o], vec![1.0; 512], &[], t).map(|_| ()),
+                out(o, 8)
+            );
+        }
+        let tile = |origin: IVec3, edge: u32| Tile {
+            origin,
+            edge,
+            value: 1.0,
+            active: true,
+        };
+        let o = IVec3::new(INDEX_LIMIT, 0, 0);
+        assert_eq!(
+            SparseGrid::build(0.0, &[], vec![], &[tile(o, 4096)], t).map(|_| ()),
+            out(o, 4096)
+        );
+        // The last blocks inside the range are kept.
+        let last = IVec3::splat(INDEX_LIMIT - 8);
+        let grid = SparseGrid::build(0.0, &[last], vec![1.0; 512], &[], t).unwrap();
+        assert_eq!(grid.value(last + IVec3::splat(7)), 1.0);
+        let first = IVec3::splat(-INDEX_LIMIT);
+        assert!(SparseGrid::build(0.0, &[], vec![], &[tile(first, 4096)], t).is_ok());
+    }
+
+    /// Regression (fuzz target `sparse_grid`): the top level's entry count
+    /// was an i64 product that wraps for data spread over the index range
+    /// (to 0 here, 2^24 super-blocks per axis), and the top level was then
+    /// indexed out of bounds.
+    #[test]
+    fn top_level_size_is_checked_without_overflow() {
+        let corners = [IVec3::splat(-INDEX_LIMIT), IVec3::splat(INDEX_LIMIT - 8)];
+        assert_eq!(
+            SparseGrid::build(0.0, &corners, vec![0.0; 1024], &[], identity()).map(|_| ()),
+            Err(LayoutError::TooLarge(IVec3::splat(1 << 24)))
+        );
+    }
+
+    /// Regression (`tests/fuzz_inputs.rs`): an invertible matrix with a NaN
+    /// translation was accepted, and every world lookup then returned NaN.
+    #[test]
+    fn transforms_with_non_finite_entries_are_refused() {
+        let shifted = |t: DVec3| DAffine3::from_translation(t);
+        assert!(GridTransform::new(shifted(DVec3::new(f64::NAN, 0.0, 0.0))).is_none());
+        assert!(GridTransform::new(shifted(DVec3::new(0.0, f64::INFINITY, 0.0))).is_none());
+        // Finite forward map whose inverse overflows f64.
+        let tiny = shifted(DVec3::splat(1e300)) * DAffine3::from_scale(DVec3::splat(1e-90));
+        assert!(GridTransform::new(tiny).is_none());
+        assert!(GridTransform::new(shifted(DVec3::splat(1e300))).is_some());
     }
 
     #[test]
