@@ -301,6 +301,11 @@ const CORRUPTIONS: &[Corruption] = &[
         expect: &["scene.json: meshes[0].points: value NaN at scalar 5 is not finite"],
     },
     Corruption {
+        name: "light intensity beyond f32",
+        apply: Apply::Content(|f| set(f, "/lights/0/intensity", json!(1e39))),
+        expect: &["scene.json: lights[0].intensity: 1e39 is beyond the single-precision range"],
+    },
+    Corruption {
         name: "huge point",
         apply: Apply::Content(|f| f.poke("/meshes/0/points", 3, f32::MAX.to_bits())),
         expect: &["meshes[0].points: value 340282350000000000000000000000000000000 at scalar 3 is not finite or beyond ±1e9"],
@@ -343,7 +348,7 @@ const CORRUPTIONS: &[Corruption] = &[
     Corruption {
         name: "infinite light transform",
         apply: Apply::Content(|f| set(f, "/lights/1/transform/0", json!(1e39))),
-        expect: &["scene.json: lights[1].transform: value inf"],
+        expect: &["scene.json: lights[1].transform[0]: 1e39 is beyond the single-precision range"],
     },
     Corruption {
         name: "bad material texture index",

@@ -158,6 +158,13 @@ fn parse_manifest(path: &Path, text: &str) -> Result<Manifest, SceneError> {
             found: field("version"),
         });
     }
+    if let Some((field, number)) = number_beyond_f32(&value, String::new()) {
+        return Err(SceneError::Invalid {
+            path: path.to_owned(),
+            field,
+            message: format!("{number:e} is beyond the single-precision range"),
+        });
+    }
     serde_path_to_error::deserialize(value).map_err(|e| SceneError::Invalid {
         path: path.to_owned(),
         // serde_path_to_error names the root ".": a field missing at the top level.
@@ -167,6 +174,32 @@ fn parse_manifest(path: &Path, text: &str) -> Result<Manifest, SceneError> {
         },
         message: e.inner().to_string(),
     })
+}
+
+/// The first number of the manifest (path like `lights[2].intensity`, and
+/// its value) too large for an f32: read as one it would be infinite.
+/// (JSON has no NaN or infinity; the parser refuses those tokens.)
+fn number_beyond_f32(value: &serde_json::Value, at: String) -> Option<(String, f64)> {
+    use serde_json::Value;
+    match value {
+        Value::Number(n) => n
+            .as_f64()
+            .filter(|v| v.abs() > f64::from(f32::MAX))
+            .map(|v| (at, v)),
+        Value::Array(items) => items
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| number_beyond_f32(v, format!("{at}[{i}]"))),
+        Value::Object(fields) => fields.iter().find_map(|(k, v)| {
+            let name = if at.is_empty() {
+                k.clone()
+            } else {
+                format!("{at}.{k}")
+            };
+            number_beyond_f32(v, name)
+        }),
+        _ => None,
+    }
 }
 
 /// Cross-field validation of a parsed manifest against its blob.
