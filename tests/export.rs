@@ -293,6 +293,18 @@ fn bad_inputs_fail_with_one_clear_message() {
          int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 2]\n}\n",
     );
     assert_clean_failure(&export(&nan, &out, ""), &["nan.usda", "/Bad", "NaN"]);
+
+    let nan_light = write_usda(
+        &dir,
+        "nan_light.usda",
+        "#usda 1.0\ndef SphereLight \"Lamp\" {\n float inputs:intensity = nan\n}\n\
+         def Mesh \"M\" {\n point3f[] points = [(0,0,0), (1,0,0), (0,1,0)]\n \
+         int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 2]\n}\n",
+    );
+    assert_clean_failure(
+        &export(&nan_light, &out, ""),
+        &["nan_light.usda", "/Lamp", "lights[0].intensity is nan"],
+    );
 }
 
 #[test]

@@ -1,6 +1,7 @@
 """One export run: compose the stage, collect every record, write scene.json and scene.bin."""
 
 import json
+import math
 import os
 import re
 from pathlib import Path
@@ -87,10 +88,33 @@ def export(path: Path, out_dir: Path, frame: float | None) -> list[str]:
     with report.usd_diagnostics():
         manifest, writer = collect(path, out_dir, frame, report)
     manifest["warnings"] = report.warnings
+    bad = first_non_finite(manifest)
+    if bad is not None:
+        field, prim, value = bad
+        raise ExportError(f"{path}: {prim or 'the stage'}: {field} is {value}; Cirrus needs finite values")
     writer.write(out_dir / "scene.bin")
     with open(out_dir / "scene.json", "w", encoding="utf-8") as out:
         json.dump(manifest, out, indent=1, allow_nan=False)
     return report.warnings
+
+
+def first_non_finite(value, field: str = "", prim: str | None = None):
+    """(field path, enclosing record's prim path, value) of the first NaN or infinite
+    number of the manifest, else None: JSON cannot hold one."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return field, prim, value
+    if isinstance(value, dict):
+        prim = value.get("path") if isinstance(value.get("path"), str) else prim
+        items = ((f"{field}.{k}" if field else k, v) for k, v in value.items())
+    elif isinstance(value, (list, tuple)):
+        items = ((f"{field}[{i}]", v) for i, v in enumerate(value))
+    else:
+        return None
+    for name, item in items:
+        found = first_non_finite(item, name, prim)
+        if found is not None:
+            return found
+    return None
 
 
 def collect(path: Path, out_dir: Path, frame: float | None, report: Report) -> tuple[dict, BinWriter]:
