@@ -329,6 +329,23 @@ impl SparseGrid {
         }
     }
 
+    /// Whether the 8^3 blocks `first..=last` (block coordinates, index >> 3)
+    /// all lie in super-blocks that store nothing, so every value there is
+    /// the background: lets the majorant grid skip empty space in O(super-
+    /// blocks) instead of visiting every block of a sparse grid's bounds.
+    pub(crate) fn blocks_are_empty(&self, first: IVec3, last: IVec3) -> bool {
+        let lo = ((first >> NODE_LOG2) - self.top_origin).max(IVec3::ZERO);
+        let hi = ((last >> NODE_LOG2) - self.top_origin).min(self.top_dims - IVec3::ONE);
+        if lo.cmpgt(hi).any() {
+            return true;
+        }
+        (lo.x..=hi.x).all(|x| {
+            (lo.y..=hi.y).all(|y| {
+                (lo.z..=hi.z).all(|z| self.top[self.top_slot(IVec3::new(x, y, z))] == EMPTY)
+            })
+        })
+    }
+
     /// Inclusive range of the 8^3 block coordinates (index >> 3) holding a leaf
     /// or a tile, or `None` for a grid that stores nothing.
     pub(crate) fn block_bounds(&self) -> Option<std::ops::RangeInclusive<IVec3>> {

@@ -285,6 +285,12 @@ impl MajorantGrid {
                     max: f32::NEG_INFINITY,
                     min: f32::INFINITY,
                 };
+                // The footprint of the cell's last blocks reaches one block further.
+                let first = c << merge;
+                if grid.blocks_are_empty(first, first + IVec3::splat(blocks_per_cell)) {
+                    range.include(grid.background());
+                    return range.clamped();
+                }
                 for x in 0..blocks_per_cell {
                     for y in 0..blocks_per_cell {
                         for z in 0..blocks_per_cell {
@@ -420,6 +426,28 @@ mod tests {
             non_empty += usize::from(expected.max > 0.0);
         }
         non_empty
+    }
+
+    /// Two leaves 300 super-blocks (38,400 voxels) apart on every axis:
+    /// the cells are coarsened to stay under the cap, empty space is skipped
+    /// by super-block (visiting its 2^34 blocks one by one would take hours),
+    /// and the two cells holding data still bound it exactly.
+    #[test]
+    fn far_apart_leaves_build_without_visiting_empty_space() {
+        let far = IVec3::splat(300 << 7);
+        let values: Vec<f32> = (0..1024).map(|i| (i % 512) as f32 / 512.0).collect();
+        let identity = GridTransform::new(DAffine3::IDENTITY).unwrap();
+        let grid = SparseGrid::build(0.0, &[IVec3::ZERO, far], values, &[], identity).unwrap();
+        let mg = MajorantGrid::build_cells(&grid, 1 << 16);
+        assert!(mg.cells.len() <= 1 << 16);
+        // Each leaf lies in one cell, and a cell below it may read its first layer.
+        let filled = mg.cells.iter().filter(|r| r.max > 0.0).count();
+        assert!((2..=16).contains(&filled), "{filled} cells hold data");
+        for leaf in [IVec3::ZERO, far] {
+            let c = ((leaf.as_vec3() - mg.lo) / mg.cell_size).floor().as_ivec3();
+            let range = mg.cells[mg.cell_slot(c)];
+            assert_eq!((range.min, range.max), (0.0, 511.0 / 512.0), "cell {c}");
+        }
     }
 
     #[test]
