@@ -16,9 +16,10 @@ use super::film_output::AovFiles;
 use super::film_output::ExrHeader;
 use super::split::PartInfo;
 use crate::integrator::{Budget, FilmState, RenderProgress, RenderSettings};
+use crate::output::aov::AovSet;
 use crate::output::film::Film;
 use crate::output::film_state::{read_film_state, write_film_state};
-use crate::scene::{Scene, BLOB_FILE, MANIFEST_FILE};
+use crate::scene::{Scene, MANIFEST_FILE};
 use crate::volumes::MajorantKind;
 
 /// The files a render of `-o OUT.exr` writes.
@@ -34,25 +35,31 @@ pub(super) struct OutputFiles {
 
 impl OutputFiles {
     /// The files of a render to `exr` (or to a film state, `.film`) with
-    /// the AOVs of `settings`.
-    pub fn new(exr: &Path, files: AovFiles, settings: &RenderSettings) -> Self {
+    /// the AOVs `aovs`.
+    pub fn new(exr: &Path, files: AovFiles, aovs: &AovSet) -> Self {
         let mut finals = vec![exr.to_path_buf()];
         if !super::split::is_film_output(exr) {
             finals.push(exr.with_extension("png"));
-        }
-        if files == AovFiles::Separate && finals.len() == 2 {
-            finals.extend(
-                settings
-                    .aovs
-                    .aovs()
-                    .iter()
-                    .map(|a| exr.with_extension(format!("{}.exr", a.name()))),
-            );
+            if files == AovFiles::Separate {
+                let per_aov = aovs.aovs().iter();
+                finals.extend(per_aov.map(|a| exr.with_extension(format!("{}.exr", a.name()))));
+            }
         }
         Self {
             finals,
             checkpoint: exr.with_extension("checkpoint"),
             partial: exr.with_extension("partial.exr"),
+        }
+    }
+
+    /// Refuses to overwrite a finished output unless `force`.
+    pub fn refuse_existing(&self, force: bool) -> Result<()> {
+        match self.finals.iter().find(|p| p.exists()) {
+            Some(existing) if !force => bail!(
+                "{} exists; pass --force to overwrite it",
+                existing.display()
+            ),
+            _ => Ok(()),
         }
     }
 
@@ -72,12 +79,7 @@ impl OutputFiles {
             }
             return Ok(());
         }
-        if let Some(existing) = self.finals.iter().find(|p| p.exists()) {
-            bail!(
-                "{} exists; pass --force to overwrite it",
-                existing.display()
-            );
-        }
+        self.refuse_existing(force)?;
         if !resume && self.checkpoint.exists() {
             bail!(
                 "{} holds an unfinished render: pass --resume to continue it, or --force to start over",
@@ -172,15 +174,15 @@ impl Fingerprint {
     }
 }
 
-/// CRC-32 of `scene.json` and `scene.bin` together, as hex.
+/// CRC-32 of `scene.json` and `scene.bin` together, as hex (the blob from
+/// memory: it was read once at load).
 fn scene_hash(scene: &Scene) -> Result<String> {
+    let path = scene.dir.join(MANIFEST_FILE);
+    let manifest =
+        std::fs::read(&path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut crc = crc32fast::Hasher::new();
-    for name in [MANIFEST_FILE, BLOB_FILE] {
-        let path = scene.dir.join(name);
-        let bytes =
-            std::fs::read(&path).with_context(|| format!("cannot read {}", path.display()))?;
-        crc.update(&bytes);
-    }
+    crc.update(&manifest);
+    crc.update(scene.blob_bytes());
     Ok(format!("{:08x}", crc.finalize()))
 }
 

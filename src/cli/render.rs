@@ -171,7 +171,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         Budget::Time(_) => 0,
     };
     let samples = args.part.samples(frame_spp)?;
-    let files = OutputFiles::new(&args.output, args.aov_files, &settings);
+    let files = OutputFiles::new(&args.output, args.aov_files, &settings.aovs);
     files.claim(args.force, args.resume)?;
     let signal = StopSignal::install().context("cannot install the SIGINT/SIGTERM handlers")?;
     let mut pool = rayon::ThreadPoolBuilder::new();

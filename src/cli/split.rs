@@ -14,7 +14,7 @@ use anyhow::{bail, Result};
 use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
-use super::checkpoint::{self, FilmStateHeader};
+use super::checkpoint::{self, FilmStateHeader, OutputFiles};
 use super::film_output::{write_film, AovFiles};
 use crate::integrator::{RayCounts, RenderStats};
 use crate::output::film::{Film, Tile};
@@ -165,13 +165,6 @@ struct Part {
 /// and settings), finished, and cover every pixel's samples exactly once,
 /// listing every problem; then adds them and writes the frame.
 pub fn merge(args: MergeArgs) -> Result<()> {
-    let finals = [args.output.clone(), args.output.with_extension("png")];
-    if let Some(existing) = finals.iter().find(|p| p.exists() && !args.force) {
-        bail!(
-            "{} exists; pass --force to overwrite it",
-            existing.display()
-        );
-    }
     let mut parts = Vec::new();
     for path in &args.parts {
         let (header, film) = checkpoint::read(path)?;
@@ -190,6 +183,8 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         );
     }
     let first = &parts[0];
+    let files = OutputFiles::new(&args.output, args.aov_files, first.film.aov_set());
+    files.refuse_existing(args.force)?;
     let mut frame = Film::new(first.film.resolution, first.film.aov_set().clone());
     let mut stats = RenderStats {
         samples_per_pixel: first.header.identity.part.frame_spp,
@@ -217,13 +212,14 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         args.compression,
     )?;
     let r = frame.resolution;
-    write_preview(&finals[1], r.x, r.y, &frame.rgb())?;
+    let preview = args.output.with_extension("png");
+    write_preview(&preview, r.x, r.y, &frame.rgb())?;
     println!(
         "merged {} parts ({:.1} s of rendering) into {} and {}",
         parts.len(),
         stats.elapsed.as_secs_f64(),
         args.output.display(),
-        finals[1].display()
+        preview.display()
     );
     Ok(())
 }

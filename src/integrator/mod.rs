@@ -13,6 +13,7 @@ mod media;
 mod path;
 mod progress;
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -20,7 +21,7 @@ use glam::{UVec2, Vec2};
 use rayon::prelude::*;
 
 use crate::output::aov::AovSet;
-use crate::output::film::{Film, NonFiniteSamples, TileFilm};
+use crate::output::film::{Film, NonFiniteSamples, Tile, TileFilm};
 use crate::output::filter::{FilterKind, PixelFilter};
 use crate::render_state::RenderState;
 use crate::sampling::{Pcg32, Sampler, SamplerKind};
@@ -101,6 +102,16 @@ pub enum Budget {
     Samples(u32),
     /// As many whole passes as fit in this wall-clock time (at least one sample).
     Time(Duration),
+}
+
+impl Budget {
+    /// The sample index a render stops at, or `None` for a time budget.
+    pub fn target(self) -> Option<u32> {
+        match self {
+            Self::Samples(n) => Some(n),
+            Self::Time(_) => None,
+        }
+    }
 }
 
 /// Everything that chooses how to render, beside the scene.
@@ -191,21 +202,22 @@ pub fn render_from(
     let clock = Instant::now();
     let earlier = start.progress.seconds;
     let seconds = || earlier + clock.elapsed().as_secs_f64();
-    let target = match settings.budget {
-        Budget::Samples(n) => Some(n),
-        Budget::Time(_) => None,
-    };
+    let target = settings.budget.target();
+    let pixels = |t: &Tile| u64::from(t.size.x) * u64::from(t.size.y);
+    let first = start.progress.first_sample;
+    // Pixel samples taken so far, counted up as tiles finish.
+    let taken = AtomicU64::new(
+        tiles
+            .iter()
+            .zip(&start.progress.tile_samples)
+            .map(|(t, &s)| pixels(t) * u64::from(s - first))
+            .sum(),
+    );
     let window = start.film.window.size;
     let pixels_total = f64::from(window.x) * f64::from(window.y);
-    let fraction = |progress: &RenderProgress| match settings.budget {
+    let fraction = || match settings.budget {
         Budget::Samples(n) => {
-            let first = progress.first_sample;
-            let taken: f64 = tiles
-                .iter()
-                .zip(&progress.tile_samples)
-                .map(|(t, &s)| f64::from(t.size.x * t.size.y) * f64::from(s - first))
-                .sum();
-            taken / (pixels_total * f64::from(n - first))
+            taken.load(Ordering::Relaxed) as f64 / (pixels_total * f64::from(n - first))
         }
         Budget::Time(limit) => seconds() / limit.as_secs_f64(),
     };
@@ -246,7 +258,8 @@ pub fn render_from(
             now.progress.tile_samples[i] = end;
             now.progress.rays.add(&rays);
             now.progress.tracking.merge(&tracking);
-            (control.progress)(fraction(&now.progress));
+            taken.fetch_add(pixels(&tiles[i]) * u64::from(end - done), Ordering::Relaxed);
+            (control.progress)(fraction());
             if let Some(checkpoint) = &control.checkpoint {
                 let mut last = lock(&last_checkpoint);
                 if last.elapsed() >= checkpoint.every {

@@ -123,10 +123,7 @@ impl FilmState {
                 p.tile_samples.len()
             ));
         }
-        let target = match settings.budget {
-            super::Budget::Samples(n) => Some(n),
-            super::Budget::Time(_) => None,
-        };
+        let target = settings.budget.target();
         match p
             .tile_samples
             .iter()

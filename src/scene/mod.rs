@@ -69,6 +69,11 @@ impl Scene {
         self.blob.view(array)
     }
 
+    /// All of `scene.bin` as loaded (for content fingerprints).
+    pub(crate) fn blob_bytes(&self) -> &[u8] {
+        self.blob.bytes()
+    }
+
     /// Bulk bytes by kind: meshes grow with unique geometry, instances by 60
     /// bytes per instance.
     pub fn array_bytes(&self) -> ArrayBytes {
