@@ -23,4 +23,4 @@ mod surface;
 pub use bvh::{Geometry, Hit};
 pub use frame::Frame;
 pub use obvhs::ray::Ray;
-pub use surface::SurfacePoint;
+pub use surface::{shadow_ray, SurfacePoint};

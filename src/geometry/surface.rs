@@ -49,10 +49,20 @@ impl SurfacePoint {
     /// light's own surface does not shadow it: by a relative 1e-4, far above
     /// the rounding of `distance` (about 1e-7 relative).
     pub fn shadow_ray(&self, direction: Vec3, distance: f32) -> Ray {
-        let mut ray = self.spawn_ray(direction);
-        ray.tmax = distance * (1.0 - SHADOW_RAY_SHORTENING);
-        ray
+        shadow_ray(
+            offset_origin(self.p, self.ng, direction),
+            direction,
+            distance,
+        )
     }
+}
+
+/// A shadow ray from `origin` (already off any surface, or in a medium)
+/// towards a point `distance` away along unit `direction`, stopping just
+/// short of it: see [`SurfacePoint::shadow_ray`].
+pub fn shadow_ray(origin: Vec3, direction: Vec3, distance: f32) -> Ray {
+    let tmax = distance * (1.0 - SHADOW_RAY_SHORTENING);
+    Ray::new(origin.into(), direction.into(), 0.0, tmax)
 }
 
 /// Relative shortening of shadow rays towards a light point, see

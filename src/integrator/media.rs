@@ -4,10 +4,10 @@
 //! MIS-combined with them.
 
 use glam::{Vec2, Vec3};
-use obvhs::ray::Ray;
 
 use super::path::{visibility, PathCounts};
 use super::{PathSettings, Strategy};
+use crate::geometry::shadow_ray;
 use crate::render_state::RenderState;
 use crate::sampling::warp::{power_heuristic, Equiangular};
 use crate::sampling::Pcg32;
@@ -195,7 +195,7 @@ pub(super) fn equiangular_sample(
     if ls.pdf.is_nan() || ls.pdf <= 0.0 || p_select <= 0.0 {
         return None;
     }
-    let shadow = Ray::new(p.into(), ls.wi.into(), 0.0, ls.distance);
+    let shadow = shadow_ray(p, ls.wi, ls.distance);
     let (tr_shadow, null_shadow) = visibility(state, settings, &shadow, rng, counts);
     if tr_shadow == 0.0 {
         return None;

@@ -26,7 +26,7 @@ use obvhs::ray::Ray;
 use super::gathered::{lobe_shares, Gathered, VOLUME_EVENT};
 use super::media::{equiangular_sample, free_flight, EquiangularRay, FlightEnd};
 use super::{PathSettings, RayCounts, Strategy, VolumeEstimator};
-use crate::geometry::SurfacePoint;
+use crate::geometry::{shadow_ray, SurfacePoint};
 use crate::lights::LightSample;
 use crate::materials::Bsdf;
 use crate::output::aov::{AovSample, CameraHit};
@@ -340,7 +340,7 @@ impl Vertex<'_> {
     fn shadow_ray(&self, ls: &LightSample) -> Ray {
         match self {
             Self::Surface { sp, .. } => sp.shadow_ray(ls.wi, ls.distance),
-            Self::Medium { p, .. } => Ray::new((*p).into(), ls.wi.into(), 0.0, ls.distance),
+            Self::Medium { p, .. } => shadow_ray(*p, ls.wi, ls.distance),
         }
     }
 }
@@ -409,7 +409,7 @@ fn roulette(throughput: &mut Vec3, depth: u32, u: f32) -> bool {
 }
 
 /// The fraction of light that arrives along a shadow ray: 0 when geometry
-/// blocks it, else the media's transmittance estimate (1 without media);
+/// or an area light blocks it, else the media's transmittance estimate (1 without media);
 /// and the factor that turns the vertex's directional sampling density into
 /// its density for the whole null-scattering path (ratio tracking's
 /// product of sigma_n / sigma_maj under null-scattering MIS, else 1).
@@ -421,15 +421,14 @@ pub(super) fn visibility(
     counts: &mut PathCounts,
 ) -> (f32, f32) {
     counts.rays.shadow += 1;
-    if state.geometry.occluded(shadow) {
+    let (origin, direction) = (Vec3::from(shadow.origin), Vec3::from(shadow.direction));
+    if state.geometry.occluded(shadow) || state.lights.blocks(origin, direction, shadow.tmax) {
         return (0.0, 1.0);
     }
     if state.media.is_empty() {
         return (1.0, 1.0);
     }
-    let along = state
-        .media
-        .along(shadow.origin.into(), shadow.direction.into(), shadow.tmax);
+    let along = state.media.along(origin, direction, shadow.tmax);
     if along.is_empty() {
         return (1.0, 1.0);
     }

@@ -241,6 +241,17 @@ impl Lights {
         })
     }
 
+    /// Whether an analytic area light's front face lies on the shadow ray from
+    /// `origin` along unit `direction` with t in (0, t_max): lights stop the
+    /// rays that hit them (see [`Lights::intersect`]), so they must stop
+    /// shadow rays too, or light sampling and BSDF sampling would estimate
+    /// different images wherever one light hides another.
+    pub fn blocks(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
+        self.area
+            .iter()
+            .any(|&i| self.lights[i].intersect(origin, direction, t_max).is_some())
+    }
+
     /// Calls `radiance_pdf(radiance, pdf)` once for each infinite light a ray
     /// escaping the scene along unit `direction` sees: the dome, and distant
     /// lights of non-zero angle whose cone holds `direction`. `pdf` is what
