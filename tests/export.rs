@@ -8,76 +8,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use common::{asset, python_script, run_python, scratch, venv_python};
-
-/// Every shared USD scene the exporter must handle: (asset path, --frame or "").
-const SCENES: &[(&str, &str)] = &[
-    ("openusd/testUsdImagingGLVdbVolume/vdbVolume.usda", ""),
-    (
-        "openusd/testUsdImagingGLVdbVolume/vdbVolumeTwoFields.usda",
-        "",
-    ),
-    (
-        "openusd/testUsdImagingGLVdbVolume/vdbVolumeFallbackMaterial.usda",
-        "",
-    ),
-    (
-        "openusd/testUsdImagingGLVdbVolume/vdbVolumeTargetMemory.usda",
-        "",
-    ),
-    ("openusd/testUsdImagingGLVdbVolume/vdbVolumeOrtho.usda", ""),
-    ("openusd/testUsdImagingGLPointInstancer/pi_basic.usda", ""),
-    ("openusd/testUsdImagingGLPointInstancer/pi_ni.usda", ""),
-    ("openusd/testUsdImagingGLPointInstancer/ni_pi.usda", ""),
-    (
-        "openusd/testUsdImagingGLPointInstancer/ni_pi_variant.usda",
-        "",
-    ),
-    ("openusd/testUsdImagingGLPointInstancer/pi_pi.usda", ""),
-    (
-        "openusd/testUsdImagingGLInstancingWithMaterials/cubeShaded.usda",
-        "",
-    ),
-    (
-        "openusd/testUsdImagingGLInstancingWithMaterials/ni_2instances_shaded.usda",
-        "",
-    ),
-    (
-        "openusd/testUsdImagingGLInstancingWithMaterials/ni_ni_material_binding_resolution.usda",
-        "",
-    ),
-    (
-        "openusd/testUsdImagingGLPreviewSurface/testPreviewSurfaceNormalMap.usda",
-        "",
-    ),
-    (
-        "openusd/testUsdImagingGLPreviewSurface/testPreviewSurfaceTexture.usda",
-        "",
-    ),
-    ("openusd/testUsdImagingGLUsdLux/usdLux.usda", ""),
-    ("openusd/testUsdImagingGLDomeLight/sphereMetallic.usda", ""),
-    ("arnold-usd/test_0030/data/scene.usda", ""),
-    ("arnold-usd/test_2239/data/test.usda", ""),
-    ("arnold-usd/test_2239/data/test.usda", "2"),
-    ("usd-wg/full_assets/Teapot/Teapot.usd", ""),
-    (
-        "usd-wg/full_assets/StandardShaderBall/standard_shader_ball_scene.usda",
-        "",
-    ),
-    ("usd-wg/full_assets/OpenChessSet/chess_set.usda", ""),
-    ("usd-wg/intent-vfx/scenes/teapotScene_layout.usd", ""),
-    ("usd-wg/intent-vfx/scenes/teapotScene.usd", ""),
-    ("usd-wg/intent-vfx/scenes/simpleAssetScene.usd", ""),
-    (
-        "usd-wg/test_assets/TextureTransformTest/TextureTransformTest.usd",
-        "",
-    ),
-    (
-        "usd-wg/test_assets/TextureCoordinateTest/TextureCoordinateTest.usda",
-        "",
-    ),
-    ("usd-wg/test_assets/RoughnessTest/RoughnessTest.usdz", ""),
-];
+use common::{asset, python_script, run_python, scratch, shared_scenes, venv_python, SharedScene};
 
 /// Runs the exporter on `input` into `out` (with `--frame` when not empty).
 fn export(input: &Path, out: &Path, frame: &str) -> Output {
@@ -143,9 +74,9 @@ fn instances_of(out: &Path, path: &str) -> usize {
 fn every_shared_scene_exports_and_matches_usd_core() {
     let dir = scratch("export_all");
     let mut failures = Vec::new();
-    for (rel, frame) in SCENES {
-        let out = export_ok(rel, frame, &dir);
-        let (ok, text) = check(&asset(rel), &out);
+    for SharedScene { asset: rel, frame } in shared_scenes() {
+        let out = export_ok(&rel, &frame, &dir);
+        let (ok, text) = check(&asset(&rel), &out);
         if !ok {
             failures.push(format!("{rel} (frame '{frame}'):\n{text}"));
         }
@@ -238,6 +169,40 @@ fn fallbacks_are_warned_once_each() {
     assert!(manifest(&out)["warnings"]
         .to_string()
         .contains("ground.ACEScg.exr"));
+}
+
+/// Textures inside a `.usdz` are extracted into the scene folder and named
+/// relative to it, so they are found after `cirrus export` renames its
+/// temporary folder into place and after the folder is moved (they were
+/// absolute paths into the temporary folder, and every usdz texture was lost).
+#[test]
+fn usdz_textures_are_found_after_the_scene_folder_moves() {
+    let dir = scratch("export_usdz_move");
+    let usdz = asset("usd-wg/test_assets/RoughnessTest/RoughnessTest.usdz");
+    let first = dir.join("first");
+    common::cirrus_ok(&[
+        "export".as_ref(),
+        usdz.as_os_str(),
+        "-o".as_ref(),
+        first.as_os_str(),
+    ]);
+    let moved = dir.join("moved");
+    std::fs::rename(&first, &moved).unwrap();
+    let scene = cirrus::scene::Scene::load(&moved).unwrap();
+    let textures = &scene.manifest.textures;
+    assert!(textures.len() >= 2, "{} textures", textures.len());
+    for texture in textures {
+        assert!(
+            texture.file.starts_with(&moved),
+            "{}",
+            texture.file.display()
+        );
+        assert!(
+            texture.file.is_file(),
+            "{} is missing",
+            texture.file.display()
+        );
+    }
 }
 
 /// Asserts a failed export: exit code 2, one clear message naming `needles`, no traceback.

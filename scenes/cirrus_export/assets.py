@@ -1,4 +1,5 @@
-"""Asset paths made absolute; files inside a .usdz are extracted next to the scene."""
+"""Asset paths made absolute; files inside a .usdz are extracted next to the scene
+(and named relative to the scene folder, which the exporter renames into place)."""
 
 import zipfile
 from pathlib import Path
@@ -18,19 +19,22 @@ class AssetResolver:
     """Resolves asset-valued attributes to absolute file paths the renderer can open."""
 
     def __init__(self, out_dir: Path) -> None:
-        self._extract_dir = out_dir / "usdz"
+        self._out_dir = out_dir
 
     def _unpack(self, resolved: str) -> str:
-        """`pkg.usdz[inner/file.png]` extracted to OUT_DIR/usdz/pkg/inner/file.png."""
+        """`pkg.usdz[inner/file.png]` extracted to OUT_DIR/usdz/pkg/inner/file.png; returns
+        `usdz/pkg/inner/file.png`, relative to OUT_DIR (the loader anchors it there)."""
         package, inner = resolved[:-1].split("[", 1)
-        target = self._extract_dir / Path(package).stem / inner
+        relative = Path("usdz") / Path(package).stem / inner
+        target = self._out_dir / relative
         if not target.exists():
             with zipfile.ZipFile(package) as archive:
                 archive.extract(inner, target.parents[len(Path(inner).parts) - 1])
-        return str(target.resolve())
+        return str(relative)
 
     def resolve(self, attr: Usd.Attribute, time: Usd.TimeCode) -> tuple[str, bool] | None:
-        """(absolute path, exists) of the attribute's asset at `time`, None when unauthored.
+        """(path, exists) of the attribute's asset at `time`, None when unauthored: absolute,
+        except a file inside a .usdz (relative to the scene folder).
 
         A value authored as a quoted string rather than an @asset@ is resolved the same way,
         relative to the layer that authored it.

@@ -112,12 +112,20 @@ fn is_usd(path: &Path) -> bool {
         .is_some_and(|e| USD_EXTENSIONS.contains(&e))
 }
 
-/// A scene from a USD file (exported through the cache at `frame`) or from
-/// an exported folder or its scene.json.
+/// A scene from a USD file (exported through the cache at `frame`; the
+/// export's warnings are printed again when the cache already held it) or
+/// from an exported folder or its scene.json.
 fn load_scene(path: &Path, frame: Option<f64>) -> Result<Scene> {
     if is_usd(path) {
-        let dir = crate::scene::export_cached(path, frame)?;
-        Ok(Scene::load(&dir)?)
+        let export = crate::scene::export_cached(path, frame)?;
+        let scene = Scene::load(&export.dir)?;
+        if export.reused {
+            // The exporter printed these when it ran; a user must see them every time.
+            for warning in &scene.manifest.warnings {
+                eprintln!("warning: {warning}");
+            }
+        }
+        Ok(scene)
     } else {
         if frame.is_some() {
             anyhow::bail!(

@@ -65,9 +65,11 @@ pub fn export(input: &Path, out_dir: &Path, frame: Option<f64>) -> Result<(), Ex
 /// Exports `input` into the cache (`$XDG_CACHE_HOME/cirrus`, else
 /// `~/.cache/cirrus`) unless an export of the same absolute path, modification
 /// time and frame, by the same exporter sources, is already there, and
-/// returns the scene folder. (Layers the file references are not part of the
-/// key: after editing only a sublayer, touch the top file or run `cirrus export`.)
-pub fn export_cached(input: &Path, frame: Option<f64>) -> Result<PathBuf, ExportError> {
+/// returns the scene folder and whether it was already there (its warnings
+/// were then printed by an earlier run; the manifest keeps them). (Layers the
+/// file references are not part of the key: after editing only a sublayer,
+/// touch the top file or run `cirrus export`.)
+pub fn export_cached(input: &Path, frame: Option<f64>) -> Result<CachedExport, ExportError> {
     let io = |path: &Path| {
         let path = path.to_owned();
         move |error| ExportError::Io { path, error }
@@ -83,14 +85,23 @@ pub fn export_cached(input: &Path, frame: Option<f64>) -> Result<PathBuf, Export
     let cache = cache_root();
     let dir = cache.join(format!("{stem}-{:016x}", hasher.finish()));
     if dir.join(MANIFEST_FILE).is_file() {
-        return Ok(dir);
+        return Ok(CachedExport { dir, reused: true });
     }
     std::fs::create_dir_all(&cache).map_err(io(&cache))?;
     match export(&abs, &dir, frame) {
         // Another process may have exported the same file at the same time.
-        Err(_) if dir.join(MANIFEST_FILE).is_file() => Ok(dir),
-        result => result.map(|()| dir),
+        Err(_) if dir.join(MANIFEST_FILE).is_file() => Ok(CachedExport { dir, reused: true }),
+        result => result.map(|()| CachedExport { dir, reused: false }),
     }
+}
+
+/// Where [`export_cached`] put a scene.
+#[derive(Debug)]
+pub struct CachedExport {
+    /// The exported scene folder in the cache.
+    pub dir: PathBuf,
+    /// True when an earlier run had exported it (this run printed no warnings).
+    pub reused: bool,
 }
 
 /// The exporter's Python sources, so that a changed exporter re-exports.

@@ -9,7 +9,9 @@ use std::path::{Path, PathBuf};
 
 use bytemuck::{Pod, Zeroable};
 
-use super::format::{Array, Element, Manifest, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL};
+use super::format::{
+    Array, Element, LightShape, Manifest, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+};
 
 /// Largest magnitude of a position, normal, UV or transform entry: a point
 /// at 1e9 scene units under a transform entry of 1e9 stays below 1e19, whose
@@ -122,7 +124,8 @@ pub(crate) fn load(dir: &Path) -> Result<(Manifest, Blob), SceneError> {
         path: manifest_path.clone(),
         error,
     })?;
-    let manifest = parse_manifest(&manifest_path, &text)?;
+    let mut manifest = parse_manifest(&manifest_path, &text)?;
+    anchor_relative_files(&mut manifest, dir);
     let blob = Blob::read(&dir.join(BLOB_FILE))?;
     Checker {
         path: &manifest_path,
@@ -131,6 +134,26 @@ pub(crate) fn load(dir: &Path) -> Result<(Manifest, Blob), SceneError> {
     }
     .scene()?;
     Ok((manifest, blob))
+}
+
+/// Makes the image paths written relative to the scene folder (textures the
+/// exporter extracted from a `.usdz` into `usdz/`) absolute, so the scene
+/// folder can be renamed or moved with them.
+fn anchor_relative_files(manifest: &mut Manifest, dir: &Path) {
+    let anchor = |file: &mut PathBuf| {
+        if file.is_relative() {
+            *file = dir.join(&*file);
+        }
+    };
+    manifest
+        .textures
+        .iter_mut()
+        .for_each(|t| anchor(&mut t.file));
+    for light in &mut manifest.lights {
+        if let LightShape::Rect { texture, .. } | LightShape::Dome { texture } = &mut light.shape {
+            texture.iter_mut().for_each(anchor);
+        }
+    }
 }
 
 /// Parses the manifest: the format name and version first, so a file of another

@@ -124,3 +124,37 @@ pub fn exported_test_scene(name: &str, group: &str) -> PathBuf {
     exports.insert(name.to_owned(), dir.clone());
     dir
 }
+
+/// One line of `scenes/shared_scenes.txt`: a shared USD scene to export.
+pub struct SharedScene {
+    /// The asset path under `../shared/assets`.
+    pub asset: String,
+    /// The USD time code passed as `--frame`; empty for the stage's default time.
+    pub frame: String,
+}
+
+/// Every shared USD scene the exporter must handle, from `scenes/shared_scenes.txt`
+/// (`ASSET [FRAME]` per line, `#` starts a comment): what the exporter test
+/// exports and the gallery renders.
+pub fn shared_scenes() -> Vec<SharedScene> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/shared_scenes.txt");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let scenes: Vec<SharedScene> = text
+        .lines()
+        .filter_map(|line| {
+            let words: Vec<&str> = line.split('#').next().unwrap().split_whitespace().collect();
+            let scene = |asset: &str, frame: &str| SharedScene {
+                asset: asset.to_owned(),
+                frame: frame.to_owned(),
+            };
+            match words[..] {
+                [] => None,
+                [asset] => Some(scene(asset, "")),
+                [asset, frame] => Some(scene(asset, frame)),
+                _ => panic!("{}: expected 'ASSET [FRAME]': {line:?}", path.display()),
+            }
+        })
+        .collect();
+    assert!(!scenes.is_empty(), "{} lists no scene", path.display());
+    scenes
+}
