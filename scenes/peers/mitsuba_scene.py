@@ -1,0 +1,496 @@
+"""Builds a Mitsuba 3 scene dictionary from an exported Cirrus scene (see to_mitsuba.py).
+
+What each part becomes, and why (units: Cirrus and Mitsuba's RGB variants both
+carry linear Rec.709 radiance in W/(m^2 sr), so values pass through unchanged
+once the UsdLux emission color x intensity x 2^exposure is formed; the exporter
+stores the three factors separately and src/lights/emission.rs multiplies them):
+
+- Camera: USD looks down -Z with +X right; Mitsuba looks down +Z with +X to the
+  image's left, so to_world = world_from_camera x diag(-1, 1, -1). Horizontal
+  fov from the aperture conformed by "expandAperture" (src/camera/window.rs);
+  thin lens when fStop and focusDistance are set, radius focalLength/10/(2 fStop).
+  Orthographic: Mitsuba's view is [-1, 1] wide, so x and y are scaled by half
+  the conformed aperture / 10.
+- Meshes: one binary PLY per (mesh, material); a prototype with several
+  instances becomes a `shapegroup` placed by `instance`s, else the shape is
+  placed directly. Surfaces reflect on both sides in Cirrus, so BSDFs are
+  wrapped in `twosided`.
+- Materials: pure Lambert (specular workflow with zero specularColor, no
+  clearcoat, opacity 1) is `diffuse`; anything else is approximated by
+  `principled` (reported). Textures are replaced by their fallback (reported).
+- Lights: sphere = `sphere` shape with an `area` emitter (treatAsPoint: a
+  `point` of the same power); rect and disk = `rectangle`/`disk` shapes with
+  flipped normals (UsdLux emits from -Z); cylinder = `cylinder` along X; all
+  divided by their world area under `normalize`. Light shapes get an opaque
+  black BSDF: in Cirrus a ray that finds a light stops there (a `null` BSDF
+  would show what is behind it); Cirrus' shadow rays pass through lights,
+  Mitsuba's do not, which matters only where one light hides another. Distant = `directional` of the
+  same irradiance (normalize: the emission; else emission x pi sin^2(angle/2),
+  as src/lights/distant.rs), a delta instead of a cone (reported when angle > 0).
+  Dome = `constant`.
+- Volumes: see vdb_to_vol.py for the grid placement; each placed volume is a
+  `heterogeneous` medium (scale = densityScale, albedo, `hg` phase) inside a
+  `cube` with a `null` BSDF spanning the padded grid; a camera inside a box
+  starts its rays in that medium.
+- Integrator: Cirrus' --max-depth counts scattering events and Mitsuba's
+  max_depth counts path segments (1 = directly visible emitters only), so
+  Mitsuba's is Cirrus' + 1. `path` without volumes, `volpathmis` with them.
+"""
+
+import json
+import math
+import subprocess
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from cirrus_scene import affine4, emission
+
+#: Debian's Python, which has pyopenvdb (the .venv does not).
+SYSTEM_PYTHON = "/usr/bin/python3"
+#: u32::MAX in triangle_materials: no material (grey 0.18 diffuse).
+NO_MATERIAL = 0xFFFFFFFF
+#: The BSDF of light shapes: opaque and non-reflecting, as Cirrus' lights are to
+#: the rays that find them (a `null` BSDF would let the light behind show through).
+BLACK = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.0, 0.0, 0.0]}}
+#: Cirrus' grey default and fallback material albedo.
+GREY = [0.18, 0.18, 0.18]
+
+
+class Converter:
+    """Turns one CirrusScene into a Mitsuba scene dict; `warnings` lists what was approximated."""
+
+    def __init__(self, scene, width, height, max_depth, workdir, mi):
+        self.scene = scene
+        self.manifest = scene.manifest
+        self.width, self.height = width, height
+        self.max_depth = max_depth
+        self.workdir = Path(workdir)
+        self.workdir.mkdir(parents=True, exist_ok=True)
+        self.mi = mi
+        self.warnings = []
+        #: Mesh index -> its PlyParts, so a mesh shared by prototypes is written once.
+        self.plys = {}
+
+    def warn(self, message):
+        """Records something that could not be converted exactly (printed by the caller)."""
+        if message not in self.warnings:
+            self.warnings.append(message)
+
+    def transform(self, m):
+        """A 4x4 numpy matrix as a Mitsuba ScalarTransform4f."""
+        return self.mi.ScalarTransform4f(np.asarray(m, dtype=np.float64).tolist())
+
+    # ----------------------------------------------------------------- scene
+
+    def build(self):
+        """The whole scene dictionary."""
+        d = {"type": "scene", "integrator": self.integrator(), "sensor": self.sensor()}
+        for i, light in enumerate(self.manifest["lights"]):
+            entry = self.light(light)
+            if entry is not None:
+                d[f"light_{i}"] = entry
+        d.update(self.shapes())
+        d.update(self.volumes())
+        self.place_camera_medium(d)
+        for w in self.manifest.get("warnings", []):
+            self.warn(f"exporter: {w}")
+        return d
+
+    def integrator(self):
+        """`path`, or `volpathmis` with volumes, at Mitsuba depth = Cirrus depth + 1."""
+        kind = "volpathmis" if self.manifest["volumes"] else "path"
+        return {"type": kind, "max_depth": self.max_depth + 1}
+
+    # ---------------------------------------------------------------- camera
+
+    def sensor(self):
+        """The camera: perspective, thin lens or orthographic, with a box-filtered RGB film."""
+        cam = self.manifest["camera"]
+        if cam["path"] is None:
+            raise SystemExit("error: the scene has no camera prim "
+                             "(Cirrus frames a default one; not converted)")
+        if cam["horizontal_aperture_offset"] or cam["vertical_aperture_offset"]:
+            self.warn("camera: aperture offsets not converted")
+        world_from_camera = affine4(cam["transform"])
+        linear = world_from_camera[:3, :3]
+        scales = np.linalg.norm(linear, axis=0)
+        aperture = self.conformed_aperture(cam)
+        near, far = cam["clipping_range"]
+        # Cirrus starts rays at the eye unless near exceeds 1e-3 far.
+        near = near if near > 1e-3 * far else 1e-4 * min(far, self.scene_size())
+        film = {
+            "type": "hdrfilm",
+            "width": self.width,
+            "height": self.height,
+            "pixel_format": "rgb",
+            "component_format": "float32",
+            "rfilter": {"type": "box"},
+        }
+        flip = np.diag([-1.0, 1.0, -1.0, 1.0])
+        if cam["projection"] == "orthographic":
+            half = aperture[0] / 10.0 / 2.0
+            to_world = world_from_camera @ flip @ np.diag([half, half, 1.0, 1.0])
+            return {"type": "orthographic", "to_world": self.transform(to_world),
+                    "near_clip": near, "far_clip": far, "film": film}
+        sheared = abs(np.linalg.det(linear) - scales.prod()) > 1e-4 * scales.prod()
+        if np.ptp(scales) > 1e-4 * scales.max() or sheared:
+            self.warn("camera: transform is not a rotation times a uniform scale; "
+                      "shear and non-uniform scale dropped")
+        rigid = world_from_camera.copy()
+        rigid[:3, :3] = linear / scales
+        scale = float(np.cbrt(abs(np.linalg.det(linear))))
+        sensor = {
+            "to_world": self.transform(rigid @ flip),
+            "fov_axis": "x",
+            "fov": math.degrees(2.0 * math.atan(aperture[0] / (2.0 * cam["focal_length"]))),
+            "near_clip": near * scale,
+            "far_clip": far * scale,
+            "film": film,
+        }
+        if cam["f_stop"] > 0 and cam["focus_distance"] > 0:
+            sensor["type"] = "thinlens"
+            sensor["aperture_radius"] = cam["focal_length"] / 10.0 / (2.0 * cam["f_stop"]) * scale
+            sensor["focus_distance"] = cam["focus_distance"] * scale
+        else:
+            sensor["type"] = "perspective"
+        return sensor
+
+    def conformed_aperture(self, cam):
+        """(horizontal, vertical) aperture grown to the image aspect ("expandAperture")."""
+        ha, va = cam["horizontal_aperture"], cam["vertical_aperture"]
+        image_aspect = self.width / self.height
+        if image_aspect > ha / va:
+            return va * image_aspect, va
+        return ha, ha / image_aspect
+
+    def scene_size(self):
+        """Diagonal of the scene bounds (1 when empty), scene units."""
+        b = self.manifest["bounds"]
+        size = float(np.linalg.norm(np.subtract(b["max"], b["min"])))
+        return size if size > 0 else 1.0
+
+    # ---------------------------------------------------------------- lights
+
+    def light(self, light):
+        """One UsdLux light as a Mitsuba emitter or emitting shape; None when it emits nothing."""
+        if light.get("color_temperature") is not None:
+            self.warn(f"light {light['path']}: colorTemperature ignored")
+        e = emission(light)
+        m = affine4(light["transform"])
+        kind = light["type"]
+        if kind == "dome":
+            if light.get("texture"):
+                self.warn(f"light {light['path']}: dome texture not converted (constant emission used)")
+            return {"type": "constant", "radiance": rgb(e)}
+        if kind == "distant":
+            return self.distant(light, e, m)
+        if kind == "sphere":
+            return self.sphere_light(light, e, m)
+        if kind in ("rect", "disk"):
+            return self.planar_light(light, e, m)
+        if kind == "cylinder":
+            return self.cylinder_light(light, e, m)
+        self.warn(f"light {light['path']}: type {kind} not converted")
+        return None
+
+    def distant(self, light, e, m):
+        """A `directional` emitter carrying the irradiance on a surface facing the light."""
+        half = math.radians(light["angle_deg"]) / 2.0
+        irradiance = e if light["normalize"] else e * math.pi * math.sin(min(half, math.pi / 2)) ** 2
+        if light["angle_deg"] > 0:
+            self.warn(f"light {light['path']}: distant cone of {light['angle_deg']:.3g} deg "
+                      "rendered as a single direction (Mitsuba's directional); its disk is not visible")
+        axis = m[:3, :3] @ np.array([0.0, 0.0, 1.0])
+        return {"type": "directional", "direction": (-axis / np.linalg.norm(axis)).tolist(),
+                "irradiance": rgb(irradiance)}
+
+    def sphere_light(self, light, e, m):
+        """A sphere with an area emitter, or a point light of the same power for treatAsPoint."""
+        scales = np.linalg.norm(m[:3, :3], axis=0)
+        radius = light["radius"] * scales.mean()
+        area = 4.0 * math.pi * radius**2
+        centre = m[:3, 3].tolist()
+        if light["treat_as_point"]:
+            intensity = e / 4.0 if light["normalize"] else math.pi * radius**2 * e
+            return {"type": "point", "position": centre, "intensity": rgb(intensity)}
+        radiance = e / area if light["normalize"] else e
+        return {"type": "sphere", "center": centre, "radius": radius,
+                "bsdf": BLACK, "emitter": {"type": "area", "radiance": rgb(radiance)}}
+
+    def planar_light(self, light, e, m):
+        """A rect or disk light: Mitsuba's shape emits along its normal, UsdLux along -Z, so flipped."""
+        if light["type"] == "rect":
+            if light.get("texture"):
+                self.warn(f"light {light['path']}: rect texture not converted")
+            hx, hy, shape = light["width"] / 2.0, light["height"] / 2.0, "rectangle"
+            unit_area = 4.0
+        else:
+            hx = hy = light["radius"]
+            shape, unit_area = "disk", math.pi
+        to_world = m @ np.diag([hx, hy, 1.0, 1.0])
+        area = unit_area * np.linalg.norm(np.cross(to_world[:3, 0], to_world[:3, 1]))
+        radiance = e / area if light["normalize"] else e
+        return {"type": shape, "to_world": self.transform(to_world), "flip_normals": True,
+                "bsdf": BLACK, "emitter": {"type": "area", "radiance": rgb(radiance)}}
+
+    def cylinder_light(self, light, e, m):
+        """A cylinder light along the light's X axis, emitting from its side."""
+        r, half = light["radius"], light["length"] / 2.0
+        scales = np.linalg.norm(m[:3, :3], axis=0)
+        p0 = (m @ np.array([-half, 0.0, 0.0, 1.0]))[:3]
+        p1 = (m @ np.array([half, 0.0, 0.0, 1.0]))[:3]
+        radius = r * (scales[1] + scales[2]) / 2.0
+        area = 2.0 * math.pi * radius * np.linalg.norm(p1 - p0)
+        radiance = e / area if light["normalize"] else e
+        return {"type": "cylinder", "p0": p0.tolist(), "p1": p1.tolist(), "radius": radius,
+                "bsdf": BLACK, "emitter": {"type": "area", "radiance": rgb(radiance)}}
+
+    # ------------------------------------------------------------- materials
+
+    def constant(self, material, key, fallback_default):
+        """A material input's constant value; a texture is replaced by its fallback (reported)."""
+        value = material.get(key, fallback_default)
+        if isinstance(value, dict):
+            tex = self.manifest["textures"][value["texture"]]
+            self.warn(f"material {material['path']}: texture on {key} not converted (its fallback used)")
+            fb = tex["fallback"]
+            return fb[:3] if isinstance(fallback_default, list) else fb[0]
+        return value
+
+    def bsdf(self, index):
+        """A material as `twosided` `diffuse`, or an approximating `principled` (reported)."""
+        if index == NO_MATERIAL:
+            return twosided({"type": "diffuse", "reflectance": rgb(GREY)})
+        mat = self.manifest["materials"][index]
+        if mat.get("fallback"):
+            return twosided({"type": "diffuse", "reflectance": rgb(GREY)})
+        if mat.get("normal") is not None:
+            self.warn(f"material {mat['path']}: normal map not converted")
+        base = self.constant(mat, "diffuse_color", [0.18, 0.18, 0.18])
+        specular = self.constant(mat, "specular_color", [0.0, 0.0, 0.0])
+        opacity = self.constant(mat, "opacity", 1.0)
+        metallic = self.constant(mat, "metallic", 0.0)
+        clearcoat = mat.get("clearcoat", 0.0)
+        spec_workflow = mat.get("use_specular_workflow", False)
+        if spec_workflow and max(specular) == 0 and clearcoat == 0 and opacity >= 1:
+            return twosided({"type": "diffuse", "reflectance": rgb(base)})
+        self.warn(f"material {mat['path']}: UsdPreviewSurface approximated by Mitsuba's principled BSDF")
+        ior = mat.get("ior", 1.5)
+        if spec_workflow:
+            f0 = min(max(float(np.dot(specular, [0.2126, 0.7152, 0.0722])), 0.0), 0.99)
+            ior = (1 + math.sqrt(f0)) / (1 - math.sqrt(f0))
+            metallic = 0.0
+            self.warn(f"material {mat['path']}: specularColor approximated by "
+                      "an ior of the same luminance F0")
+        principled = {
+            "type": "principled",
+            "base_color": rgb(base),
+            "metallic": float(metallic),
+            "roughness": float(self.constant(mat, "roughness", 0.5)),
+            "eta": max(float(ior), 1.0001),
+            "clearcoat": float(clearcoat),
+            "clearcoat_gloss": 1.0 - float(mat.get("clearcoat_roughness", 0.01)),
+            "spec_trans": 1.0 - float(opacity),
+        }
+        return principled if opacity < 1 else twosided(principled)
+
+    def emitter(self, index):
+        """An area emitter for an emissive material, else None."""
+        if index == NO_MATERIAL:
+            return None
+        mat = self.manifest["materials"][index]
+        value = self.constant(mat, "emissive_color", [0.0, 0.0, 0.0])
+        if max(value) <= 0:
+            return None
+        return {"type": "area", "radiance": rgb(value)}
+
+    # ---------------------------------------------------------------- shapes
+
+    def shapes(self):
+        """Every placed mesh: baked for single instances, shapegroup + instances otherwise."""
+        placements = {}
+        for proto, world in self.scene.instances():
+            placements.setdefault(proto, []).append(world)
+        out = {}
+        for proto, worlds in placements.items():
+            parts = self.manifest["prototypes"][proto]["meshes"]
+            pieces = [(ply, affine4(part["transform"]))
+                      for part in parts for ply in self.mesh_plys(part["mesh"])]
+            if not pieces:
+                continue
+            emissive = any(self.emitter(ply.material) is not None for ply, _ in pieces)
+            if len(worlds) == 1 or emissive:
+                for w_i, world in enumerate(worlds):
+                    for p_i, (ply, part) in enumerate(pieces):
+                        out[f"shape_{proto}_{w_i}_{p_i}"] = self.ply_shape(ply, world @ part)
+                continue
+            group = {"type": "shapegroup"}
+            for p_i, (ply, part) in enumerate(pieces):
+                group[f"part_{p_i}"] = self.ply_shape(ply, part)
+            out[f"group_{proto}"] = group
+            for w_i, world in enumerate(worlds):
+                out[f"instance_{proto}_{w_i}"] = {
+                    "type": "instance",
+                    "shapegroup": {"type": "ref", "id": f"group_{proto}"},
+                    "to_world": self.transform(world),
+                }
+        return out
+
+    def ply_shape(self, ply, to_world):
+        """A `ply` shape with the material's BSDF (and emitter); flat-shaded without normals."""
+        shape = {"type": "ply", "filename": str(ply.path), "to_world": self.transform(to_world),
+                 "face_normals": ply.flat, "bsdf": self.bsdf(ply.material)}
+        light = self.emitter(ply.material)
+        if light is not None:
+            shape["emitter"] = light
+        return shape
+
+    def mesh_plys(self, mesh_index):
+        """A PlyPart for each material of one mesh, written once."""
+        if mesh_index in self.plys:
+            return self.plys[mesh_index]
+        mesh = self.manifest["meshes"][mesh_index]
+        points = self.scene.array(mesh["points"])
+        triangles = self.scene.array(mesh["triangles"])
+        normals = self.scene.array(mesh["normals"]) if mesh.get("normals") else None
+        materials = self.scene.array(mesh["triangle_materials"])
+        if mesh.get("double_sided") and any(self.emitter(int(m)) for m in np.unique(materials)):
+            self.warn(f"mesh {mesh['path']}: double-sided emission rendered one-sided")
+        out = []
+        for mat in np.unique(materials):
+            path = self.workdir / f"mesh{mesh_index}_mat{int(mat)}.ply"
+            write_ply(path, points, triangles[materials == mat], normals)
+            out.append(PlyPart(path, int(mat), normals is None))
+        self.plys[mesh_index] = out
+        return out
+
+    # --------------------------------------------------------------- volumes
+
+    def volumes(self):
+        """Every placed volume as a null-BSDF box holding a heterogeneous medium."""
+        out = {}
+        grids = {}
+        for proto, world in self.scene.instances():
+            for part in self.manifest["prototypes"][proto]["volumes"]:
+                vol = self.manifest["volumes"][part["volume"]]
+                field = vol["fields"]["density"]
+                key = (field["file"], field["grid"], field["index"])
+                if key not in grids:
+                    grids[key] = self.grid_to_vol(field, len(grids))
+                placed = world @ affine4(part["transform"])
+                n = len(out) // 2
+                box, out[f"medium_{n}"] = self.medium_box(vol, grids[key], placed)
+                box["interior"] = {"type": "ref", "id": f"medium_{n}"}
+                out[f"volume_{n}"] = box
+        self.warn_overlaps([box["to_world"] for key, box in out.items() if key.startswith("volume_")])
+        return out
+
+    def place_camera_medium(self, d):
+        """Starts camera rays in the medium whose box holds the eye (Mitsuba needs telling)."""
+        eye = affine4(self.manifest["camera"]["transform"])[:3, 3]
+        for key, box in d.items():
+            if key.startswith("volume_"):
+                box_from_world = np.linalg.inv(np.array(box["to_world"].matrix, dtype=np.float64))
+                local = box_from_world @ np.append(eye, 1.0)
+                if np.all(np.abs(local[:3]) < 1.0):
+                    d["sensor"]["medium"] = dict(box["interior"])
+                    return
+
+    def warn_overlaps(self, cubes):
+        """Warns when the world bounds of two medium boxes meet: Mitsuba media cannot overlap."""
+        corners = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+        bounds = []
+        for cube in cubes:
+            world = corners @ np.array(cube.matrix, dtype=np.float64).T
+            bounds.append((world[:, :3].min(axis=0), world[:, :3].max(axis=0)))
+        for i, (lo_a, hi_a) in enumerate(bounds):
+            for lo_b, hi_b in bounds[i + 1:]:
+                if np.all(lo_a < hi_b) and np.all(lo_b < hi_a):
+                    self.warn("volumes: the bounds of two volumes overlap; Mitsuba media cannot "
+                              "overlap (Cirrus adds their extinctions), so the overlap renders wrong")
+                    return
+
+    def grid_to_vol(self, field, n):
+        """Runs vdb_to_vol.py with Debian's Python; returns its placement record and the .vol path."""
+        vol_path = self.workdir / f"grid{n}.vol"
+        script = Path(__file__).with_name("vdb_to_vol.py")
+        result = subprocess.run(
+            [SYSTEM_PYTHON, str(script), field["file"], field["grid"], str(field["index"]),
+             str(vol_path)],
+            capture_output=True, text=True, check=False)
+        if result.returncode != 0:
+            raise SystemExit(f"error: {script.name} failed on {field['file']}:\n{result.stderr}")
+        info = json.loads(result.stdout)
+        info["path"] = vol_path
+        if info["negative"] or info["non_finite"]:
+            self.warn(f"grid {field['grid']}: {info['negative']} negative and {info['non_finite']} "
+                      "non-finite values written as 0 (as Cirrus reads them)")
+        if info["background"] != 0:
+            self.warn(f"grid {field['grid']}: background {info['background']} read as 0")
+        return info
+
+    def medium_box(self, vol, grid, world_from_volume):
+        """(the cube shape over the padded grid, the heterogeneous medium inside it)."""
+        if vol["fields"].get("temperature") and vol.get("heat_scale", 0) > 0:
+            self.warn(f"volume {vol['path']}: emission (temperature) not converted")
+        world_from_index = world_from_volume @ affine4(np.asarray(grid["world_from_index"]).ravel())
+        lo = np.asarray(grid["index_min"])
+        shape = np.asarray(grid["shape"], dtype=np.float64)
+        unit_to_index = np.eye(4)
+        unit_to_index[:3, :3] = np.diag(shape)
+        unit_to_index[:3, 3] = lo
+        grid_to_world = world_from_index @ unit_to_index
+        # Mitsuba's cube spans [-1, 1]^3; mirror it when the map flips orientation,
+        # so its normals still point out and the medium stays inside.
+        unit_from_cube = np.array([[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], [0, 0, 0.5, 0.5], [0, 0, 0, 1.0]])
+        cube = grid_to_world @ unit_from_cube
+        if np.linalg.det(cube[:3, :3]) < 0:
+            cube = cube @ np.diag([-1.0, 1.0, 1.0, 1.0])
+        medium = {
+            "type": "heterogeneous",
+            "sigma_t": {"type": "gridvolume", "filename": str(grid["path"]),
+                        "to_world": self.transform(grid_to_world)},
+            "scale": float(vol["density_scale"]),
+            "albedo": {"type": "constvolume", "value": rgb(vol["albedo"])},
+            "phase": {"type": "hg", "g": float(vol["anisotropy"])},
+        }
+        return {"type": "cube", "to_world": self.transform(cube), "bsdf": {"type": "null"}}, medium
+
+
+class PlyPart(NamedTuple):
+    """One mesh's triangles of one material, written as a PLY file."""
+
+    path: Path
+    material: int
+    #: True when the mesh has no normals: Cirrus then shades with face normals.
+    flat: bool
+
+
+def rgb(value):
+    """An RGB spectrum entry (linear Rec.709, used as is by the *_rgb variants)."""
+    return {"type": "rgb", "value": [float(v) for v in value]}
+
+
+def twosided(bsdf):
+    """The BSDF on both sides of the surface, as Cirrus shades back faces."""
+    return {"type": "twosided", "material": bsdf}
+
+
+def write_ply(path, points, triangles, normals):
+    """A binary little-endian PLY with vertex normals when given (else flat faces)."""
+    has_n = normals is not None
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(points)}",
+              "property float x", "property float y", "property float z"]
+    if has_n:
+        header += ["property float nx", "property float ny", "property float nz"]
+    header += [f"element face {len(triangles)}", "property list uchar int vertex_indices", "end_header"]
+    vertex = np.hstack([points, normals]) if has_n else points
+    face = np.zeros(len(triangles), dtype=[("n", "u1"), ("i", "<i4", 3)])
+    face["n"] = 3
+    face["i"] = triangles
+    with open(path, "wb") as f:
+        f.write(("\n".join(header) + "\n").encode("ascii"))
+        f.write(np.ascontiguousarray(vertex, dtype="<f4").tobytes())
+        f.write(face.tobytes())
