@@ -1,7 +1,8 @@
 """The render camera and resolution: UsdRender.Settings, else the first Camera, else a default.
 
-The default camera (path null) looks at the scene bounds along the stage's horizontal
-view axis (-Z for Y-up, +Y for Z-up) from far enough to see all of them.
+The default camera (path null) looks at the centre of the scene bounds from the front
+(along -Z for Y-up, +Y for Z-up) and DEFAULT_PITCH_DEG above, from far enough to see
+all of them: a flat layout seen exactly edge-on would show nothing.
 """
 
 import math
@@ -15,6 +16,8 @@ from .xforms import as_array, to_3x4_list
 # UsdGeomCamera schema fallbacks (millimetre-style tenths of a scene unit).
 DEFAULT_FOCAL = 50.0
 DEFAULT_APERTURE = (20.955, 15.2908)
+# How far above the horizontal the default camera looks down at the scene, degrees.
+DEFAULT_PITCH_DEG = 25.0
 
 
 def _render_settings(stage: Usd.Stage) -> UsdRender.Settings | None:
@@ -83,17 +86,21 @@ def _usd_camera(prim: Usd.Prim, time: Usd.TimeCode) -> dict:
 
 
 def _default_camera(bounds: tuple[np.ndarray, np.ndarray], up_axis: str) -> dict:
-    """A perspective camera framing `bounds` whole, looking horizontally at their centre."""
+    """A perspective camera framing `bounds` whole, looking down at their centre from the
+    front at DEFAULT_PITCH_DEG."""
     lo, hi = bounds
     centre = 0.5 * (lo + hi)
     radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-6)
     half_fov = math.atan(0.5 * DEFAULT_APERTURE[1] / DEFAULT_FOCAL)
     distance = 1.1 * radius / math.sin(half_fov)
+    # Rows are the camera's axes in Y-up world space (row vectors): +X right, +Y up,
+    # +Z backwards, tilted about +X so the camera looks down.
+    pitch = math.radians(DEFAULT_PITCH_DEG)
+    rotation = np.array([[1.0, 0, 0], [0, math.cos(pitch), -math.sin(pitch)],
+                         [0, math.sin(pitch), math.cos(pitch)]])
     if up_axis == UsdGeom.Tokens.z:
-        # camera +X -> world +X, +Y -> world +Z, +Z (backwards) -> world -Y; rows are row-vector axes.
-        rotation = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
-    else:
-        rotation = np.eye(3)
+        # Y-up to Z-up: world +Y -> +Z, +Z (towards the viewer) -> -Y.
+        rotation = rotation @ np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
     world = np.eye(4)
     world[:3, :3] = rotation
     world[3, :3] = centre + rotation[2] * distance
