@@ -1104,3 +1104,41 @@ fn cryptomatte_decodes_to_each_objects_visible_area() {
     eprintln!("{fractional} fractional coverages, worst error {worst:.4}");
     assert!(fractional >= 40, "only {fractional} edge coverages");
 }
+
+/// The README's first command at its CI preset (`.ci/quickstart --preset ci`,
+/// the whole script: set-up, explosion VDB, demo stage, render, contact
+/// sheet) ends with the demo's EXR holding exactly the default AOV contract,
+/// every value finite (Z: +inf on the sky), most pixels lit in the beauty, and the PNG and contact
+/// sheet beside it.
+#[test]
+fn quickstart_ci_preset_renders_the_demo_with_the_default_aovs() {
+    let out = common::scratch("quickstart_ci");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let run = std::process::Command::new(root.join(".ci/quickstart"))
+        .args(["--preset", "ci", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        ".ci/quickstart --preset ci failed:\n{}{}",
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let exr = Exr::read(&out.join("canyon.exr"));
+    assert_eq!(exr.formats(), expected_channels(&DEFAULT));
+    assert_eq!((exr.width, exr.height), (256, 144));
+    for (name, (_, values)) in &exr.channels {
+        // Z is +inf where nothing is hit (the sky): the contract.
+        let ok = |v: &f32| v.is_finite() || (name == "Z" && *v == f32::INFINITY);
+        assert!(values.iter().all(ok), "{name}: NaN or -inf");
+    }
+    let lit = exr.plane("R").iter().filter(|&&v| v > 0.01).count();
+    assert!(lit > exr.width * exr.height / 2, "{lit} lit pixels");
+    for png in ["canyon.png", "canyon.aovs.png"] {
+        let bytes = std::fs::metadata(out.join(png))
+            .map(|m| m.len())
+            .unwrap_or(0);
+        assert!(bytes > 1000, "{png}: {bytes} bytes");
+    }
+}
