@@ -1119,6 +1119,19 @@ fn volume_light_sampling_strategies_agree_around_a_sphere_light() {
     );
 }
 
+/// Equiangular sampling aims at the centres of small rect and disk lights
+/// too (scenes/tests/volume_area_fog.usda): with it, without it and NEE alone
+/// agree.
+#[test]
+fn equiangular_sampling_agrees_with_distance_sampling_around_area_lights() {
+    assert_renders_agree(
+        "volume_area_fog",
+        (32, 32),
+        256,
+        &[&["--no-equiangular"], &["--strategy", "nee"]],
+    );
+}
+
 /// Equiangular sampling is unbiased where it matters most: a point light in
 /// thin fog (scenes/tests/volume_point_fog.usda). The default render (with
 /// equiangular sampling), the one without it and NEE alone agree (dropping

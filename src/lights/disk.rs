@@ -34,6 +34,11 @@ impl DiskLight {
         })
     }
 
+    /// The disk's centre, world space: where equiangular sampling aims.
+    pub fn centre(&self) -> Vec3 {
+        self.plane.point(Vec2::ZERO)
+    }
+
     /// The ray's hit on the front face with t in (0, t_max).
     pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<LightHit> {
         let hit = self.plane.intersect(origin, direction, t_max)?;

@@ -199,14 +199,14 @@ impl Lights {
         self.lights[index].sample(materials, p, u)
     }
 
-    /// Whether any light is a sphere or point light, the lights equiangular
-    /// sampling targets.
+    /// Whether any light is one equiangular sampling targets (see
+    /// [`Lights::centre`]).
     pub fn has_point_like(&self) -> bool {
-        self.lights.iter().any(|l| matches!(l, Light::Sphere(_)))
+        (0..self.lights.len()).any(|i| self.centre(i).is_some())
     }
 
     /// Picks a light from `p` with `u` as [`Lights::sample`] does, and keeps
-    /// the pick when it is a sphere or point light: its index, centre and
+    /// the pick when equiangular sampling targets it: its index, centre and
     /// pick probability (Kulla & Fajardo 2012 sample distances towards it).
     pub fn pick_point_like(&self, p: Vec3, u: f32) -> Option<(usize, Vec3, f32)> {
         let pick = self.selection.as_ref()?.pick(p, u)?;
@@ -214,10 +214,15 @@ impl Lights {
         Some((pick.light, centre, pick.probability))
     }
 
-    /// The centre of light `index` when it is a sphere or point light.
+    /// The centre of light `index` when equiangular sampling targets it: a
+    /// sphere or point light, or a rect or disk light (Kulla & Fajardo 2012
+    /// aim at a point; for an area light its centre serves, exactly so for a
+    /// small one, and MIS with distance sampling covers a large one).
     pub fn centre(&self, index: usize) -> Option<Vec3> {
         match &self.lights[index] {
             Light::Sphere(l) => Some(l.centre()),
+            Light::Rect(l) => Some(l.centre()),
+            Light::Disk(l) => Some(l.centre()),
             _ => None,
         }
     }
