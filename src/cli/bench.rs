@@ -223,7 +223,7 @@ pub fn run(bench: Bench) -> Result<()> {
 
 /// The scenes named on the command line, or the benchmark's defaults
 /// (`default_scenes(repo root)`) when none are.
-fn scenes_or_default(
+pub(super) fn scenes_or_default(
     scenes: Vec<PathBuf>,
     default_scenes: fn(&Path) -> Vec<PathBuf>,
 ) -> Vec<PathBuf> {
@@ -235,7 +235,7 @@ fn scenes_or_default(
 }
 
 /// Runs `f` on a rayon pool of `threads` workers (at least one).
-fn with_threads(threads: usize, f: impl FnOnce() -> Result<()> + Send) -> Result<()> {
+pub(super) fn with_threads(threads: usize, f: impl FnOnce() -> Result<()> + Send) -> Result<()> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.max(1))
         .build()?
@@ -348,6 +348,13 @@ fn ray_march_points(lo: Vec3, hi: Vec3, n: usize, tile: usize) -> Vec<Vec3> {
         }
     }
     points
+}
+
+/// The command-line name of an option value (`grid`, `null-scattering-mis`).
+pub(super) fn value_name(value: impl clap::ValueEnum) -> String {
+    value
+        .to_possible_value()
+        .map_or_else(String::new, |v| v.get_name().to_owned())
 }
 
 pub(super) fn median(mut xs: Vec<f64>) -> f64 {

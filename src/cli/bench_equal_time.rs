@@ -2,7 +2,8 @@
 //! render` and `cirrus bench volumes`: the cached reference render, the
 //! error metrics, the ladder of renders at 1, 2, 4, ... spp whose error is
 //! read off at exact times (log-log interpolation), the Markdown columns of
-//! those errors, and the SVG chart of error against time.
+//! those errors, and the SVG chart of error against time (or spp). `cirrus
+//! converge` reuses the reference, the metrics and the chart.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -11,9 +12,14 @@ use anyhow::{Context, Result};
 use glam::UVec2;
 
 use super::bench::median;
-use crate::integrator::{self, Budget, RenderSettings, RenderStats};
+use crate::integrator::{
+    self, Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
+};
+use crate::output::aov::AovSet;
+use crate::output::filter::FilterKind;
 use crate::output::read_image;
 use crate::render_state::RenderState;
+use crate::sampling::SamplerKind;
 
 /// What an equal-time benchmark measures (`bench render`, `bench volumes`).
 pub struct EqualTimeBench {
@@ -36,7 +42,29 @@ pub(super) const MAX_DEPTH: u32 = 16;
 
 /// Seed of every reference render, apart from the seeds of the measured ones
 /// (0, 1, 2, ...).
-pub(super) const REFERENCE_SEED: u64 = 1 << 20;
+const REFERENCE_SEED: u64 = 1 << 20;
+
+/// Settings of every benchmark and convergence render unless the measured
+/// method changes them: `cirrus render`'s defaults (MIS, Sobol, max depth
+/// [`MAX_DEPTH`], null-scattering MIS with equiangular sampling, no clamp)
+/// but a box filter, so each sample lands in its own pixel only, and the
+/// beauty alone.
+pub(super) fn base_settings(budget: Budget, seed: u64) -> RenderSettings {
+    RenderSettings {
+        budget,
+        seed,
+        sampler: SamplerKind::Sobol,
+        filter: FilterKind::Box,
+        path: PathSettings {
+            strategy: Strategy::Mis,
+            max_depth: MAX_DEPTH,
+            clamp: None,
+            volume_estimator: VolumeEstimator::NullScatteringMis,
+            equiangular: true,
+        },
+        aovs: AovSet::beauty_only(),
+    }
+}
 
 /// How an image's error against the reference is measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -48,6 +76,10 @@ pub(super) enum ErrorMetric {
     /// guiding papers, so bright and dark regions weigh alike (the 0.01
     /// keeps black reference pixels finite).
     RelMse,
+    /// Mean signed difference x - r over pixels and channels (radiance): the
+    /// image's bias against the reference, positive when too bright. Not an
+    /// error to chart on a log axis.
+    Bias,
 }
 
 impl ErrorMetric {
@@ -57,10 +89,11 @@ impl ErrorMetric {
             .iter()
             .zip(reference)
             .map(|(&a, &b)| {
-                let squared = f64::from(a - b).powi(2);
+                let difference = f64::from(a - b);
                 match self {
-                    Self::Mse => squared,
-                    Self::RelMse => squared / (f64::from(b).powi(2) + 0.01),
+                    Self::Mse => difference.powi(2),
+                    Self::RelMse => difference.powi(2) / (f64::from(b).powi(2) + 0.01),
+                    Self::Bias => difference,
                 }
             })
             .sum();
@@ -72,6 +105,7 @@ impl ErrorMetric {
         match self {
             Self::Mse => "MSE",
             Self::RelMse => "relMSE",
+            Self::Bias => "bias",
         }
     }
 }
@@ -98,10 +132,30 @@ pub(super) fn render(state: &RenderState, settings: &RenderSettings) -> (Vec<f32
     (film.rgb(), stats)
 }
 
+/// A scene's name in tables, charts and file names: its file stem.
+pub(super) fn scene_name(path: &Path) -> String {
+    path.file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
+}
+
+/// The reference of scene `name`: [`base_settings`] at `spp` with
+/// [`REFERENCE_SEED`], kept in `out` by [`reference`] at
+/// [`reference_path`].
+pub(super) fn cached_reference(
+    state: &RenderState,
+    out: &Path,
+    name: &str,
+    spp: u32,
+) -> Result<Vec<f32>> {
+    let path = reference_path(out, name, state.resolution, spp);
+    let settings = base_settings(Budget::Samples(spp), REFERENCE_SEED);
+    reference(state, &settings, &path)
+}
+
 /// Where the reference of scene `name` at this resolution and spp is kept:
 /// `<out>/<name>-<w>x<h>-ref<spp>.exr`. The key holds neither the settings
 /// nor the renderer's version: delete the file after changing either.
-pub(super) fn reference_path(out: &Path, name: &str, resolution: UVec2, spp: u32) -> PathBuf {
+fn reference_path(out: &Path, name: &str, resolution: UVec2, spp: u32) -> PathBuf {
     out.join(format!(
         "{name}-{}x{}-ref{spp}.exr",
         resolution.x, resolution.y
@@ -110,11 +164,7 @@ pub(super) fn reference_path(out: &Path, name: &str, resolution: UVec2, spp: u32
 
 /// The reference image at `path`, read back when it exists with the right
 /// size, else rendered with `settings` (a sample budget) and written there.
-pub(super) fn reference(
-    state: &RenderState,
-    settings: &RenderSettings,
-    path: &Path,
-) -> Result<Vec<f32>> {
+fn reference(state: &RenderState, settings: &RenderSettings, path: &Path) -> Result<Vec<f32>> {
     let r = state.resolution;
     if let Ok(image) = read_image(path, crate::scene::ColorSpace::Raw) {
         if image.channels == 3 && UVec2::new(image.width, image.height) == r {
@@ -238,10 +288,26 @@ pub(super) fn write_chart(path: &Path, svg: &str) -> Result<()> {
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// A log-log chart of the error against seconds, one polyline per labelled
-/// curve of (seconds, error) points.
+/// The x axis of an [`svg_chart`]: what it shows, in the title, and its
+/// unit, under the axis.
+pub(super) struct ChartAxis {
+    /// The quantity, e.g. "render time".
+    pub quantity: &'static str,
+    /// Its unit, e.g. "seconds".
+    pub unit: &'static str,
+}
+
+/// Render time in seconds: the x axis of the equal-time charts.
+pub(super) const TIME_AXIS: ChartAxis = ChartAxis {
+    quantity: "render time",
+    unit: "seconds",
+};
+
+/// A log-log chart of the error against `x` (seconds, in the equal-time
+/// benchmarks), one polyline per labelled curve of (x, error) points.
 pub(super) fn svg_chart(
     title: &str,
+    x_axis: &ChartAxis,
     metric: ErrorMetric,
     curves: &[(String, Vec<(f64, f64)>)],
 ) -> String {
@@ -266,12 +332,14 @@ pub(super) fn svg_chart(
     let mut svg = format!(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n\
          <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
-         <text x=\"{margin}\" y=\"20\">{title}: {metric} vs render time (log-log)</text>\n\
-         <text x=\"{}\" y=\"{}\">seconds (10^{x0:.2} .. 10^{x1:.2})</text>\n\
+         <text x=\"{margin}\" y=\"20\">{title}: {metric} vs {} (log-log)</text>\n\
+         <text x=\"{}\" y=\"{}\">{} (10^{x0:.2} .. 10^{x1:.2})</text>\n\
          <text x=\"5\" y=\"{}\">{metric} 10^{y0:.1} .. 10^{y1:.1}</text>\n\
          <rect x=\"{margin}\" y=\"{margin}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
+        x_axis.quantity,
         w / 2.0 - 60.0,
         h - 20.0,
+        x_axis.unit,
         margin - 10.0,
         w - 2.0 * margin,
         h - 2.0 * margin
@@ -329,6 +397,8 @@ mod tests {
         let rel = (0.01 / 0.01 + 0.25 / 1.01 + 1.0 / 9.01) / 3.0;
         assert!((ErrorMetric::Mse.error(&image, &reference) - mse).abs() < 1e-7);
         assert!((ErrorMetric::RelMse.error(&image, &reference) - rel).abs() < 1e-7);
+        let bias = (0.1 + 0.5 - 1.0) / 3.0;
+        assert!((ErrorMetric::Bias.error(&image, &reference) - bias).abs() < 1e-7);
     }
 
     #[test]

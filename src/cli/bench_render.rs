@@ -12,15 +12,11 @@ use anyhow::{Context, Result};
 
 use super::bench::{machine_line, median};
 use super::bench_equal_time::{
-    error_cells, error_columns, ladder, median_curve, median_errors, reference_path, render,
-    spp_per_second, svg_chart, write_chart, EqualTimeBench, ErrorMetric, Rung, MAX_DEPTH,
-    REFERENCE_SEED,
+    base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
+    median_errors, render, scene_name, spp_per_second, svg_chart, write_chart, EqualTimeBench,
+    ErrorMetric, Rung, MAX_DEPTH, TIME_AXIS,
 };
-use crate::integrator::{
-    Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
-};
-use crate::output::aov::AovSet;
-use crate::output::filter::FilterKind;
+use crate::integrator::{Budget, PathSettings, RenderSettings, RenderStats, Strategy};
 use crate::render_state::RenderState;
 use crate::sampling::SamplerKind;
 use crate::volumes::MajorantKind;
@@ -51,18 +47,17 @@ pub fn run(bench: &EqualTimeBench) -> Result<()> {
         let scene = super::load_scene(path, None)?;
         let state = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Grid)?;
         drop(scene);
-        let name = path
-            .file_stem()
-            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let name = scene_name(path);
         println!("### {name}\n");
         throughput(&state, bench.repeats);
-        let reference = reference(&state, bench, &name)?;
+        let reference = cached_reference(&state, &bench.out, &name, bench.reference_spp)?;
         equal_time(&state, bench, &name, &reference)?;
     }
     Ok(())
 }
 
-/// Settings for one benchmark render.
+/// Settings for one benchmark render: [`base_settings`] with this
+/// estimator, sampler and path depth.
 fn settings(
     budget: Budget,
     strategy: Strategy,
@@ -70,19 +65,15 @@ fn settings(
     seed: u64,
     max_depth: u32,
 ) -> RenderSettings {
+    let base = base_settings(budget, seed);
     RenderSettings {
-        budget,
-        seed,
         sampler,
-        filter: FilterKind::Box,
         path: PathSettings {
             strategy,
             max_depth,
-            clamp: None,
-            volume_estimator: VolumeEstimator::NullScatteringMis,
-            equiangular: true,
+            ..base.path
         },
-        aovs: AovSet::beauty_only(),
+        ..base
     }
 }
 
@@ -118,20 +109,6 @@ fn throughput(state: &RenderState, repeats: u32) {
         samples / 1e6,
         rays / samples
     );
-}
-
-/// The reference image, rendered once and kept in the output folder (the
-/// file name holds the resolution and spp).
-fn reference(state: &RenderState, bench: &EqualTimeBench, name: &str) -> Result<Vec<f32>> {
-    let path = reference_path(&bench.out, name, state.resolution, bench.reference_spp);
-    let s = settings(
-        Budget::Samples(bench.reference_spp),
-        Strategy::Mis,
-        SamplerKind::Sobol,
-        REFERENCE_SEED,
-        MAX_DEPTH,
-    );
-    super::bench_equal_time::reference(state, &s, &path)
 }
 
 /// The equal-time table and chart: every method renders at 1, 2, 4, ... spp
@@ -181,7 +158,10 @@ fn equal_time(
         ratios.join(", ")
     );
     let chart = bench.out.join(format!("{name}-equal-time.svg"));
-    write_chart(&chart, &svg_chart(name, ErrorMetric::Mse, &curves))?;
+    write_chart(
+        &chart,
+        &svg_chart(name, &TIME_AXIS, ErrorMetric::Mse, &curves),
+    )?;
     println!("Chart: {}\n", chart.display());
     Ok(())
 }

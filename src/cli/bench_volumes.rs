@@ -15,17 +15,14 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::ValueEnum;
 
-use super::bench::{machine_line, median};
+use super::bench::{machine_line, median, value_name};
 use super::bench_equal_time::{
-    error_cells, error_columns, ladder, median_curve, median_errors, reference_path,
-    spp_per_second, svg_chart, write_chart, EqualTimeBench, ErrorMetric, Rung, MAX_DEPTH,
-    REFERENCE_SEED,
+    base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
+    median_errors, scene_name, spp_per_second, svg_chart, write_chart, EqualTimeBench, ErrorMetric,
+    Rung, MAX_DEPTH, TIME_AXIS,
 };
-use crate::integrator::{Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
-use crate::output::aov::AovSet;
-use crate::output::filter::FilterKind;
+use crate::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
 use crate::render_state::RenderState;
-use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 use crate::volumes::{MajorantKind, TrackingStats, VdbFile};
 
@@ -41,7 +38,7 @@ const NULL_SHARE_TARGET: f64 = 0.5;
 struct Measurement {
     majorant: MajorantKind,
     estimator: VolumeEstimator,
-    /// Equiangular sampling of sphere and point lights (off only in the
+    /// Equiangular sampling of lights in media (off only in the
     /// extra row of scenes that have such lights).
     equiangular: bool,
     /// relMSE per time budget, median over seeds.
@@ -96,23 +93,13 @@ pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
     );
     for path in &bench.scenes {
         let scene = super::load_scene(path, None)?;
-        let name = path
-            .file_stem()
-            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let name = scene_name(path);
         println!("### {name}\n");
         print_extinction(&scene)?;
         let grid = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Grid)?;
         let global = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Global)?;
         drop(scene);
-        let reference = {
-            let path = reference_path(&bench.out, &name, grid.resolution, bench.reference_spp);
-            let s = settings(
-                Budget::Samples(bench.reference_spp),
-                (VolumeEstimator::default(), true),
-                REFERENCE_SEED,
-            );
-            super::bench_equal_time::reference(&grid, &s, &path)?
-        };
+        let reference = cached_reference(&grid, &bench.out, &name, bench.reference_spp)?;
         let mut measurements = Vec::new();
         for (majorant, state) in [(MajorantKind::Grid, &grid), (MajorantKind::Global, &global)] {
             for &estimator in VolumeEstimator::value_variants() {
@@ -121,7 +108,7 @@ pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
             }
         }
         // Where equiangular sampling has lights to target, what it buys.
-        if grid.lights.has_point_like() {
+        if grid.lights.has_equiangular_target() {
             let method = (VolumeEstimator::NullScatteringMis, false);
             measurements.push(measure(
                 &grid,
@@ -138,26 +125,21 @@ pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
-/// Settings for one benchmark render: MIS + Sobol, box filter, the volume
-/// estimator with or without equiangular sampling.
+/// Settings for one benchmark render: [`base_settings`] with this volume
+/// estimator, with or without equiangular sampling.
 fn settings(
     budget: Budget,
-    (estimator, equiangular): (VolumeEstimator, bool),
+    (volume_estimator, equiangular): (VolumeEstimator, bool),
     seed: u64,
 ) -> RenderSettings {
+    let base = base_settings(budget, seed);
     RenderSettings {
-        budget,
-        seed,
-        sampler: SamplerKind::Sobol,
-        filter: FilterKind::Box,
         path: PathSettings {
-            strategy: Strategy::Mis,
-            max_depth: MAX_DEPTH,
-            clamp: None,
-            volume_estimator: estimator,
+            volume_estimator,
             equiangular,
+            ..base.path
         },
-        aovs: AovSet::beauty_only(),
+        ..base
     }
 }
 
@@ -305,7 +287,7 @@ fn write_charts(
             )
         })
         .collect();
-    let svg = svg_chart(name, ErrorMetric::RelMse, &curves);
+    let svg = svg_chart(name, &TIME_AXIS, ErrorMetric::RelMse, &curves);
     let chart = bench.out.join(format!("{name}-equal-time.svg"));
     write_chart(&chart, &svg)?;
     println!("Chart: {}", chart.display());
@@ -316,13 +298,6 @@ fn write_charts(
     }
     println!();
     Ok(())
-}
-
-/// The command-line name of an option value (`grid`, `null-scattering-mis`).
-fn value_name(value: impl ValueEnum) -> String {
-    value
-        .to_possible_value()
-        .map_or_else(String::new, |v| v.get_name().to_owned())
 }
 
 /// Default scenes of the benchmark: the teapot cloud and the smoke plume.

@@ -9,6 +9,7 @@ mod bench_instances;
 mod bench_render;
 mod bench_volumes;
 mod checkpoint;
+mod converge;
 mod farm;
 mod film_output;
 mod info;
@@ -65,6 +66,9 @@ enum Command {
     /// Run a benchmark and print a Markdown table (machine, date, medians).
     #[command(subcommand)]
     Bench(bench::Bench),
+    /// Convergence study: error against a reference at 1, 2, 4, ... spp per
+    /// scene, method and seed, as CSVs and log-log SVG charts.
+    Converge(converge::ConvergeArgs),
 }
 
 /// Parses the command line, runs it, and returns the process exit code:
@@ -86,6 +90,7 @@ pub fn run() -> ExitCode {
         Command::Farm(f) => farm::run(f),
         Command::Aovs(args) => aovs::run(args),
         Command::Bench(b) => bench::run(b),
+        Command::Converge(args) => converge::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

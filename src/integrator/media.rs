@@ -147,7 +147,7 @@ impl EquiangularRay {
 
 /// One equiangular sample of single scattering along a ray through media
 /// (Kulla & Fajardo 2012), to be multiplied by the path throughput: a
-/// sphere or point light picked from the ray's midpoint, a distance t
+/// light equiangular sampling targets (sphere, point, rect, disk) picked from the ray's midpoint, a distance t
 /// towards it, the transmittance up to t by ratio tracking, the medium's
 /// sigma_s and phase function at t, and next-event estimation of that light
 /// from there. It joins the two strategies of [`next_event`] and phase
@@ -164,7 +164,7 @@ pub(super) fn equiangular_sample(
     counts: &mut PathCounts,
 ) -> Option<Vec3> {
     let lights = &state.lights;
-    let (light, centre, p_pick) = lights.pick_point_like(eq.reference, rng.next_f32())?;
+    let (light, centre, p_pick) = lights.pick_equiangular_target(eq.reference, rng.next_f32())?;
     let distances = eq.towards(centre)?;
     let t = distances.sample(rng.next_f32()).clamp(eq.a, eq.b);
     let p_t = distances.pdf(t);

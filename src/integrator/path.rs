@@ -116,7 +116,7 @@ pub fn radiance(
         && settings.volume_estimator == VolumeEstimator::NullScatteringMis
         && settings.strategy != Strategy::Bsdf
         && !state.media.is_empty()
-        && lights.has_point_like();
+        && lights.has_equiangular_target();
     // `depth` counts the scattering events before the current ray.
     for depth in 0.. {
         counts.rays.closest += 1;

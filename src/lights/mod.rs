@@ -201,14 +201,14 @@ impl Lights {
 
     /// Whether any light is one equiangular sampling targets (see
     /// [`Lights::centre`]).
-    pub fn has_point_like(&self) -> bool {
+    pub fn has_equiangular_target(&self) -> bool {
         (0..self.lights.len()).any(|i| self.centre(i).is_some())
     }
 
     /// Picks a light from `p` with `u` as [`Lights::sample`] does, and keeps
     /// the pick when equiangular sampling targets it: its index, centre and
     /// pick probability (Kulla & Fajardo 2012 sample distances towards it).
-    pub fn pick_point_like(&self, p: Vec3, u: f32) -> Option<(usize, Vec3, f32)> {
+    pub fn pick_equiangular_target(&self, p: Vec3, u: f32) -> Option<(usize, Vec3, f32)> {
         let pick = self.selection.as_ref()?.pick(p, u)?;
         let centre = self.centre(pick.light)?;
         Some((pick.light, centre, pick.probability))

@@ -141,7 +141,8 @@ pub(crate) fn load(dir: &Path) -> Result<(Manifest, Blob), SceneError> {
 /// folder can be renamed or moved with them.
 fn anchor_relative_files(manifest: &mut Manifest, dir: &Path) {
     let anchor = |file: &mut PathBuf| {
-        if file.is_relative() {
+        // Empty = no file authored (warned at export): nothing to anchor.
+        if file.is_relative() && !file.as_os_str().is_empty() {
             *file = dir.join(&*file);
         }
     };

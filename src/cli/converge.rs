@@ -1,0 +1,584 @@
+//! `cirrus converge`: the convergence harness of issue 7. For each scene and
+//! method (`cirrus render`'s defaults with one flag changed), renders at 1,
+//! 2, 4, ... spp with K seeds each and measures every image against a
+//! high-spp reference of the default method: relMSE, RMSE and the mean bias
+//! (mean over pixels and channels of image - reference) with its 95%
+//! confidence interval across the seeds. Writes `converge.csv` (one row per
+//! render), `summary.csv` (per budget: medians over the seeds and the bias
+//! interval) and per scene two log-log SVG charts, relMSE against wall time
+//! and against spp; prints a Markdown summary with machine, date and commit.
+//!
+//! An unbiased method's relMSE falls as 1/spp (slope -1 on the spp chart; QMC
+//! can fall faster), until it reaches the reference's own noise, about the
+//! 1-spp relMSE / reference spp. A bias interval that excludes 0 while the
+//! relMSE stops falling marks a biased method (or a biased reference).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use glam::UVec2;
+
+use super::bench::{machine_line, median, scenes_or_default, value_name, with_threads};
+use super::bench_equal_time::{
+    base_settings, cached_reference, render, scene_name, svg_chart, write_chart, ChartAxis,
+    ErrorMetric, TIME_AXIS,
+};
+use crate::integrator::{Budget, RenderSettings, Strategy, VolumeEstimator};
+use crate::render_state::RenderState;
+use crate::sampling::SamplerKind;
+use crate::volumes::MajorantKind;
+
+/// `cirrus converge` arguments.
+#[derive(clap::Args, Debug)]
+pub struct ConvergeArgs {
+    /// Scenes (USD or exported); default: scenes/bench/smoke.usda and the
+    /// StandardShaderBall.
+    scenes: Vec<PathBuf>,
+    /// Comma-separated methods: default, sampler-independent, strategy-bsdf,
+    /// strategy-nee, majorant-global, estimator-ratio,
+    /// estimator-residual-ratio, estimator-track-length, no-equiangular
+    /// [all that apply to each scene: the volume ones where it has volumes,
+    /// no-equiangular where it also has lights that equiangular sampling
+    /// targets].
+    #[arg(long, value_delimiter = ',', value_parser = parse_method)]
+    methods: Vec<Method>,
+    /// Largest budget: renders at 1, 2, 4, ... spp up to this (itself last
+    /// when not a power of two).
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    spp_max: u32,
+    /// Seeds per budget (at least 2: the bias interval needs a spread).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(2..))]
+    seeds: u32,
+    /// Image size WIDTHxHEIGHT.
+    #[arg(long, default_value = "160x90", value_parser = super::render::parse_resolution)]
+    res: UVec2,
+    /// Samples per pixel of each scene's reference (default method, kept in
+    /// --out by scene, size and spp: delete it after changing the renderer).
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..))]
+    reference_spp: u32,
+    /// Worker threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+    /// Folder for the CSVs, the charts and the references.
+    #[arg(long, default_value = "out/converge")]
+    out: PathBuf,
+}
+
+/// A method of the study: the reference's settings ([`base_settings`],
+/// which are `cirrus render`'s defaults but a box filter) with at most one
+/// `cirrus render` flag changed, through the same option types.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Method {
+    /// No flag changed: the reference's own estimator.
+    Default,
+    /// `--sampler`.
+    Sampler(SamplerKind),
+    /// `--strategy`.
+    Strategy(Strategy),
+    /// `--majorant`.
+    Majorant(MajorantKind),
+    /// `--volume-estimator`.
+    Estimator(VolumeEstimator),
+    /// `--no-equiangular`.
+    NoEquiangular,
+}
+
+/// Every method, in table and chart order.
+const METHODS: [Method; 9] = [
+    Method::Default,
+    Method::Sampler(SamplerKind::Independent),
+    Method::Strategy(Strategy::Bsdf),
+    Method::Strategy(Strategy::Nee),
+    Method::Majorant(MajorantKind::Global),
+    Method::Estimator(VolumeEstimator::Ratio),
+    Method::Estimator(VolumeEstimator::ResidualRatio),
+    Method::Estimator(VolumeEstimator::TrackLength),
+    Method::NoEquiangular,
+];
+
+impl Method {
+    /// The name in `--methods`, the CSVs and the charts: the flag's name
+    /// (volume estimators shortened to `estimator`) and value.
+    fn name(self) -> String {
+        match self {
+            Self::Default => "default".into(),
+            Self::Sampler(s) => format!("sampler-{}", value_name(s)),
+            Self::Strategy(s) => format!("strategy-{}", value_name(s)),
+            Self::Majorant(m) => format!("majorant-{}", value_name(m)),
+            Self::Estimator(e) => format!("estimator-{}", value_name(e)),
+            Self::NoEquiangular => "no-equiangular".into(),
+        }
+    }
+
+    /// The `cirrus render` flag this method adds (empty for `default`).
+    fn flag(self) -> String {
+        match self {
+            Self::Default => String::new(),
+            Self::Sampler(s) => format!("--sampler {}", value_name(s)),
+            Self::Strategy(s) => format!("--strategy {}", value_name(s)),
+            Self::Majorant(m) => format!("--majorant {}", value_name(m)),
+            Self::Estimator(e) => format!("--volume-estimator {}", value_name(e)),
+            Self::NoEquiangular => "--no-equiangular".into(),
+        }
+    }
+
+    /// Whether the method differs from `default` on this scene: volume
+    /// methods need volumes, and `no-equiangular` also a light that
+    /// equiangular sampling targets ([`crate::lights::Lights::has_equiangular_target`]).
+    fn applies_to(self, state: &RenderState) -> bool {
+        let volumes = !state.media.is_empty();
+        match self {
+            Self::Default | Self::Sampler(_) | Self::Strategy(_) => true,
+            Self::Majorant(_) | Self::Estimator(_) => volumes,
+            Self::NoEquiangular => volumes && state.lights.has_equiangular_target(),
+        }
+    }
+
+    /// `base` with this method's flag applied, as `cirrus render` applies it.
+    fn settings(self, base: RenderSettings) -> RenderSettings {
+        let mut s = base;
+        match self {
+            Self::Default | Self::Majorant(_) => {}
+            Self::Sampler(sampler) => s.sampler = sampler,
+            Self::Strategy(strategy) => s.path.strategy = strategy,
+            Self::Estimator(estimator) => s.path.volume_estimator = estimator,
+            Self::NoEquiangular => s.path.equiangular = false,
+        }
+        s
+    }
+
+    /// The majorants the render state is built with.
+    fn majorant(self) -> MajorantKind {
+        match self {
+            Self::Majorant(m) => m,
+            _ => MajorantKind::Grid,
+        }
+    }
+}
+
+/// Parses one `--methods` name.
+fn parse_method(s: &str) -> Result<Method, String> {
+    METHODS.into_iter().find(|m| m.name() == s).ok_or_else(|| {
+        let names: Vec<String> = METHODS.iter().map(|m| m.name()).collect();
+        format!("{s:?}: expected one of {}", names.join(", "))
+    })
+}
+
+/// The budgets: 1, 2, 4, ... spp up to `spp_max`, which comes last when it
+/// is not a power of two.
+fn budgets(spp_max: u32) -> Vec<u32> {
+    let mut spp: Vec<u32> = std::iter::successors(Some(1u32), |&n| n.checked_mul(2))
+        .take_while(|&n| n <= spp_max)
+        .collect();
+    if !spp_max.is_power_of_two() {
+        spp.push(spp_max);
+    }
+    spp
+}
+
+/// One render of the study: a row of `converge.csv`.
+struct Row {
+    scene: String,
+    method: Method,
+    spp: u32,
+    seed: u64,
+    /// Wall time of the render's sampling, seconds (the scene's load and
+    /// BVH build, done once per scene, are not in it).
+    seconds: f64,
+    /// [`ErrorMetric::RelMse`] against the reference.
+    relmse: f64,
+    /// Root of [`ErrorMetric::Mse`] (radiance).
+    rmse: f64,
+    /// [`ErrorMetric::Bias`] (radiance).
+    bias: f64,
+}
+
+/// The header of `converge.csv`.
+const ROWS_HEADER: &str = "scene,method,spp,seed,seconds,relmse,rmse,bias";
+
+impl Row {
+    fn csv(&self) -> String {
+        format!(
+            "{},{},{},{},{:.6},{:.6e},{:.6e},{:.6e}",
+            self.scene,
+            self.method.name(),
+            self.spp,
+            self.seed,
+            self.seconds,
+            self.relmse,
+            self.rmse,
+            self.bias
+        )
+    }
+}
+
+/// Two-sided 95% quantiles of Student's t for 1 to 30 degrees of freedom.
+const T_975: [f64; 30] = [
+    12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+    2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+    2.052, 2.048, 2.045, 2.042,
+];
+
+/// The 97.5% quantile of Student's t with `dof` degrees of freedom: the
+/// table up to 30, then the normal quantile 1.96 with its first
+/// Cornish-Fisher correction, 1.96 + (1.96^3 + 1.96) / (4 dof), within 0.2%.
+fn t_975(dof: usize) -> f64 {
+    match dof {
+        0 => f64::NAN,
+        1..=30 => T_975[dof - 1],
+        _ => 1.96 + (1.96f64.powi(3) + 1.96) / (4.0 * dof as f64),
+    }
+}
+
+/// The mean of per-seed biases and the half width of its 95% confidence
+/// interval (Student's t over the seeds, which are independent renders).
+#[derive(Clone, Copy, Debug)]
+struct BiasInterval {
+    mean: f64,
+    half_width: f64,
+}
+
+impl BiasInterval {
+    fn of(biases: &[f64]) -> Self {
+        let n = biases.len();
+        let mean = biases.iter().sum::<f64>() / n as f64;
+        let variance =
+            biases.iter().map(|b| (b - mean).powi(2)).sum::<f64>() / (n as f64 - 1.0).max(1.0);
+        Self {
+            mean,
+            half_width: t_975(n - 1) * (variance / n as f64).sqrt(),
+        }
+    }
+}
+
+/// The seeds of one scene, method and budget: a row of `summary.csv`.
+struct Summary {
+    scene: String,
+    method: Method,
+    spp: u32,
+    /// How many seeds were rendered.
+    seeds: usize,
+    /// Medians over the seeds of the [`Row`] fields of the same names.
+    seconds: f64,
+    relmse: f64,
+    rmse: f64,
+    /// The per-seed biases' mean and 95% interval.
+    bias: BiasInterval,
+}
+
+/// The header of `summary.csv`.
+const SUMMARY_HEADER: &str = "scene,method,spp,seeds,median_seconds,median_relmse,median_rmse,mean_bias,bias_ci95_low,bias_ci95_high";
+
+impl Summary {
+    /// Summarises `rows`, the seeds of one scene, method and budget.
+    fn of(rows: &[Row]) -> Self {
+        let column = |f: fn(&Row) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
+        Self {
+            scene: rows[0].scene.clone(),
+            method: rows[0].method,
+            spp: rows[0].spp,
+            seeds: rows.len(),
+            seconds: median(column(|r| r.seconds)),
+            relmse: median(column(|r| r.relmse)),
+            rmse: median(column(|r| r.rmse)),
+            bias: BiasInterval::of(&column(|r| r.bias)),
+        }
+    }
+
+    fn csv(&self) -> String {
+        format!(
+            "{},{},{},{},{:.6},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e}",
+            self.scene,
+            self.method.name(),
+            self.spp,
+            self.seeds,
+            self.seconds,
+            self.relmse,
+            self.rmse,
+            self.bias.mean,
+            self.bias.mean - self.bias.half_width,
+            self.bias.mean + self.bias.half_width
+        )
+    }
+}
+
+/// One summary per scene, method and budget of `rows` (grouped as rendered).
+fn summarise(rows: &[Row]) -> Vec<Summary> {
+    rows.chunk_by(|a, b| a.scene == b.scene && a.method == b.method && a.spp == b.spp)
+        .map(Summary::of)
+        .collect()
+}
+
+/// Runs `cirrus converge`.
+pub fn run(args: ConvergeArgs) -> Result<()> {
+    let scenes = scenes_or_default(args.scenes.clone(), default_scenes);
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    with_threads(args.threads, || {
+        println!("{}\n", machine_line());
+        println!(
+            "Threads: {}; {}x{} pixels; {} seeds per budget; box filter; reference: default method at {} spp. relMSE = mean (x - ref)^2 / (ref^2 + 0.01); bias = mean (x - ref) with its 95% interval over the seeds.\n",
+            rayon::current_num_threads(),
+            args.res.x,
+            args.res.y,
+            args.seeds,
+            args.reference_spp
+        );
+        let mut rows = Vec::new();
+        for path in &scenes {
+            let name = scene_name(path);
+            let scene_rows = converge_scene(&args, path, &name)?;
+            let summaries = summarise(&scene_rows);
+            print_summary(&name, &summaries);
+            write_charts(&args.out, &name, &summaries)?;
+            rows.extend(scene_rows);
+            write_csvs(&args.out, &rows)?;
+        }
+        Ok(())
+    })
+}
+
+/// Every render of one scene: per method, per budget, per seed.
+fn converge_scene(args: &ConvergeArgs, path: &Path, name: &str) -> Result<Vec<Row>> {
+    let scene = super::load_scene(path, None)?;
+    let grid = RenderState::build(&scene, Some(args.res), MajorantKind::Grid)?;
+    let methods: Vec<Method> = if args.methods.is_empty() {
+        METHODS
+            .into_iter()
+            .filter(|m| m.applies_to(&grid))
+            .collect()
+    } else {
+        args.methods.clone()
+    };
+    let global = if methods.iter().any(|m| m.majorant() == MajorantKind::Global) {
+        Some(RenderState::build(
+            &scene,
+            Some(args.res),
+            MajorantKind::Global,
+        )?)
+    } else {
+        None
+    };
+    drop(scene);
+    let reference = cached_reference(&grid, &args.out, name, args.reference_spp)?;
+    let mut rows = Vec::new();
+    for method in methods {
+        let state = match method.majorant() {
+            MajorantKind::Grid => &grid,
+            MajorantKind::Global => global.as_ref().expect("built when a method needs it"),
+        };
+        for spp in budgets(args.spp_max) {
+            for seed in 0..u64::from(args.seeds) {
+                let settings = method.settings(base_settings(Budget::Samples(spp), seed));
+                let (rgb, stats) = render(state, &settings);
+                rows.push(Row {
+                    scene: name.to_owned(),
+                    method,
+                    spp,
+                    seed,
+                    seconds: stats.elapsed.as_secs_f64(),
+                    relmse: ErrorMetric::RelMse.error(&rgb, &reference),
+                    rmse: ErrorMetric::Mse.error(&rgb, &reference).sqrt(),
+                    bias: ErrorMetric::Bias.error(&rgb, &reference),
+                });
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// Writes `converge.csv` and `summary.csv` of `rows` into `out`.
+fn write_csvs(out: &Path, rows: &[Row]) -> Result<()> {
+    let table = |header: &str, lines: Vec<String>| format!("{header}\n{}\n", lines.join("\n"));
+    let files = [
+        (
+            "converge.csv",
+            table(ROWS_HEADER, rows.iter().map(Row::csv).collect()),
+        ),
+        (
+            "summary.csv",
+            table(
+                SUMMARY_HEADER,
+                summarise(rows).iter().map(Summary::csv).collect(),
+            ),
+        ),
+    ];
+    for (file, text) in files {
+        let path = out.join(file);
+        crate::output::atomic::write_file(&path, text.as_bytes())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        println!("Wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// Least-squares slope of ln median relMSE against ln spp over one method's
+/// budgets: -1 for plain Monte Carlo, lower for QMC, flatter where the
+/// reference's noise or a bias dominates.
+fn spp_slope(summaries: &[&Summary]) -> f64 {
+    let points: Vec<(f64, f64)> = summaries
+        .iter()
+        .map(|s| (f64::from(s.spp).ln(), s.relmse.ln()))
+        .collect();
+    let n = points.len() as f64;
+    let (mx, my) = points
+        .iter()
+        .fold((0.0, 0.0), |(x, y), p| (x + p.0 / n, y + p.1 / n));
+    let (sxy, sxx) = points.iter().fold((0.0, 0.0), |(sxy, sxx), (x, y)| {
+        (sxy + (x - mx) * (y - my), sxx + (x - mx).powi(2))
+    });
+    sxy / sxx
+}
+
+/// The summaries of each method of one scene, in the order rendered.
+fn by_method(summaries: &[Summary]) -> Vec<(Method, Vec<&Summary>)> {
+    let mut methods: Vec<(Method, Vec<&Summary>)> = Vec::new();
+    for s in summaries {
+        match methods.last_mut() {
+            Some((m, list)) if *m == s.method => list.push(s),
+            _ => methods.push((s.method, vec![s])),
+        }
+    }
+    methods
+}
+
+/// One Markdown line per method: its largest budget's medians, the bias
+/// interval there, and the relMSE slope over all budgets.
+fn print_summary(name: &str, summaries: &[Summary]) {
+    println!("### {name}\n");
+    println!(
+        "| method | flag | spp | seconds | relMSE | RMSE | bias (95% CI) | relMSE slope vs spp |"
+    );
+    println!("|---|---|---:|---:|---:|---:|---|---:|");
+    for (method, list) in by_method(summaries) {
+        let last = list.last().expect("a method has one budget at least");
+        println!(
+            "| {} | {} | {} | {:.3} | {:.3e} | {:.3e} | {:.2e} ± {:.2e} | {:.2} |",
+            method.name(),
+            method.flag(),
+            last.spp,
+            last.seconds,
+            last.relmse,
+            last.rmse,
+            last.bias.mean,
+            last.bias.half_width,
+            spp_slope(&list)
+        );
+    }
+    println!();
+}
+
+/// Samples per pixel: the x axis of the convergence charts against spp.
+const SPP_AXIS: ChartAxis = ChartAxis {
+    quantity: "samples per pixel",
+    unit: "spp",
+};
+
+/// The two charts of one scene, median relMSE over the seeds per method:
+/// `<scene>-relmse-time.svg` (against median seconds) and
+/// `<scene>-relmse-spp.svg`.
+fn write_charts(out: &Path, name: &str, summaries: &[Summary]) -> Result<()> {
+    let methods = by_method(summaries);
+    let curves = |x: fn(&Summary) -> f64| -> Vec<(String, Vec<(f64, f64)>)> {
+        methods
+            .iter()
+            .map(|(m, list)| (m.name(), list.iter().map(|s| (x(s), s.relmse)).collect()))
+            .collect()
+    };
+    let charts = [
+        ("time", &TIME_AXIS, curves(|s| s.seconds)),
+        ("spp", &SPP_AXIS, curves(|s| f64::from(s.spp))),
+    ];
+    for (suffix, axis, curves) in charts {
+        let path = out.join(format!("{name}-relmse-{suffix}.svg"));
+        write_chart(&path, &svg_chart(name, axis, ErrorMetric::RelMse, &curves))?;
+        println!("Chart: {}", path.display());
+    }
+    println!();
+    Ok(())
+}
+
+/// Default scenes: the smoke plume of `cirrus bench volumes` and the
+/// StandardShaderBall of `cirrus bench render`.
+fn default_scenes(repo: &Path) -> Vec<PathBuf> {
+    vec![
+        repo.join("scenes/bench/smoke.usda"),
+        repo.join(
+            "../shared/assets/usd-wg/full_assets/StandardShaderBall/standard_shader_ball_scene.usda",
+        ),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn method_names_parse_back_and_are_unique() {
+        for m in METHODS {
+            assert_eq!(parse_method(&m.name()), Ok(m));
+        }
+        let names: std::collections::HashSet<String> = METHODS.iter().map(|m| m.name()).collect();
+        assert_eq!(names.len(), METHODS.len());
+        assert!(parse_method("estimator-delta").is_err());
+        assert_eq!(
+            Method::Estimator(VolumeEstimator::ResidualRatio).name(),
+            "estimator-residual-ratio"
+        );
+    }
+
+    #[test]
+    fn each_method_changes_only_its_field() {
+        let base = base_settings(Budget::Samples(4), 7);
+        let s = Method::Sampler(SamplerKind::Independent).settings(base.clone());
+        assert_eq!(s.sampler, SamplerKind::Independent);
+        assert_eq!(s.path.strategy, base.path.strategy);
+        let s = Method::NoEquiangular.settings(base.clone());
+        assert!(!s.path.equiangular && base.path.equiangular);
+        assert_eq!(s.seed, 7);
+        let s = Method::Majorant(MajorantKind::Global).settings(base.clone());
+        assert_eq!(s.path.volume_estimator, base.path.volume_estimator);
+        assert_eq!(
+            Method::Majorant(MajorantKind::Global).majorant(),
+            MajorantKind::Global
+        );
+    }
+
+    #[test]
+    fn budgets_double_up_to_the_largest() {
+        assert_eq!(budgets(1), [1]);
+        assert_eq!(budgets(16), [1, 2, 4, 8, 16]);
+        assert_eq!(budgets(12), [1, 2, 4, 8, 12]);
+    }
+
+    #[test]
+    fn bias_interval_is_students_t() {
+        // Mean 2, sample standard deviation 1, 3 seeds: 4.303 / sqrt(3).
+        let i = BiasInterval::of(&[1.0, 2.0, 3.0]);
+        assert!((i.mean - 2.0).abs() < 1e-12);
+        assert!((i.half_width - 4.303 / 3f64.sqrt()).abs() < 1e-9);
+        // Past the table, within 0.2% of the exact quantiles.
+        for (dof, exact) in [(31, 2.0395), (40, 2.0211), (120, 1.9799)] {
+            assert!((t_975(dof) / exact - 1.0).abs() < 2e-3, "{dof}");
+        }
+    }
+
+    #[test]
+    fn slope_of_a_power_law_is_its_exponent() {
+        let summaries: Vec<Summary> = [1, 2, 4, 8]
+            .iter()
+            .map(|&spp| Summary {
+                scene: "s".into(),
+                method: Method::Default,
+                spp,
+                seeds: 2,
+                seconds: 1.0,
+                relmse: 0.5 / f64::from(spp),
+                rmse: 0.0,
+                bias: BiasInterval::of(&[0.0, 0.0]),
+            })
+            .collect();
+        let refs: Vec<&Summary> = summaries.iter().collect();
+        assert!((spp_slope(&refs) + 1.0).abs() < 1e-12);
+    }
+}
