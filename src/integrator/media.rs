@@ -196,7 +196,7 @@ pub(super) fn equiangular_sample(
         return None;
     }
     let shadow = shadow_ray(p, ls.wi, ls.distance);
-    let (tr_shadow, null_shadow) = visibility(state, settings, &shadow, rng, counts);
+    let (tr_shadow, null_shadow) = visibility(state, settings, (&shadow, light), rng, counts);
     if tr_shadow == 0.0 {
         return None;
     }

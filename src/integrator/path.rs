@@ -377,7 +377,8 @@ fn next_event(
     if ls.pdf.is_nan() || ls.pdf <= 0.0 || f == Vec3::ZERO {
         return None;
     }
-    let (tr, null_ratio) = visibility(state, settings, &vertex.shadow_ray(&ls), rng, counts);
+    let shadow = vertex.shadow_ray(&ls);
+    let (tr, null_ratio) = visibility(state, settings, (&shadow, light), rng, counts);
     if tr == 0.0 {
         return None;
     }
@@ -408,21 +409,22 @@ fn roulette(throughput: &mut Vec3, depth: u32, u: f32) -> bool {
     true
 }
 
-/// The fraction of light that arrives along a shadow ray: 0 when geometry
-/// or an area light blocks it, else the media's transmittance estimate (1 without media);
+/// The fraction of light that arrives along a shadow ray towards light
+/// `light`: 0 when geometry or another area light blocks it, else the media's transmittance estimate (1 without media);
 /// and the factor that turns the vertex's directional sampling density into
 /// its density for the whole null-scattering path (ratio tracking's
 /// product of sigma_n / sigma_maj under null-scattering MIS, else 1).
 pub(super) fn visibility(
     state: &RenderState,
     settings: &PathSettings,
-    shadow: &Ray,
+    (shadow, light): (&Ray, usize),
     rng: &mut Pcg32,
     counts: &mut PathCounts,
 ) -> (f32, f32) {
     counts.rays.shadow += 1;
     let (origin, direction) = (Vec3::from(shadow.origin), Vec3::from(shadow.direction));
-    if state.geometry.occluded(shadow) || state.lights.blocks(origin, direction, shadow.tmax) {
+    if state.geometry.occluded(shadow) || state.lights.blocks(origin, direction, shadow.tmax, light)
+    {
         return (0.0, 1.0);
     }
     if state.media.is_empty() {

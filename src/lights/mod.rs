@@ -246,15 +246,18 @@ impl Lights {
         })
     }
 
-    /// Whether an analytic area light's front face lies on the shadow ray from
-    /// `origin` along unit `direction` with t in (0, t_max): lights stop the
-    /// rays that hit them (see [`Lights::intersect`]), so they must stop
-    /// shadow rays too, or light sampling and BSDF sampling would estimate
-    /// different images wherever one light hides another.
-    pub fn blocks(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
+    /// Whether the front face of an analytic area light other than `target`
+    /// (the light the shadow ray goes to) lies on the shadow ray from `origin`
+    /// along unit `direction` with t in (0, t_max): lights stop the rays that
+    /// hit them (see [`Lights::intersect`]), so they must stop shadow rays
+    /// too, or light sampling and BSDF sampling would estimate different
+    /// images wherever one light hides another. The target itself is skipped:
+    /// its sampled point is its first hit, up to rounding that would
+    /// otherwise let a sphere light shadow itself at grazing angles.
+    pub fn blocks(&self, origin: Vec3, direction: Vec3, t_max: f32, target: usize) -> bool {
         self.area
             .iter()
-            .any(|&i| self.lights[i].intersect(origin, direction, t_max).is_some())
+            .any(|&i| i != target && self.lights[i].intersect(origin, direction, t_max).is_some())
     }
 
     /// Calls `radiance_pdf(radiance, pdf)` once for each infinite light a ray
