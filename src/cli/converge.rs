@@ -324,15 +324,17 @@ pub fn run(args: ConvergeArgs) -> Result<()> {
             args.seeds,
             args.reference_spp
         );
-        let mut rows = Vec::new();
+        let (mut rows, mut summaries) = (Vec::new(), Vec::new());
         for path in &scenes {
             let name = scene_name(path);
             let scene_rows = converge_scene(&args, path, &name)?;
-            let summaries = summarise(&scene_rows);
-            print_summary(&name, &summaries);
-            write_charts(&args.out, &name, &summaries)?;
+            let scene_summaries = summarise(&scene_rows);
+            print_summary(&name, &scene_summaries);
+            write_charts(&args.out, &name, &scene_summaries)?;
             rows.extend(scene_rows);
-            write_csvs(&args.out, &rows)?;
+            summaries.extend(scene_summaries);
+            // Rewritten after every scene, so a long study keeps what it has.
+            write_csvs(&args.out, &rows, &summaries)?;
         }
         Ok(())
     })
@@ -387,8 +389,8 @@ fn converge_scene(args: &ConvergeArgs, path: &Path, name: &str) -> Result<Vec<Ro
     Ok(rows)
 }
 
-/// Writes `converge.csv` and `summary.csv` of `rows` into `out`.
-fn write_csvs(out: &Path, rows: &[Row]) -> Result<()> {
+/// Writes `converge.csv` (`rows`) and `summary.csv` (`summaries`) into `out`.
+fn write_csvs(out: &Path, rows: &[Row], summaries: &[Summary]) -> Result<()> {
     let table = |header: &str, lines: Vec<String>| format!("{header}\n{}\n", lines.join("\n"));
     let files = [
         (
@@ -397,10 +399,7 @@ fn write_csvs(out: &Path, rows: &[Row]) -> Result<()> {
         ),
         (
             "summary.csv",
-            table(
-                SUMMARY_HEADER,
-                summarise(rows).iter().map(Summary::csv).collect(),
-            ),
+            table(SUMMARY_HEADER, summaries.iter().map(Summary::csv).collect()),
         ),
     ];
     for (file, text) in files {
@@ -415,7 +414,7 @@ fn write_csvs(out: &Path, rows: &[Row]) -> Result<()> {
 /// Least-squares slope of ln median relMSE against ln spp over one method's
 /// budgets: -1 for plain Monte Carlo, lower for QMC, flatter where the
 /// reference's noise or a bias dominates.
-fn spp_slope(summaries: &[&Summary]) -> f64 {
+fn spp_slope(summaries: &[Summary]) -> f64 {
     let points: Vec<(f64, f64)> = summaries
         .iter()
         .map(|s| (f64::from(s.spp).ln(), s.relmse.ln()))
@@ -430,16 +429,10 @@ fn spp_slope(summaries: &[&Summary]) -> f64 {
     sxy / sxx
 }
 
-/// The summaries of each method of one scene, in the order rendered.
-fn by_method(summaries: &[Summary]) -> Vec<(Method, Vec<&Summary>)> {
-    let mut methods: Vec<(Method, Vec<&Summary>)> = Vec::new();
-    for s in summaries {
-        match methods.last_mut() {
-            Some((m, list)) if *m == s.method => list.push(s),
-            _ => methods.push((s.method, vec![s])),
-        }
-    }
-    methods
+/// The summaries of each method of one scene (its budgets, in the order
+/// rendered).
+fn by_method(summaries: &[Summary]) -> impl Iterator<Item = &[Summary]> {
+    summaries.chunk_by(|a, b| a.method == b.method)
 }
 
 /// One Markdown line per method: its largest budget's medians, the bias
@@ -450,8 +443,9 @@ fn print_summary(name: &str, summaries: &[Summary]) {
         "| method | flag | spp | seconds | relMSE | RMSE | bias (95% CI) | relMSE slope vs spp |"
     );
     println!("|---|---|---:|---:|---:|---:|---|---:|");
-    for (method, list) in by_method(summaries) {
+    for list in by_method(summaries) {
         let last = list.last().expect("a method has one budget at least");
+        let method = last.method;
         println!(
             "| {} | {} | {} | {:.3} | {:.3e} | {:.3e} | {:.2e} ± {:.2e} | {:.2} |",
             method.name(),
@@ -462,7 +456,7 @@ fn print_summary(name: &str, summaries: &[Summary]) {
             last.rmse,
             last.bias.mean,
             last.bias.half_width,
-            spp_slope(&list)
+            spp_slope(list)
         );
     }
     println!();
@@ -478,11 +472,12 @@ const SPP_AXIS: ChartAxis = ChartAxis {
 /// `<scene>-relmse-time.svg` (against median seconds) and
 /// `<scene>-relmse-spp.svg`.
 fn write_charts(out: &Path, name: &str, summaries: &[Summary]) -> Result<()> {
-    let methods = by_method(summaries);
     let curves = |x: fn(&Summary) -> f64| -> Vec<(String, Vec<(f64, f64)>)> {
-        methods
-            .iter()
-            .map(|(m, list)| (m.name(), list.iter().map(|s| (x(s), s.relmse)).collect()))
+        by_method(summaries)
+            .map(|list| {
+                let points = list.iter().map(|s| (x(s), s.relmse)).collect();
+                (list[0].method.name(), points)
+            })
             .collect()
     };
     let charts = [
@@ -578,7 +573,6 @@ mod tests {
                 bias: BiasInterval::of(&[0.0, 0.0]),
             })
             .collect();
-        let refs: Vec<&Summary> = summaries.iter().collect();
-        assert!((spp_slope(&refs) + 1.0).abs() < 1e-12);
+        assert!((spp_slope(&summaries) + 1.0).abs() < 1e-12);
     }
 }

@@ -147,8 +147,8 @@ impl EquiangularRay {
 
 /// One equiangular sample of single scattering along a ray through media
 /// (Kulla & Fajardo 2012), to be multiplied by the path throughput: a
-/// light equiangular sampling targets (sphere, point, rect, disk) picked from the ray's midpoint, a distance t
-/// towards it, the transmittance up to t by ratio tracking, the medium's
+/// light equiangular sampling targets (sphere, point, rect, disk) picked
+/// from the ray's midpoint, a distance t towards it, the transmittance up to t by ratio tracking, the medium's
 /// sigma_s and phase function at t, and next-event estimation of that light
 /// from there. It joins the two strategies of [`next_event`] and phase
 /// sampling by a nested power heuristic: the light-sampled weight
@@ -196,7 +196,7 @@ pub(super) fn equiangular_sample(
         return None;
     }
     let shadow = shadow_ray(p, ls.wi, ls.distance);
-    let (tr_shadow, null_shadow) = visibility(state, settings, (&shadow, light), rng, counts);
+    let (tr_shadow, null_shadow) = visibility(state, settings, &shadow, light, rng, counts);
     if tr_shadow == 0.0 {
         return None;
     }

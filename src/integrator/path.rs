@@ -378,7 +378,7 @@ fn next_event(
         return None;
     }
     let shadow = vertex.shadow_ray(&ls);
-    let (tr, null_ratio) = visibility(state, settings, (&shadow, light), rng, counts);
+    let (tr, null_ratio) = visibility(state, settings, &shadow, light, rng, counts);
     if tr == 0.0 {
         return None;
     }
@@ -410,14 +410,15 @@ fn roulette(throughput: &mut Vec3, depth: u32, u: f32) -> bool {
 }
 
 /// The fraction of light that arrives along a shadow ray towards light
-/// `light`: 0 when geometry or another area light blocks it, else the media's transmittance estimate (1 without media);
-/// and the factor that turns the vertex's directional sampling density into
+/// `light`: 0 when geometry or another area light blocks it, else the
+/// media's transmittance estimate (1 without media); and the factor that turns the vertex's directional sampling density into
 /// its density for the whole null-scattering path (ratio tracking's
 /// product of sigma_n / sigma_maj under null-scattering MIS, else 1).
 pub(super) fn visibility(
     state: &RenderState,
     settings: &PathSettings,
-    (shadow, light): (&Ray, usize),
+    shadow: &Ray,
+    light: usize,
     rng: &mut Pcg32,
     counts: &mut PathCounts,
 ) -> (f32, f32) {

@@ -200,9 +200,10 @@ impl Lights {
     }
 
     /// Whether any light is one equiangular sampling targets (see
-    /// [`Lights::centre`]).
+    /// [`Lights::centre`]; all of them are analytic area lights, so only
+    /// those are looked at, not every emissive triangle: this runs per path).
     pub fn has_equiangular_target(&self) -> bool {
-        (0..self.lights.len()).any(|i| self.centre(i).is_some())
+        self.area.iter().any(|&i| self.centre(i).is_some())
     }
 
     /// Picks a light from `p` with `u` as [`Lights::sample`] does, and keeps
