@@ -29,11 +29,17 @@ SHADING_PRIMVARS = [
 ]
 
 
+# Primvars that may be a float (grey) or a color3f (per RGB channel): a colour densityScale
+# makes extinction chromatic; written as three numbers, a float stays one number.
+GREY_OR_RGB = {"densityScale"}
+
+
 def _shading_value(primvar: UsdGeom.Primvar, default, time: Usd.TimeCode):
     """A constant primvar as JSON; a float albedo becomes a grey triple."""
     value = primvar.Get(time)
-    if isinstance(default, list):
-        return [float(v) for v in value] if hasattr(value, "__len__") else [float(value)] * 3
+    is_triple = hasattr(value, "__len__")
+    if isinstance(default, list) or (is_triple and primvar.GetPrimvarName() in GREY_OR_RGB):
+        return [float(v) for v in value] if is_triple else [float(value)] * 3
     return float(value)
 
 

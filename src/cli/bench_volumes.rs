@@ -196,10 +196,10 @@ fn print_extinction(scene: &Scene) -> Result<()> {
             VdbFile::open(&field.file)?.read_float_grid(&field.grid, field.index as usize)?;
         let max_density = grid.stats().max_value;
         println!(
-            "{}: densityScale {} x max density {max_density:.3} = max sigma_t {:.2} per world unit.",
+            "{}: densityScale {:?} x max density {max_density:.3} = max sigma_t {:.2} per world unit.",
             volume.path,
             volume.density_scale,
-            volume.density_scale * max_density
+            volume.density_scale.into_iter().fold(0.0, f32::max) * max_density
         );
     }
     println!();

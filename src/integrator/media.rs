@@ -12,8 +12,8 @@ use crate::render_state::RenderState;
 use crate::sampling::warp::{power_heuristic, Equiangular};
 use crate::sampling::Pcg32;
 use crate::volumes::{
-    ratio_tracking_with_null_ratio, walk_tentative_collisions, MajorantSegment, MediaRay,
-    TrackingStats,
+    channel_mean, ratio_tracking_with_null_ratio, walk_tentative_collisions, MajorantSegment,
+    MediaRay, TrackingStats,
 };
 
 /// How a free flight through media ended.
@@ -22,15 +22,11 @@ pub(super) enum FlightEnd {
     Left,
     /// A real collision absorbed it.
     Absorbed,
-    /// A real collision at ray parameter `t` scattered it; the throughput
-    /// takes `weight` (sigma_s over the mean sigma_s that chose scattering);
-    /// `albedo` = sigma_s / sigma_t there; `sigma_s` is that mean.
-    Scattered {
-        t: f32,
-        weight: Vec3,
-        albedo: Vec3,
-        sigma_s: f32,
-    },
+    /// A real collision at ray parameter `t` scattered it; `albedo` =
+    /// sigma_s / sigma_t there per channel; `sigma_s` is the channel mean of
+    /// sigma_s, for the MIS weights that compare distance sampling with
+    /// equiangular sampling.
+    Scattered { t: f32, albedo: Vec3, sigma_s: f32 },
 }
 
 /// A free flight and what it gathered on the way.
@@ -38,48 +34,65 @@ pub(super) struct FreeFlight {
     /// How it ended.
     pub(super) end: FlightEnd,
     /// Emission collected at the tentative collisions, sum of
-    /// sigma_a Le / sigma_maj, W/(m^2 sr), to be multiplied by the throughput.
+    /// throughput x sigma_a Le / sigma_maj, W/(m^2 sr).
     pub(super) emission: Vec3,
-    /// Product of sigma_maj / sigma_n over the null collisions: the light
-    /// strategy's density of these null vertices over delta tracking's.
+    /// The path throughput after the flight's collision weights (unchanged
+    /// in mean over channels; equal to the throughput it started with when
+    /// extinction and albedo are grey).
+    pub(super) throughput: Vec3,
+    /// Product of sigma_maj / mean(sigma_n) over the null collisions: the
+    /// light strategy's density of these null vertices over delta
+    /// tracking's, the same quantity ratio tracking reports for shadow rays.
     pub(super) null_ratio: f32,
 }
 
 /// Samples a free flight along `along` over `[t_min, t_max)` by delta
 /// tracking with absorption, scattering and null events (pbrt-v4's
-/// `VolPathIntegrator`, Miller et al. 2019): at each tentative collision the
-/// emission sigma_a Le / sigma_maj is added (unbiased: tentative collisions
-/// have rate sigma_maj, and each is reached with probability T), then one
-/// uniform number picks absorption (mean sigma_a / sigma_maj), scattering
-/// (mean sigma_s / sigma_maj) or a null collision. Choosing by the mean over
-/// RGB channels is the balance-heuristic spectral MIS of a uniformly chosen
-/// hero channel, averaged over the choice; extinction is grey
-/// (CONVENTIONS.md), so the null probability is exact for every channel.
+/// `VolPathIntegrator`, Miller et al. 2019), for a path arriving with
+/// `throughput`: at each tentative collision the emission
+/// throughput x sigma_a Le / sigma_maj is added (unbiased: tentative
+/// collisions have rate sigma_maj, and each is reached with probability T),
+/// then one uniform number picks absorption, scattering or a null
+/// collision with probabilities proportional to mean(throughput x sigma_a),
+/// mean(throughput x sigma_s) and mean(throughput x sigma_n), and the
+/// throughput takes sigma_x / (sigma_maj P_x) per channel. This is spectral
+/// tracking (Kutz et al. 2017, history-aware averaged probabilities): the
+/// one-sample spectral MIS of a random hero channel with the balance
+/// heuristic, its choice averaged out. The majorant is grey, so the
+/// throughput's channel mean is kept and no channel's weight can grow past
+/// 3 times it; with grey extinction and albedo the weights are 1.
 pub(super) fn free_flight(
     along: &MediaRay,
     segments: &[MajorantSegment],
+    throughput: Vec3,
     rng: &mut Pcg32,
     stats: &mut TrackingStats,
 ) -> FreeFlight {
     let mut flight = FreeFlight {
         end: FlightEnd::Left,
         emission: Vec3::ZERO,
+        throughput,
         null_ratio: 1.0,
     };
     walk_tentative_collisions(segments.iter().copied(), rng, |t, sigma_maj, rng| {
         let point = along.at(t);
         stats.count_lookup(point.sigma_t, sigma_maj);
-        flight.emission += point.emission / sigma_maj;
-        let u = rng.next_f32() * sigma_maj;
-        if u < point.sigma_t {
+        let beta = flight.throughput;
+        flight.emission += beta * point.emission / sigma_maj;
+        let sigma_s = point.sigma_s.min(point.sigma_t);
+        let sigma_a = point.sigma_t - sigma_s;
+        let sigma_n = (Vec3::splat(sigma_maj) - point.sigma_t).max(Vec3::ZERO);
+        let (ws, wa) = (channel_mean(beta * sigma_s), channel_mean(beta * sigma_a));
+        let total = ws + wa + channel_mean(beta * sigma_n);
+        let u = rng.next_f32() * total;
+        if u < ws + wa || total <= 0.0 {
             stats.real_collisions += 1;
-            let sigma_s = (point.sigma_s.element_sum() / 3.0).min(point.sigma_t);
-            flight.end = if u < sigma_s {
+            flight.end = if u < ws {
+                flight.throughput = beta * sigma_s * (total / (sigma_maj * ws));
                 FlightEnd::Scattered {
                     t,
-                    weight: point.sigma_s / sigma_s,
-                    albedo: point.sigma_s / point.sigma_t,
-                    sigma_s,
+                    albedo: sigma_s / point.sigma_t.max(Vec3::splat(f32::MIN_POSITIVE)),
+                    sigma_s: channel_mean(sigma_s),
                 }
             } else {
                 FlightEnd::Absorbed
@@ -87,7 +100,9 @@ pub(super) fn free_flight(
             return false;
         }
         stats.null_collisions += 1;
-        flight.null_ratio *= sigma_maj / (sigma_maj - point.sigma_t);
+        flight.throughput = beta * sigma_n * (total / (sigma_maj * (total - ws - wa)));
+        let grey_null = sigma_maj - channel_mean(point.sigma_t);
+        flight.null_ratio *= sigma_maj / grey_null.max(1e-6 * sigma_maj);
         true
     });
     flight
@@ -177,12 +192,12 @@ pub(super) fn equiangular_sample(
         });
     let (tr, null_prefix) =
         ratio_tracking_with_null_ratio(prefix, |x| along.sigma_t(x), rng, counts.tracking);
-    if tr == 0.0 {
+    if tr == Vec3::ZERO {
         return None;
     }
     let point = along.at(t);
     counts.tracking.density_lookups += 1;
-    let sigma_s = (point.sigma_s.element_sum() / 3.0).min(point.sigma_t);
+    let sigma_s = channel_mean(point.sigma_s.min(point.sigma_t));
     if sigma_s <= 0.0 {
         return None;
     }
@@ -197,7 +212,7 @@ pub(super) fn equiangular_sample(
     }
     let shadow = shadow_ray(p, ls.wi, ls.distance);
     let (tr_shadow, null_shadow) = visibility(state, settings, &shadow, light, rng, counts);
-    if tr_shadow == 0.0 {
+    if tr_shadow == Vec3::ZERO {
         return None;
     }
     let f = phase.eval(wo, ls.wi);

@@ -161,8 +161,9 @@ pub fn radiance(
                     }
                 }
             }
-            let flight = free_flight(&along, &segments, rng, counts.tracking);
-            gathered.add(throughput * flight.emission, depth);
+            let flight = free_flight(&along, &segments, throughput, rng, counts.tracking);
+            gathered.add(flight.emission, depth);
+            throughput = flight.throughput;
             if settings.volume_estimator == VolumeEstimator::NullScatteringMis {
                 null_ratio = flight.null_ratio;
             }
@@ -172,17 +173,11 @@ pub fn radiance(
                     gathered.aovs.opaque |= depth == 0;
                     break;
                 }
-                FlightEnd::Scattered {
-                    t,
-                    weight,
-                    albedo,
-                    sigma_s,
-                } => {
+                FlightEnd::Scattered { t, albedo, sigma_s } => {
                     if depth == 0 {
                         gathered.first_event(VOLUME_EVENT);
                     }
                     gathered.set_albedo(albedo);
-                    throughput *= weight;
                     if depth >= settings.max_depth {
                         break;
                     }
@@ -379,7 +374,7 @@ fn next_event(
     }
     let shadow = vertex.shadow_ray(&ls);
     let (tr, null_ratio) = visibility(state, settings, &shadow, light, rng, counts);
-    if tr == 0.0 {
+    if tr == Vec3::ZERO {
         return None;
     }
     let weight = if ls.delta || settings.strategy == Strategy::Nee {
@@ -390,7 +385,7 @@ fn next_event(
     Some(LightContribution {
         light,
         f,
-        li: ls.radiance * (tr * weight / ls.pdf),
+        li: ls.radiance * tr * (weight / ls.pdf),
         wi: ls.wi,
     })
 }
@@ -410,8 +405,8 @@ fn roulette(throughput: &mut Vec3, depth: u32, u: f32) -> bool {
 }
 
 /// The fraction of light that arrives along a shadow ray towards light
-/// `light`: 0 when geometry or another area light blocks it, else the
-/// media's transmittance estimate (1 without media); and the factor that turns the vertex's directional sampling density into
+/// `light`, per RGB channel: 0 when geometry or another area light blocks
+/// it, else the media's transmittance estimate (1 without media); and the factor that turns the vertex's directional sampling density into
 /// its density for the whole null-scattering path (ratio tracking's
 /// product of sigma_n / sigma_maj under null-scattering MIS, else 1).
 pub(super) fn visibility(
@@ -421,19 +416,19 @@ pub(super) fn visibility(
     light: usize,
     rng: &mut Pcg32,
     counts: &mut PathCounts,
-) -> (f32, f32) {
+) -> (Vec3, f32) {
     counts.rays.shadow += 1;
     let (origin, direction) = (Vec3::from(shadow.origin), Vec3::from(shadow.direction));
     if state.geometry.occluded(shadow) || state.lights.blocks(origin, direction, shadow.tmax, light)
     {
-        return (0.0, 1.0);
+        return (Vec3::ZERO, 1.0);
     }
     if state.media.is_empty() {
-        return (1.0, 1.0);
+        return (Vec3::ONE, 1.0);
     }
     let along = state.media.along(origin, direction, shadow.tmax);
     if along.is_empty() {
-        return (1.0, 1.0);
+        return (Vec3::ONE, 1.0);
     }
     let segments = along.segments(shadow.tmin, shadow.tmax);
     let sigma_t = |t| along.sigma_t(t);

@@ -505,8 +505,11 @@ pub struct Volume {
     /// `field:<name>` relationships to `OpenVDBAsset` prims, by field name
     /// (`density` and optionally `temperature`, ...).
     pub fields: BTreeMap<String, VolumeField>,
-    /// `primvars:densityScale` (default 1): sigma_t per world unit per density.
-    pub density_scale: f32,
+    /// `primvars:densityScale` (default 1): sigma_t per world unit per
+    /// density, per RGB channel (a float in USD and the file is grey; a
+    /// color3f makes extinction chromatic).
+    #[serde(deserialize_with = "grey_or_rgb")]
+    pub density_scale: Rgb,
     /// `primvars:albedo` (default 1,1,1): sigma_s / sigma_t per channel.
     pub albedo: Rgb,
     /// `primvars:anisotropy` (default 0): Henyey-Greenstein g.
@@ -517,6 +520,20 @@ pub struct Volume {
     pub temperature_offset: f32,
     /// `primvars:temperatureScale` (default 1).
     pub temperature_scale: f32,
+}
+
+/// An RGB triple written either as one number (grey) or as three.
+fn grey_or_rgb<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<Rgb, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum GreyOrRgb {
+        Grey(f32),
+        Rgb(Rgb),
+    }
+    Ok(match GreyOrRgb::deserialize(deserializer)? {
+        GreyOrRgb::Grey(v) => [v; 3],
+        GreyOrRgb::Rgb(rgb) => rgb,
+    })
 }
 
 /// An `OpenVDBAsset` field prim.

@@ -41,9 +41,11 @@ pub struct MajorantSegment {
     pub t_min: f32,
     /// End of the stretch (exclusive); the next segment starts exactly here unless cells were skipped.
     pub t_max: f32,
-    /// Majorant of `sigma_t` (density max x scale) over the stretch.
+    /// Majorant of `sigma_t` (density max x scale) over the stretch, grey:
+    /// it bounds every RGB channel of a chromatic extinction.
     pub sigma_maj: f32,
-    /// Minorant of `sigma_t` (density min x scale, >= 0), the control extinction of residual ratio tracking (Novák et al. 2014).
+    /// Minorant of `sigma_t` (density min x scale, >= 0) in every channel,
+    /// the control extinction of residual ratio tracking (Novák et al. 2014).
     pub sigma_min: f32,
 }
 
@@ -94,7 +96,9 @@ pub struct MajorantSegments<'a> {
     t: f32,
     /// End of the ray, clipped to the grid.
     t_exit: f32,
-    scale: f32,
+    /// The largest and smallest channel of the caller's densityScale.
+    scale_max: f32,
+    scale_min: f32,
 }
 
 impl Iterator for MajorantSegments<'_> {
@@ -131,8 +135,8 @@ impl Iterator for MajorantSegments<'_> {
                 return Some(MajorantSegment {
                     t_min,
                     t_max,
-                    sigma_maj: range.max * self.scale,
-                    sigma_min: range.min * self.scale,
+                    sigma_maj: range.max * self.scale_max,
+                    sigma_min: range.min * self.scale_min,
                 });
             }
         }
@@ -147,8 +151,9 @@ impl MajorantGrid {
     /// grid's bounds. Since `t` is the ray's own parameter, it is the caller's
     /// world `t` when the caller maps its world ray to index space affinely.
     /// Cells whose max density is 0 are not yielded; consecutive yielded
-    /// segments share their boundary value exactly. `scale` (densityScale)
-    /// multiplies density into `sigma_t` (both bounds); with a unit-length
+    /// segments share their boundary value exactly. `scale` (densityScale,
+    /// per RGB channel) multiplies density into `sigma_t`: the majorant by
+    /// its largest channel, the minorant by its smallest; with a unit-length
     /// world direction, `t` and `sigma_t` are in world units.
     pub fn segments(
         &self,
@@ -156,7 +161,7 @@ impl MajorantGrid {
         direction: Vec3,
         t_min: f32,
         t_max: f32,
-        scale: f32,
+        scale: Vec3,
     ) -> MajorantSegments<'_> {
         let hi = self.lo + self.dims.as_vec3() * self.cell_size;
         let mut t_enter = t_min;
@@ -199,7 +204,8 @@ impl MajorantGrid {
             t_next,
             t: t_enter,
             t_exit,
-            scale,
+            scale_max: scale.max_element(),
+            scale_min: scale.min_element(),
         }
     }
 
@@ -528,7 +534,8 @@ mod tests {
         t1: f32,
     ) -> Vec<MajorantSegment> {
         let scale = 2.5;
-        let segments: Vec<MajorantSegment> = mg.segments(o, d, t0, t1, scale).collect();
+        let segments: Vec<MajorantSegment> =
+            mg.segments(o, d, t0, t1, Vec3::splat(scale)).collect();
         for (i, s) in segments.iter().enumerate() {
             assert!(t0 <= s.t_min && s.t_min < s.t_max && s.t_max <= t1, "{s:?}");
             assert!(s.sigma_maj > 0.0 && s.sigma_min <= s.sigma_maj);
@@ -674,15 +681,21 @@ mod tests {
             ),
         ] {
             assert_eq!(
-                mg.segments(o, d, t0, t1, 1.0).count(),
+                mg.segments(o, d, t0, t1, Vec3::ONE).count(),
                 0,
                 "{o} {d} [{t0}, {t1})"
             );
         }
         // And a non-empty grid is hit at all: this ray goes through the first leaf.
         assert!(
-            mg.segments(Vec3::new(-20.0, 3.5, 3.5), Vec3::X, 0.0, f32::INFINITY, 1.0)
-                .count()
+            mg.segments(
+                Vec3::new(-20.0, 3.5, 3.5),
+                Vec3::X,
+                0.0,
+                f32::INFINITY,
+                Vec3::ONE
+            )
+            .count()
                 > 0
         );
     }
@@ -715,7 +728,7 @@ mod tests {
             let local = MajorantGrid::build(&grid, MajorantKind::Grid);
             let global = MajorantGrid::build(&grid, MajorantKind::Global);
             let optical_depth = |mg: &MajorantGrid, o: Vec3, d: Vec3| -> f64 {
-                mg.segments(o, d, 0.0, f32::INFINITY, 1.0)
+                mg.segments(o, d, 0.0, f32::INFINITY, Vec3::ONE)
                     .map(|s| s.sigma_maj as f64 * (s.t_max - s.t_min) as f64)
                     .sum()
             };

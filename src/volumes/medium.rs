@@ -5,8 +5,9 @@
 //! (file, grid name, index) and shared by every placement, so instanced
 //! volumes cost one grid.
 //!
-//! Extinction is grey: sigma_t = densityScale x density per world unit;
-//! albedo is RGB (sigma_s = albedo x sigma_t, sigma_a = sigma_t - sigma_s);
+//! Extinction is RGB: sigma_t = densityScale x density per world unit, with
+//! a grey or per-channel densityScale (chromatic extinction); albedo is RGB
+//! (sigma_s = albedo x sigma_t, sigma_a = sigma_t - sigma_s);
 //! a temperature field with a positive `heatScale` emits blackbody radiance
 //! (`emission.rs`). Overlapping media add their
 //! extinctions: along a ray, their majorant segments are merged and summed.
@@ -36,8 +37,8 @@ pub struct Medium {
     /// World-space box of the grid's stored data, for quick ray rejection.
     world_min: Vec3,
     world_max: Vec3,
-    /// `densityScale`: sigma_t per world unit per unit density.
-    density_scale: f32,
+    /// `densityScale`: sigma_t per world unit per unit density, per RGB channel.
+    density_scale: Vec3,
     /// sigma_s / sigma_t per RGB channel.
     albedo: Vec3,
     /// Henyey-Greenstein phase function (`anisotropy`).
@@ -96,8 +97,8 @@ pub struct MediaRay<'a> {
 /// looked them up (per world unit).
 #[derive(Clone, Copy, Debug)]
 pub struct MediumPoint {
-    /// Extinction sigma_t, summed over the overlapping media.
-    pub sigma_t: f32,
+    /// Extinction sigma_t per RGB channel, summed over the overlapping media.
+    pub sigma_t: Vec3,
     /// Scattering sigma_s = albedo x sigma_t per RGB channel, summed.
     pub sigma_s: Vec3,
     /// Emission sigma_a Le, W/(m^3 sr) in scene units (radiance added per
@@ -157,8 +158,9 @@ impl MediaRay<'_> {
         }
     }
 
-    /// Extinction at ray parameter `t`, per world unit: the sum over media.
-    pub fn sigma_t(&self, t: f32) -> f32 {
+    /// Extinction at ray parameter `t`, per world unit and RGB channel: the
+    /// sum over media.
+    pub fn sigma_t(&self, t: f32) -> Vec3 {
         self.media
             .iter()
             .map(|(m, o, d)| m.density_scale * m.density(*o + *d * t))
@@ -169,7 +171,7 @@ impl MediaRay<'_> {
     /// read only for media that emit.
     pub fn at(&self, t: f32) -> MediumPoint {
         let mut point = MediumPoint {
-            sigma_t: 0.0,
+            sigma_t: Vec3::ZERO,
             sigma_s: Vec3::ZERO,
             emission: Vec3::ZERO,
         };
@@ -199,7 +201,7 @@ impl MediaRay<'_> {
             return m.phase;
         }
         let weight = |(m, o, d): &(&Medium, Vec3, Vec3)| {
-            m.albedo.element_sum() * m.density_scale * m.density(*o + *d * t)
+            (m.albedo * m.density_scale).element_sum() * m.density(*o + *d * t)
         };
         let mut pick = u * self.media.iter().map(weight).sum::<f32>();
         for medium in &self.media {
@@ -363,7 +365,7 @@ impl Media {
                     index_from_world: to_f32(&index_from_world),
                     world_min,
                     world_max,
-                    density_scale: volume.density_scale,
+                    density_scale: Vec3::from(volume.density_scale),
                     albedo: Vec3::from(volume.albedo),
                     phase: HenyeyGreenstein {
                         g: volume.anisotropy,

@@ -9,7 +9,7 @@
 //! Rendering: [`Media`] places every Volume in the world; a [`MajorantGrid`]
 //! per grid bounds its trilinear density per 8^3-voxel cell and is walked by
 //! a 3D DDA (Amanatides and Woo 1987) into [`MajorantSegment`]s; over those,
-//! [`delta_tracking`] samples free flights and [`transmittance`] estimates
+//! [`walk_tentative_collisions`] samples free flights and [`transmittance`] estimates
 //! shadow-ray transmittance by ratio, residual ratio (Novák et al. 2014,
 //! "Residual Ratio Tracking for Estimating Attenuation in Participating
 //! Media") or track-length estimation (Novák, Georgiev, Hanika and Jarosz
@@ -30,7 +30,7 @@ pub use majorant::{MajorantGrid, MajorantKind, MajorantSegment, MajorantSegments
 pub use medium::{Media, MediaRay, MediumPoint};
 pub use phase::{HenyeyGreenstein, PhaseSample};
 pub use tracking::{
-    delta_tracking, ratio_tracking_with_null_ratio, transmittance, walk_tentative_collisions,
+    channel_mean, ratio_tracking_with_null_ratio, transmittance, walk_tentative_collisions,
     TrackingStats, TransmittanceEstimator, RUSSIAN_ROULETTE_THRESHOLD,
 };
 pub use vdb::{GridInfo, Space, VdbFile, VolumeError};

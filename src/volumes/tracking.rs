@@ -5,10 +5,16 @@
 //!
 //! Every estimator walks a ray's majorant segments (from the majorant grid's
 //! DDA) and places tentative collisions with rate `sigma_maj`; the extinction
-//! `sigma_t(t)` is looked up only there. Restarting the exponential walk at
+//! `sigma_t(t)` is looked up only there. Extinction may be chromatic (one
+//! `sigma_t` per RGB channel): the majorant is grey, the largest channel's,
+//! so one Poisson process serves all three channels and the ratio weights
+//! `1 - sigma_t / sigma_maj` are per channel (Kutz et al. 2017, "Spectral
+//! and Decomposition Tracking for Rendering Heterogeneous Volumes"). Restarting the exponential walk at
 //! each segment boundary is exact because the exponential distribution is
 //! memoryless. Segments must be finite (the DDA clips them to the volume's
 //! bounds): an empty infinite segment with `sigma_maj > 0` never ends.
+
+use glam::Vec3;
 
 use super::MajorantSegment;
 use crate::sampling::Pcg32;
@@ -36,12 +42,13 @@ pub struct TrackingStats {
 }
 
 impl TrackingStats {
-    /// Counts one density lookup that found `sigma` under the majorant
-    /// `sigma_maj`, and a violation when `sigma` exceeds it.
+    /// Counts one density lookup that found `sigma` (per RGB channel) under
+    /// the grey majorant `sigma_maj`, and a violation when any channel
+    /// exceeds it.
     #[inline]
-    pub fn count_lookup(&mut self, sigma: f32, sigma_maj: f32) {
+    pub fn count_lookup(&mut self, sigma: Vec3, sigma_maj: f32) {
         self.density_lookups += 1;
-        if sigma > sigma_maj {
+        if sigma.max_element() > sigma_maj {
             self.majorant_violations += 1;
         }
     }
@@ -60,7 +67,8 @@ impl TrackingStats {
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TransmittanceEstimator {
     /// Track-length estimation: delta tracking, 1 if the ray leaves the
-    /// segments without a real collision, else 0 (Novák et al. 2018, §4.1).
+    /// segments without a real collision, else 0 (Novák et al. 2018, §4.1;
+    /// per-channel null weights with chromatic extinction).
     TrackLength,
     /// Ratio tracking: the product of `1 - sigma_t / sigma_maj` over all
     /// tentative collisions (Novák et al. 2014, §3).
@@ -77,8 +85,8 @@ pub enum TransmittanceEstimator {
 /// each; `visit` returns false to stop there. True when a visit stopped the
 /// walk, false when it left the segments. This is the null-collision
 /// skeleton every free-flight estimator shares (pbrt-v4's `SampleT_maj`):
-/// with grey extinction the majorant transmittance between collisions
-/// cancels from every weight, so the visitor sees only `sigma_maj`.
+/// the majorant is grey, so the majorant transmittance between collisions
+/// cancels from every weight and the visitor sees only `sigma_maj`.
 pub fn walk_tentative_collisions(
     segments: impl IntoIterator<Item = MajorantSegment>,
     rng: &mut Pcg32,
@@ -100,53 +108,22 @@ pub fn walk_tentative_collisions(
     false
 }
 
-/// Delta (Woodcock) tracking (Novák et al. 2018, §3, Alg. 1): the distance
-/// `t` of the first real collision along `segments`, distributed with density
-/// `sigma_t(t) exp(-∫_0^t sigma_t)`, or `None` if the ray leaves them
-/// (probability `T`). `sigma_t(t)` (per scene unit) is evaluated only at
-/// tentative collisions, which are accepted with probability
-/// `sigma_t / sigma_maj`; a value above `sigma_maj` counts a violation and is
-/// accepted with probability 1 (biased).
-pub fn delta_tracking(
-    segments: impl IntoIterator<Item = MajorantSegment>,
-    mut sigma_t: impl FnMut(f32) -> f32,
-    rng: &mut Pcg32,
-    stats: &mut TrackingStats,
-) -> Option<f32> {
-    let mut collision = None;
-    walk_tentative_collisions(segments, rng, |t, sigma_maj, rng| {
-        let sigma = sigma_t(t);
-        stats.count_lookup(sigma, sigma_maj);
-        if rng.next_f32() * sigma_maj < sigma {
-            stats.real_collisions += 1;
-            collision = Some(t);
-            return false;
-        }
-        stats.null_collisions += 1;
-        true
-    });
-    collision
-}
-
-/// An unbiased estimate of the transmittance `exp(-∫ sigma_t dt)` along
-/// `segments` by `estimator`. Ratio-tracking weights below
-/// [`RUSSIAN_ROULETTE_THRESHOLD`] are Russian-rouletted at tentative
-/// collisions, which keeps the estimate unbiased. With a majorant violation
-/// the ratio estimators stay unbiased but may return a negative weight.
+/// An unbiased estimate of the transmittance `exp(-∫ sigma_t dt)` per RGB
+/// channel along `segments` by `estimator`; `sigma_t(t)` is the extinction
+/// per scene unit per channel, bounded by each segment's grey `sigma_maj`.
+/// Ratio-tracking weights below [`RUSSIAN_ROULETTE_THRESHOLD`] are
+/// Russian-rouletted at tentative collisions, which keeps the estimate
+/// unbiased. With a majorant violation the ratio estimators stay unbiased
+/// but may return a negative weight.
 pub fn transmittance(
     estimator: TransmittanceEstimator,
     segments: impl IntoIterator<Item = MajorantSegment>,
-    sigma_t: impl FnMut(f32) -> f32,
+    sigma_t: impl FnMut(f32) -> Vec3,
     rng: &mut Pcg32,
     stats: &mut TrackingStats,
-) -> f32 {
+) -> Vec3 {
     match estimator {
-        TransmittanceEstimator::TrackLength => {
-            match delta_tracking(segments, sigma_t, rng, stats) {
-                Some(_) => 0.0,
-                None => 1.0,
-            }
-        }
+        TransmittanceEstimator::TrackLength => track_length(segments, sigma_t, rng, stats),
         TransmittanceEstimator::Ratio => ratio_tracking(segments, sigma_t, false, rng, stats).0,
         TransmittanceEstimator::ResidualRatio => {
             ratio_tracking(segments, sigma_t, true, rng, stats).0
@@ -154,39 +131,85 @@ pub fn transmittance(
     }
 }
 
-/// Ratio tracking for null-scattering path MIS (Miller, Georgiev & Jarosz
-/// 2019, §5; pbrt-v4's `VolPathIntegrator::SampleLd`): the transmittance
-/// estimate, and the product of `sigma_n / sigma_maj` over its tentative
-/// collisions (Russian roulette aside): the probability, relative to ratio
-/// tracking's own density, with which delta tracking would have passed the
-/// same collisions as null, i.e. the factor that turns the phase or BSDF
-/// sampling density of the shadow ray's direction into that of the whole
-/// null-scattering path.
-pub fn ratio_tracking_with_null_ratio(
+/// Track-length transmittance (Novák et al. 2018, §4.1) with chromatic
+/// extinction: delta tracking against the grey majorant, where a tentative
+/// collision is real with probability mean(sigma_t) / sigma_maj (the
+/// estimate is then 0) and otherwise null, each channel's weight taking
+/// (sigma_maj - sigma_t) / (sigma_maj - mean(sigma_t)): the spectral
+/// tracking of Kutz et al. 2017 with the probabilities averaged over
+/// channels. With grey extinction the weight stays 1: classic delta
+/// tracking's 1 if the ray leaves the segments, else 0. A violation
+/// (sigma_t above sigma_maj) is counted and accepted as real (biased).
+fn track_length(
     segments: impl IntoIterator<Item = MajorantSegment>,
-    sigma_t: impl FnMut(f32) -> f32,
+    mut sigma_t: impl FnMut(f32) -> Vec3,
     rng: &mut Pcg32,
     stats: &mut TrackingStats,
-) -> (f32, f32) {
+) -> Vec3 {
+    let mut weight = Vec3::ONE;
+    let collided = walk_tentative_collisions(segments, rng, |t, sigma_maj, rng| {
+        let sigma = sigma_t(t);
+        stats.count_lookup(sigma, sigma_maj);
+        let mean = channel_mean(sigma);
+        if rng.next_f32() * sigma_maj < mean || mean >= sigma_maj {
+            stats.real_collisions += 1;
+            return false;
+        }
+        stats.null_collisions += 1;
+        if sigma.x != sigma.y || sigma.y != sigma.z {
+            weight *= (Vec3::splat(sigma_maj) - sigma) / (sigma_maj - mean);
+        }
+        true
+    });
+    if collided {
+        Vec3::ZERO
+    } else {
+        weight
+    }
+}
+
+/// Ratio tracking for null-scattering path MIS (Miller, Georgiev & Jarosz
+/// 2019, §5; pbrt-v4's `VolPathIntegrator::SampleLd`): the transmittance
+/// estimate per channel, and the product of mean(sigma_n) / sigma_maj over
+/// its tentative collisions (Russian roulette aside): the probability,
+/// relative to ratio tracking's own density, with which delta tracking
+/// would have passed the same collisions as null, i.e. the factor that
+/// turns the phase or BSDF sampling density of the shadow ray's direction
+/// into that of the whole null-scattering path.
+pub fn ratio_tracking_with_null_ratio(
+    segments: impl IntoIterator<Item = MajorantSegment>,
+    sigma_t: impl FnMut(f32) -> Vec3,
+    rng: &mut Pcg32,
+    stats: &mut TrackingStats,
+) -> (Vec3, f32) {
     ratio_tracking(segments, sigma_t, false, rng, stats)
+}
+
+/// The mean of an RGB triple: the grey value of chromatic coefficients.
+#[inline]
+pub fn channel_mean(v: Vec3) -> f32 {
+    v.element_sum() * (1.0 / 3.0)
 }
 
 /// Ratio tracking, optionally of the residual against each segment's
 /// control extinction `sigma_c = sigma_min` (`use_control`). Tentative
 /// collisions follow a Poisson process of rate `sigma_maj - sigma_c`; each
-/// multiplies the weight by `1 - (sigma_t - sigma_c) / (sigma_maj - sigma_c)`,
-/// whose expected product is `exp(-∫ (sigma_t - sigma_c))`, and the control
-/// part `exp(-sigma_c * length)` is exact. With `sigma_c = 0` this is plain
-/// ratio tracking. Returns the weight and the product of the per-collision
-/// factors before Russian roulette (see [`ratio_tracking_with_null_ratio`]).
+/// multiplies every channel's weight by
+/// `1 - (sigma_t - sigma_c) / (sigma_maj - sigma_c)`, whose expected product
+/// is `exp(-∫ (sigma_t - sigma_c))`, and the control part
+/// `exp(-sigma_c * length)` is exact. With `sigma_c = 0` this is plain ratio
+/// tracking; the grey majorant bounds every channel, so chromatic
+/// extinction costs nothing extra. Returns the weight and the product of
+/// the per-collision factors' channel means before Russian roulette (see
+/// [`ratio_tracking_with_null_ratio`]).
 fn ratio_tracking(
     segments: impl IntoIterator<Item = MajorantSegment>,
-    mut sigma_t: impl FnMut(f32) -> f32,
+    mut sigma_t: impl FnMut(f32) -> Vec3,
     use_control: bool,
     rng: &mut Pcg32,
     stats: &mut TrackingStats,
-) -> (f32, f32) {
-    let mut weight = 1.0f32;
+) -> (Vec3, f32) {
+    let mut weight = Vec3::ONE;
     let mut null_ratio = 1.0f32;
     let mut depth = FreePath::new(rng);
     for segment in segments {
@@ -207,11 +230,11 @@ fn ratio_tracking(
             t = next;
             let sigma = sigma_t(t);
             stats.count_lookup(sigma, segment.sigma_maj);
-            let factor = (segment.sigma_maj - sigma) / residual_maj;
-            null_ratio *= factor.max(0.0);
+            let factor = (Vec3::splat(segment.sigma_maj) - sigma) / residual_maj;
+            null_ratio *= channel_mean(factor).max(0.0);
             weight = russian_roulette(weight * factor, rng);
-            if weight == 0.0 {
-                return (0.0, null_ratio);
+            if weight == Vec3::ZERO {
+                return (weight, null_ratio);
             }
         }
     }
@@ -253,18 +276,20 @@ impl FreePath {
     }
 }
 
-/// Russian roulette on a small ratio-tracking weight: below
-/// [`RUSSIAN_ROULETTE_THRESHOLD`] in magnitude it survives with probability
-/// `q = |weight| / threshold` as `weight / q`, otherwise it becomes 0.
+/// Russian roulette on a small ratio-tracking weight: when its largest
+/// channel magnitude `m` is below [`RUSSIAN_ROULETTE_THRESHOLD`], it
+/// survives with probability `q = m / threshold` as `weight / q`, otherwise
+/// it becomes 0.
 #[inline]
-fn russian_roulette(weight: f32, rng: &mut Pcg32) -> f32 {
-    if weight == 0.0 || weight.abs() >= RUSSIAN_ROULETTE_THRESHOLD {
+fn russian_roulette(weight: Vec3, rng: &mut Pcg32) -> Vec3 {
+    let m = weight.abs().max_element();
+    if m == 0.0 || m >= RUSSIAN_ROULETTE_THRESHOLD {
         return weight;
     }
-    if rng.next_f32() * RUSSIAN_ROULETTE_THRESHOLD < weight.abs() {
-        RUSSIAN_ROULETTE_THRESHOLD.copysign(weight)
+    if rng.next_f32() * RUSSIAN_ROULETTE_THRESHOLD < m {
+        weight * (RUSSIAN_ROULETTE_THRESHOLD / m)
     } else {
-        0.0
+        Vec3::ZERO
     }
 }
 
@@ -321,7 +346,8 @@ mod tests {
         }
     }
 
-    /// `n` transmittance estimates along `segments` with extinction `sigma_t`.
+    /// `n` transmittance estimates along `segments` with grey extinction
+    /// `sigma_t` (every channel's estimate must then be the same).
     fn transmittance_estimate(
         estimator: TransmittanceEstimator,
         segments: &[MajorantSegment],
@@ -332,15 +358,44 @@ mod tests {
         let mut rng = Pcg32::new(seed, estimator as u64);
         let mut stats = TrackingStats::default();
         let e = estimate((0..n).map(|_| {
-            transmittance(
+            let tr = transmittance(
                 estimator,
                 segments.iter().copied(),
-                &sigma_t,
+                |t| Vec3::splat(sigma_t(t)),
                 &mut rng,
                 &mut stats,
-            ) as f64
+            );
+            assert!(
+                tr.x == tr.y && tr.y == tr.z,
+                "{estimator:?}: grey gave {tr}"
+            );
+            tr.x as f64
         }));
         (e, stats)
+    }
+
+    /// Delta tracking as the integrator's free flights do it, on the shared
+    /// walk: the first tentative collision accepted with probability
+    /// `sigma_t / sigma_maj`.
+    fn delta_tracking(
+        segments: impl IntoIterator<Item = MajorantSegment>,
+        sigma_t: impl Fn(f32) -> f32,
+        rng: &mut Pcg32,
+        stats: &mut TrackingStats,
+    ) -> Option<f32> {
+        let mut collision = None;
+        walk_tentative_collisions(segments, rng, |t, sigma_maj, rng| {
+            let sigma = sigma_t(t);
+            stats.count_lookup(Vec3::splat(sigma), sigma_maj);
+            if rng.next_f32() * sigma_maj < sigma {
+                stats.real_collisions += 1;
+                collision = Some(t);
+                return false;
+            }
+            stats.null_collisions += 1;
+            true
+        });
+        collision
     }
 
     /// A linear ramp `sigma_t(t) = a + b t` on [0, length) split into
@@ -377,7 +432,7 @@ mod tests {
     }
 
     #[test]
-    fn delta_tracking_collision_distances_are_exponential() {
+    fn tentative_collision_walk_samples_exponential_free_flights() {
         let sigma = 1.5f32;
         for maj_factor in [1.0f32, 2.0, 5.0] {
             for d in [0.5f32, 2.0] {
@@ -533,10 +588,51 @@ mod tests {
     }
 
     #[test]
+    fn chromatic_extinction_gives_each_channel_its_own_transmittance() {
+        // Red 3, green 1, blue 0.2 per unit over a ramp-shaped density (x0.5
+        // to x1.5 along the slab): each channel's optical depth differs.
+        let colour = Vec3::new(3.0, 1.0, 0.2);
+        let d = 0.8f32;
+        let shape = |t: f32| 0.5 + t / d;
+        let expected = (colour * -(0.5 * d + 0.5 * d)).exp();
+        for estimator in ESTIMATORS {
+            for maj_factor in [1.0f32, 1.5] {
+                // One segment per half; the grey majorant is the red channel's bound.
+                let segments = [
+                    segment(0.0, d / 2.0, maj_factor * 3.0, 0.0),
+                    segment(d / 2.0, d, maj_factor * 4.5, 0.2 * 1.0),
+                ];
+                let mut rng = Pcg32::new(41, estimator as u64);
+                let mut stats = TrackingStats::default();
+                let samples: Vec<Vec3> = (0..40_000)
+                    .map(|_| {
+                        transmittance(
+                            estimator,
+                            segments,
+                            |t| colour * shape(t),
+                            &mut rng,
+                            &mut stats,
+                        )
+                    })
+                    .collect();
+                for c in 0..3 {
+                    let e = estimate(samples.iter().map(|s| s[c] as f64));
+                    let what = format!("{estimator:?} maj x{maj_factor} channel {c}");
+                    assert_within_4_sigma(&e, expected[c] as f64, &what);
+                }
+                assert_eq!(stats.majorant_violations, 0);
+            }
+        }
+    }
+
+    #[test]
     fn russian_roulette_preserves_the_expected_weight() {
         let mut rng = Pcg32::new(2, 0);
         for weight in [0.03f32, -0.06, 0.1, 0.5] {
-            let e = estimate((0..100_000).map(|_| russian_roulette(weight, &mut rng) as f64));
+            let w = Vec3::new(weight, 0.5 * weight, -0.25 * weight);
+            let e = estimate((0..100_000).map(|_| russian_roulette(w, &mut rng).z as f64));
+            assert_within_4_sigma(&e, w.z as f64, &format!("weight {w}, third channel"));
+            let e = estimate((0..100_000).map(|_| russian_roulette(w, &mut rng).x as f64));
             assert_within_4_sigma(&e, weight as f64, &format!("weight {weight}"));
         }
     }
