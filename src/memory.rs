@@ -10,7 +10,7 @@
 //! - geometry: per triangle the shading copy, the BVH's triangles and nodes,
 //!   and the build's temporaries for the meshes built at once; per placed
 //!   mesh the top-level leaf, box and nodes;
-//! - volumes: per density (and emitting temperature) grid, the sparse grid's
+//! - volumes: per density (and emitting temperature or emission) grid, the sparse grid's
 //!   9^3-value bricks, node arrays and majorant cells from the grid's active
 //!   voxel count (file metadata, no tree read), plus OpenVDB's tree and the
 //!   bridge's copy while the largest one is read;
@@ -75,7 +75,7 @@ pub struct MemoryEstimate {
     pub scene: u64,
     /// Mesh shading copies, per-mesh BVHs and their build, the top-level BVH.
     pub geometry: u64,
-    /// Sparse density and temperature grids, majorant grids, and the read of the largest.
+    /// Sparse density and emission grids, majorant grids, and the read of the largest.
     pub volumes: u64,
     /// Film sums, then the output layers.
     pub film: u64,
@@ -194,13 +194,13 @@ fn geometry_bytes(scene: &Scene, mesh_bytes: u64) -> u64 {
 }
 
 /// Volumes: every distinct grid `Media::build` reads (density fields, and
-/// temperature fields of emitting volumes) once, from its active voxel
-/// count, plus the read temporaries of the largest.
+/// temperature or emission fields of emitting volumes) once, from its active
+/// voxel count, plus the read temporaries of the largest.
 fn volume_bytes(scene: &Scene) -> Result<u64, VolumeError> {
     let mut fields: Vec<(&Path, &str, u32)> = Vec::new();
     for volume in &scene.manifest.volumes {
         for (name, field) in &volume.fields {
-            if name == "density" || (name == "temperature" && volume.heat_scale > 0.0) {
+            if name == "density" || volume.emits_from(name) {
                 fields.push((&field.file, &field.grid, field.index));
             }
         }

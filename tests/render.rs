@@ -938,6 +938,8 @@ fn volumetric_white_furnace_is_one_everywhere() {
 /// L = Le (1 - e^-1) + 1 e^-1, with Le of luminance heatScale at the
 /// reference 1500 K: luminance 2 (1 - 1/e) + 1/e. The blue channel, where a
 /// 1500 K blackbody has almost nothing, is close to the dome's e^-1 alone.
+/// An emission field instead of the temperature (volume_emission_grid.usda)
+/// gives Le = emissionScale x emissionColor x value per channel.
 #[test]
 fn emitting_volume_adds_its_blackbody_radiance() {
     let dir = common::scratch("render_volume_emission");
@@ -963,6 +965,18 @@ fn emitting_volume_adds_its_blackbody_radiance() {
     assert_within_4_sigma("emitting box luminance", e, 2.0 * (1.0 - inv_e) + inv_e);
     let blue = estimate(image.pixels(2, |_, _| true));
     assert!((blue.mean - inv_e).abs() < 0.01, "blue {}", blue.mean);
+    // The same box emitting from an emission field (volume_emission_grid.usda):
+    // Le = emissionScale x emissionColor x value = (2, 1, 0.5).
+    let image = Render {
+        scene: "volume_emission_grid",
+        res: (32, 32),
+        spp: 128,
+        seed: 4,
+        extra: &[],
+    }
+    .run(&dir);
+    let expected = [2.0, 1.0, 0.5].map(|le| le * (1.0 - inv_e) + inv_e);
+    assert_rgb_image("emission field", &image, expected);
 }
 
 /// Per-block means of one channel over `block` x `block` pixel blocks, with

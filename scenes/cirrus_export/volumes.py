@@ -14,10 +14,12 @@ from .vdb_header import grid_bounds
 
 # Manifest key, primvar name, default (CONVENTIONS.md: densityScale 1, albedo 1, anisotropy 0, no emission).
 # USD field relationship name -> manifest field key; "heat" is the openusd assets' name.
-FIELD_KEYS = {"density": "density", "temperature": "temperature", "heat": "temperature"}
+FIELD_KEYS = {"density": "density", "temperature": "temperature", "heat": "temperature",
+              "emission": "emission"}
 
-# Emission parameters, reported as defaulted only for volumes with a temperature field.
-HEAT_PRIMVARS = {"heatScale", "temperatureOffset", "temperatureScale"}
+# Emission parameters by the field that uses them, reported as defaulted only for volumes with that field.
+EMISSION_PRIMVARS = {"temperature": {"heatScale", "temperatureOffset", "temperatureScale"},
+                     "emission": {"emissionScale", "emissionColor"}}
 
 SHADING_PRIMVARS = [
     ("density_scale", "densityScale", 1.0),
@@ -26,6 +28,8 @@ SHADING_PRIMVARS = [
     ("heat_scale", "heatScale", 0.0),
     ("temperature_offset", "temperatureOffset", 0.0),
     ("temperature_scale", "temperatureScale", 1.0),
+    ("emission_scale", "emissionScale", 1.0),
+    ("emission_color", "emissionColor", [1.0, 1.0, 1.0]),
 ]
 
 
@@ -87,7 +91,7 @@ class VolumeTable:
             field_key = FIELD_KEYS.get(str(name))
             if field_key is None or field_key in fields:
                 self._report.warn(f"volume {prim.GetPath()}: field:{name} is not used by Cirrus "
-                                  f"(only density and temperature/heat); ignored")
+                                  f"(only density, temperature/heat and emission); ignored")
                 continue
             field = self._field(prim, stage.GetPrimAtPath(path))
             if field is None:
@@ -96,15 +100,15 @@ class VolumeTable:
         if "density" not in fields:
             self._report.warn(f"volume {prim.GetPath()}: no field:density; skipped")
             return None
-        record = {"path": key, "fields": fields, **self._shading(prim, "temperature" in fields)}
+        record = {"path": key, "fields": fields, **self._shading(prim, set(fields))}
         self.records.append(record)
         self.boxes.append(self._bounds(prim, fields))
         return len(self.records) - 1
 
-    def _shading(self, prim: Usd.Prim, emits: bool) -> dict:
+    def _shading(self, prim: Usd.Prim, field_keys: set[str]) -> dict:
         """Shading parameters from constant primvars, defaults reported once per volume.
 
-        Emission defaults are reported only when the volume has a temperature field."""
+        Emission defaults are reported only when the volume has the field that uses them."""
         material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
         if material:
             self._report.warn(f"volume {prim.GetPath()}: material {material.GetPath()} is not read "
@@ -117,7 +121,8 @@ class VolumeTable:
                 shading[key] = _shading_value(primvar, default, self._time)
             else:
                 shading[key] = default
-                if emits or name not in HEAT_PRIMVARS:
+                users = [key for key, names in EMISSION_PRIMVARS.items() if name in names]
+                if not users or users[0] in field_keys:
                     defaulted.append(f"{name}={default}")
         if defaulted:
             self._report.warn(f"volume {prim.GetPath()}: unauthored, defaults used: {', '.join(defaulted)}")

@@ -503,7 +503,7 @@ pub struct Volume {
     /// Prim path.
     pub path: String,
     /// `field:<name>` relationships to `OpenVDBAsset` prims, by field name
-    /// (`density` and optionally `temperature`, ...).
+    /// (`density` and optionally `temperature` and `emission`).
     pub fields: BTreeMap<String, VolumeField>,
     /// `primvars:densityScale` (default 1): sigma_t per world unit per
     /// density, per RGB channel (a float in USD and the file is grey; a
@@ -520,6 +520,36 @@ pub struct Volume {
     pub temperature_offset: f32,
     /// `primvars:temperatureScale` (default 1).
     pub temperature_scale: f32,
+    /// `primvars:emissionScale` (default 1): with an `emission` field, the
+    /// emitted radiance is emissionScale x emissionColor x the field's value,
+    /// W/(m^2 sr). Absent from files written before emission fields.
+    #[serde(default = "unit_scale")]
+    pub emission_scale: f32,
+    /// `primvars:emissionColor` (default 1, 1, 1), see `emission_scale`.
+    #[serde(default = "white")]
+    pub emission_color: Rgb,
+}
+
+impl Volume {
+    /// Whether field `name` makes this volume emit: a `temperature` field
+    /// with a positive heatScale, or an `emission` field with a positive
+    /// emissionScale and a non-black emissionColor. Only these fields are
+    /// read besides the density.
+    pub fn emits_from(&self, name: &str) -> bool {
+        match name {
+            "temperature" => self.heat_scale > 0.0,
+            "emission" => self.emission_scale > 0.0 && self.emission_color.iter().any(|&c| c > 0.0),
+            _ => false,
+        }
+    }
+}
+
+fn unit_scale() -> f32 {
+    1.0
+}
+
+fn white() -> Rgb {
+    [1.0; 3]
 }
 
 /// An RGB triple written either as one number (grey) or as three.

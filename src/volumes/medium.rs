@@ -9,7 +9,9 @@
 //! a grey or per-channel densityScale (chromatic extinction); albedo is RGB
 //! (sigma_s = albedo x sigma_t, sigma_a = sigma_t - sigma_s);
 //! a temperature field with a positive `heatScale` emits blackbody radiance
-//! (`emission.rs`). Overlapping media add their
+//! (`emission.rs`), an emission field emits emissionScale x emissionColor x
+//! its value; the source term is sigma_a x Le either way (pbrt-v4's grid
+//! medium does the same). Overlapping media add their
 //! extinctions: along a ray, their majorant segments are merged and summed.
 
 use std::collections::HashMap;
@@ -43,9 +45,9 @@ pub struct Medium {
     albedo: Vec3,
     /// Henyey-Greenstein phase function (`anisotropy`).
     phase: HenyeyGreenstein,
-    /// Blackbody emission, when the volume has a temperature field and a
-    /// positive `heatScale` (otherwise no temperature lookups at all).
-    emission: Option<Emission>,
+    /// Emission sources (temperature and/or emission fields); empty, and
+    /// free, for volumes that do not emit.
+    emission: Vec<Emission>,
 }
 
 impl Medium {
@@ -64,16 +66,51 @@ impl Medium {
     }
 }
 
-/// A medium's emission: its temperature grid and how to read it.
+/// One emission source of a medium: a grid and how its values become
+/// radiance.
 struct Emission {
-    temperature: Arc<SparseGrid>,
-    /// World to the temperature grid's index space (its own transform).
+    grid: Arc<SparseGrid>,
+    /// World to the grid's index space (its own transform).
     index_from_world: Affine3A,
-    /// `heatScale`: luminance of gas at 1500 K, W/(m^2 sr).
-    heat_scale: f32,
-    /// `temperatureOffset` (K) and `temperatureScale`: T = offset + scale x value.
-    temperature_offset: f32,
-    temperature_scale: f32,
+    radiance: EmittedRadiance,
+}
+
+/// How an emission grid's value becomes emitted radiance Le, W/(m^2 sr).
+enum EmittedRadiance {
+    /// A temperature field: Le = heatScale x blackbody(T) normalised to
+    /// luminance 1 at 1500 K, T = temperatureOffset + temperatureScale x
+    /// value, kelvin.
+    Blackbody {
+        heat_scale: f32,
+        temperature_offset: f32,
+        temperature_scale: f32,
+    },
+    /// An emission field: Le = emissionScale x emissionColor x value
+    /// (negative and non-finite values read as 0).
+    Scaled(Vec3),
+}
+
+impl Emission {
+    /// Le at world point `p`, W/(m^2 sr); `blackbody` is present whenever
+    /// a medium has a temperature source.
+    #[inline]
+    fn radiance(&self, p: Vec3, blackbody: Option<&BlackbodyTable>) -> Vec3 {
+        let value = self
+            .grid
+            .trilinear_index(self.index_from_world.transform_point3(p));
+        match (&self.radiance, blackbody) {
+            (
+                EmittedRadiance::Blackbody {
+                    heat_scale,
+                    temperature_offset,
+                    temperature_scale,
+                },
+                Some(table),
+            ) => table.radiance(temperature_offset + temperature_scale * value) * *heat_scale,
+            (EmittedRadiance::Scaled(scale), _) if value.is_finite() => *scale * value.max(0.0),
+            _ => Vec3::ZERO,
+        }
+    }
 }
 
 /// Every medium of a scene; empty (and free) for scenes without volumes.
@@ -179,14 +216,12 @@ impl MediaRay<'_> {
             let sigma = m.density_scale * m.density(*o + *d * t);
             point.sigma_t += sigma;
             point.sigma_s += m.albedo * sigma;
-            if let (Some(e), Some(table)) = (&m.emission, self.blackbody) {
-                let p = e
-                    .index_from_world
-                    .transform_point3(self.origin + self.direction * t);
-                let kelvin =
-                    e.temperature_offset + e.temperature_scale * e.temperature.trilinear_index(p);
+            if !m.emission.is_empty() {
+                let p = self.origin + self.direction * t;
                 let sigma_a = (Vec3::ONE - m.albedo).max(Vec3::ZERO) * sigma;
-                point.emission += sigma_a * table.radiance(kelvin) * e.heat_scale;
+                for e in &m.emission {
+                    point.emission += sigma_a * e.radiance(p, self.blackbody);
+                }
             }
         }
         point
@@ -265,7 +300,7 @@ impl Media {
     pub fn build(scene: &Scene, kind: MajorantKind) -> Result<Self, VolumeError> {
         let m = &scene.manifest;
         let mut grids: HashMap<FieldKey, (Arc<SparseGrid>, Arc<MajorantGrid>)> = HashMap::new();
-        let mut temperatures: HashMap<FieldKey, Arc<SparseGrid>> = HashMap::new();
+        let mut emission_grids: HashMap<FieldKey, Arc<SparseGrid>> = HashMap::new();
         let prototypes = scene.view(&m.instances.prototype);
         let transforms = scene.view(&m.instances.transform);
         for volume in m
@@ -331,32 +366,39 @@ impl Media {
                     );
                     continue;
                 }
-                let emission = match volume.fields.get("temperature") {
-                    Some(field) if volume.heat_scale > 0.0 => {
-                        let key = (field.file.clone(), field.grid.clone(), field.index);
-                        let temperature = match temperatures.get(&key) {
-                            Some(found) => Arc::clone(found),
-                            None => {
-                                let grid = Arc::new(
-                                    VdbFile::open(&field.file)?
-                                        .read_float_grid(&field.grid, field.index as usize)?,
-                                );
-                                temperatures.insert(key, Arc::clone(&grid));
-                                grid
-                            }
-                        };
-                        let world_from_temperature =
-                            to_f64(&world_from_volume) * temperature.transform().world_from_index;
-                        Some(Emission {
-                            index_from_world: to_f32(&world_from_temperature.inverse()),
-                            temperature,
+                let mut emission = Vec::new();
+                for (name, field) in &volume.fields {
+                    let radiance = match name.as_str() {
+                        _ if !volume.emits_from(name) => continue,
+                        "temperature" => EmittedRadiance::Blackbody {
                             heat_scale: volume.heat_scale,
                             temperature_offset: volume.temperature_offset,
                             temperature_scale: volume.temperature_scale,
-                        })
-                    }
-                    _ => None,
-                };
+                        },
+                        _ => EmittedRadiance::Scaled(
+                            Vec3::from(volume.emission_color) * volume.emission_scale,
+                        ),
+                    };
+                    let key = (field.file.clone(), field.grid.clone(), field.index);
+                    let grid = match emission_grids.get(&key) {
+                        Some(found) => Arc::clone(found),
+                        None => {
+                            let grid = Arc::new(
+                                VdbFile::open(&field.file)?
+                                    .read_float_grid(&field.grid, field.index as usize)?,
+                            );
+                            emission_grids.insert(key, Arc::clone(&grid));
+                            grid
+                        }
+                    };
+                    let world_from_grid =
+                        to_f64(&world_from_volume) * grid.transform().world_from_index;
+                    emission.push(Emission {
+                        index_from_world: to_f32(&world_from_grid.inverse()),
+                        grid,
+                        radiance,
+                    });
+                }
                 let (lo, hi) = majorant.index_box();
                 let (world_min, world_max) = world_box(&world_from_index, lo, hi);
                 media.push(Medium {
@@ -376,7 +418,8 @@ impl Media {
         }
         let blackbody = media
             .iter()
-            .any(|m| m.emission.is_some())
+            .flat_map(|m| &m.emission)
+            .any(|e| matches!(e.radiance, EmittedRadiance::Blackbody { .. }))
             .then(BlackbodyTable::new);
         Ok(Self { media, blackbody })
     }
