@@ -63,7 +63,7 @@ pub(super) struct FreeFlight {
 /// 3 times it; with grey extinction and albedo the weights are 1.
 pub(super) fn free_flight(
     along: &MediaRay,
-    segments: &[MajorantSegment],
+    segments: impl IntoIterator<Item = MajorantSegment>,
     throughput: Vec3,
     rng: &mut Pcg32,
     stats: &mut TrackingStats,
@@ -74,7 +74,7 @@ pub(super) fn free_flight(
         throughput,
         null_ratio: 1.0,
     };
-    walk_tentative_collisions(segments.iter().copied(), rng, |t, sigma_maj, rng| {
+    walk_tentative_collisions(segments, rng, |t, sigma_maj, rng| {
         let point = along.at(t);
         stats.count_lookup(point.sigma_t, sigma_maj);
         let beta = flight.throughput;

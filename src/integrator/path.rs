@@ -35,7 +35,8 @@ use crate::sampling::warp::power_heuristic;
 use crate::sampling::{Pcg32, Sampler};
 use crate::scene::NO_MATERIAL;
 use crate::volumes::{
-    ratio_tracking_with_null_ratio, transmittance, HenyeyGreenstein, TrackingStats,
+    ratio_tracking_with_null_ratio, transmittance, HenyeyGreenstein, MajorantSegment, RaySegments,
+    TrackingStats,
 };
 
 /// Depth (bounces) from which Russian roulette may end a path.
@@ -146,22 +147,27 @@ pub fn radiance(
             .then(|| state.media.along(origin, direction, t_end))
             .filter(|along| !along.is_empty());
         if let Some(along) = along {
-            let segments = along.segments(ray.tmin, t_end);
-            let equiangular = equiangular_on
-                .then(|| EquiangularRay::new(origin, direction, &segments))
-                .flatten();
-            if let Some(eq) = &equiangular {
-                let sample = (&along, segments.as_slice(), eq);
-                if let Some(c) = equiangular_sample(state, settings, sample, rng, &mut counts) {
-                    let c = throughput * c;
-                    if depth == 0 {
-                        gathered.add_first(c, &VOLUME_EVENT);
-                    } else {
-                        gathered.add(c, depth + 1);
+            // Free flights walk the majorant cells lazily; equiangular
+            // sampling needs the ray's whole span in media first.
+            let mut segments = along.segments(ray.tmin, t_end);
+            let mut equiangular = None;
+            if equiangular_on {
+                let listed: Vec<MajorantSegment> = segments.collect();
+                equiangular = EquiangularRay::new(origin, direction, &listed);
+                if let Some(eq) = &equiangular {
+                    let sample = (&along, listed.as_slice(), eq);
+                    if let Some(c) = equiangular_sample(state, settings, sample, rng, &mut counts) {
+                        let c = throughput * c;
+                        if depth == 0 {
+                            gathered.add_first(c, &VOLUME_EVENT);
+                        } else {
+                            gathered.add(c, depth + 1);
+                        }
                     }
                 }
+                segments = RaySegments::Listed(listed.into_iter());
             }
-            let flight = free_flight(&along, &segments, throughput, rng, counts.tracking);
+            let flight = free_flight(&along, segments, throughput, rng, counts.tracking);
             gathered.add(flight.emission, depth);
             throughput = flight.throughput;
             if settings.volume_estimator == VolumeEstimator::NullScatteringMis {

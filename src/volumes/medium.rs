@@ -21,8 +21,8 @@ use std::sync::Arc;
 use glam::{Affine3A, DAffine3, Vec3};
 
 use super::{
-    BlackbodyTable, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment, SparseGrid,
-    VdbFile, VolumeError,
+    BlackbodyTable, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
+    MajorantSegments, SparseGrid, VdbFile, VolumeError,
 };
 use crate::scene::{affine, Scene};
 
@@ -130,6 +130,28 @@ pub struct MediaRay<'a> {
     direction: Vec3,
 }
 
+/// The majorant segments of a [`MediaRay`], front to back: one medium's DDA
+/// walked lazily, or a list (the merged segments of overlapping media, or
+/// segments a caller collected to look at them twice).
+pub enum RaySegments<'a> {
+    /// The cells of the only medium the ray crosses.
+    Single(MajorantSegments<'a>),
+    /// Segments already listed.
+    Listed(std::vec::IntoIter<MajorantSegment>),
+}
+
+impl Iterator for RaySegments<'_> {
+    type Item = MajorantSegment;
+
+    #[inline]
+    fn next(&mut self) -> Option<MajorantSegment> {
+        match self {
+            Self::Single(cells) => cells.next(),
+            Self::Listed(listed) => listed.next(),
+        }
+    }
+}
+
 /// The media's coefficients at one point, where a tentative collision
 /// looked them up (per world unit).
 #[derive(Clone, Copy, Debug)]
@@ -173,25 +195,27 @@ impl Media {
     }
 }
 
-impl MediaRay<'_> {
+impl<'a> MediaRay<'a> {
     /// True when the ray crosses no medium.
     pub fn is_empty(&self) -> bool {
         self.media.is_empty()
     }
 
     /// The majorant segments over `[t_min, t_max)`, front to back: with one
-    /// medium its own; with several, the union of their boundaries, each
-    /// piece carrying the sum of the majorants (and minorants) covering it.
-    pub fn segments(&self, t_min: f32, t_max: f32) -> Vec<MajorantSegment> {
-        let mut per_medium = self.media.iter().map(|(m, o, d)| {
-            m.majorant
-                .segments(*o, *d, t_min, t_max, m.density_scale)
-                .collect::<Vec<_>>()
-        });
-        match self.media.len() {
-            0 => Vec::new(),
-            1 => per_medium.next().unwrap_or_default(),
-            _ => merge(per_medium.collect()),
+    /// medium its own, walked lazily by the DDA (a free flight that ends
+    /// early never visits the cells beyond); with several, the union of
+    /// their boundaries, each piece carrying the sum of the majorants (and
+    /// minorants) covering it.
+    pub fn segments(&self, t_min: f32, t_max: f32) -> RaySegments<'a> {
+        let per_medium = |(m, o, d): &(&'a Medium, Vec3, Vec3)| {
+            m.majorant.segments(*o, *d, t_min, t_max, m.density_scale)
+        };
+        match self.media.as_slice() {
+            [] => RaySegments::Listed(Vec::new().into_iter()),
+            [one] => RaySegments::Single(per_medium(one)),
+            several => RaySegments::Listed(
+                merge(several.iter().map(|m| per_medium(m).collect()).collect()).into_iter(),
+            ),
         }
     }
 

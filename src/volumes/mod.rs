@@ -27,7 +27,7 @@ mod vdb;
 pub use emission::{BlackbodyTable, REFERENCE_TEMPERATURE_K};
 pub use grid::{GridAccessor, GridStats, GridTransform, LayoutError, SparseGrid, Tile};
 pub use majorant::{MajorantGrid, MajorantKind, MajorantSegment, MajorantSegments};
-pub use medium::{Media, MediaRay, MediumPoint};
+pub use medium::{Media, MediaRay, MediumPoint, RaySegments};
 pub use phase::{HenyeyGreenstein, PhaseSample};
 pub use tracking::{
     channel_mean, ratio_tracking_with_null_ratio, transmittance, walk_tentative_collisions,
