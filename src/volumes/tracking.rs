@@ -113,8 +113,13 @@ pub fn walk_tentative_collisions(
 /// per scene unit per channel, bounded by each segment's grey `sigma_maj`.
 /// Ratio-tracking weights below [`RUSSIAN_ROULETTE_THRESHOLD`] are
 /// Russian-rouletted at tentative collisions, which keeps the estimate
-/// unbiased. With a majorant violation the ratio estimators stay unbiased
-/// but may return a negative weight.
+/// unbiased. With a majorant violation ratio tracking stays unbiased but
+/// may return a negative weight; residual ratio tracking stays unbiased
+/// only while its control `sigma_min` is below `sigma_t` and the residual
+/// majorant `sigma_maj - sigma_min` bounds `sigma_t - sigma_min`: a segment
+/// whose (too low) majorant equals its control is not sampled at all, so
+/// its bias goes uncounted (docs/stability.md). The majorant grid's bounds
+/// are conservative, so this needs a segment built wrongly.
 pub fn transmittance(
     estimator: TransmittanceEstimator,
     segments: impl IntoIterator<Item = MajorantSegment>,
