@@ -9,7 +9,8 @@
 mod common;
 
 use std::collections::HashMap;
-use std::path::Path;
+use std::ffi::OsStr;
+use std::path::{Path, PathBuf};
 
 /// Methods run (both unbiased), budgets (`--spp-max 16`) and seeds.
 const METHODS: [&str; 2] = ["default", "sampler-independent"];
@@ -56,32 +57,38 @@ fn number(row: &HashMap<String, String>, column: &str) -> f64 {
     row[column].parse().unwrap()
 }
 
+/// Runs `cirrus converge` on the Lambert plane under a dome with `flags`, two
+/// threads, into the scratch folder `scratch`, which it returns.
+fn converge(scratch: &str, flags: &[&str]) -> PathBuf {
+    let scene = common::exported_test_scene("lambert_plane_dome", "converge_scenes");
+    let out = common::scratch(scratch);
+    let mut args: Vec<&OsStr> = vec![OsStr::new("converge"), scene.as_os_str()];
+    args.extend(flags.iter().map(OsStr::new));
+    args.extend(["--threads", "2", "--out"].map(OsStr::new));
+    args.push(out.as_os_str());
+    common::cirrus_ok(&args);
+    out
+}
+
 #[test]
 fn converge_writes_rows_and_unbiased_error_falls_with_spp() {
-    let scene = common::exported_test_scene("lambert_plane_dome", "converge_scenes");
-    let out = common::scratch("converge");
     let methods = METHODS.join(",");
     let seeds = SEEDS.to_string();
-    let args = [
+    let out = converge(
         "converge",
-        scene.to_str().unwrap(),
-        "--methods",
-        &methods,
-        "--spp-max",
-        "16",
-        "--seeds",
-        &seeds,
-        "--res",
-        "64x64",
-        "--reference-spp",
-        "256",
-        "--threads",
-        "2",
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
-    common::cirrus_ok(&args);
+        &[
+            "--methods",
+            &methods,
+            "--spp-max",
+            "16",
+            "--seeds",
+            &seeds,
+            "--res",
+            "64x64",
+            "--reference-spp",
+            "256",
+        ],
+    );
 
     // One row per method, budget and seed, in that order, with finite values.
     let (header, rows) = read_csv(&out.join("converge.csv"));
@@ -159,4 +166,110 @@ fn converge_writes_rows_and_unbiased_error_falls_with_spp() {
             std::fs::read_to_string(out.join(format!("lambert_plane_dome-{chart}.svg"))).unwrap();
         assert_eq!(svg.matches("<polyline").count(), METHODS.len(), "{chart}");
     }
+}
+
+/// `converge --peers mitsuba-scalar` on the same scene: after our rows (the
+/// default method's budgets go on doubling until they take as long as the
+/// peer's slowest render) come one row per budget and seed of the peer (rendered through
+/// scenes/peers/render_peer.py) with its times and its error against our
+/// reference and its own, the summary and `equal_time.md` have its lines, and
+/// the own-reference chart has one curve per series. The peer's mean bias
+/// against our reference stays within 2% of the mean radiance (it agrees).
+/// Skipped with a message when Mitsuba is not installed, unless
+/// `CIRRUS_REQUIRE_PEERS=1` (CI), where that fails.
+#[test]
+fn converge_adds_peer_rows() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let available = std::process::Command::new(root.join(".venv/bin/python"))
+        .arg(root.join("scenes/peers/render_peer.py"))
+        .args(["--available", "mitsuba-scalar"])
+        .output()
+        .is_ok_and(|out| out.status.success());
+    if !available {
+        assert!(
+            std::env::var("CIRRUS_REQUIRE_PEERS").as_deref() != Ok("1"),
+            "mitsuba is not installed and CIRRUS_REQUIRE_PEERS=1 (run scenes/peers/install)"
+        );
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr(),
+            "converge_adds_peer_rows: skipped: mitsuba not installed (run scenes/peers/install)"
+        );
+        return;
+    }
+    let out = converge(
+        "converge_peers",
+        &[
+            "--methods",
+            "default",
+            "--peers",
+            "mitsuba-scalar",
+            "--spp-max",
+            "4",
+            "--seeds",
+            "2",
+            "--res",
+            "32x32",
+            "--reference-spp",
+            "64",
+        ],
+    );
+
+    let (header, rows) = read_csv(&out.join("converge.csv"));
+    for column in ["seconds", "relmse", "relmse_own", "total_seconds"] {
+        assert!(header.iter().any(|h| h == column), "no column {column}");
+    }
+    // Our default method first, at 1, 2, 4 spp and on doubling past 4 until
+    // it takes as long as the peer's slowest render; then the peer's rows.
+    let keys: Vec<(String, u32, u32)> = rows
+        .iter()
+        .map(|r| {
+            (
+                r["method"].clone(),
+                r["spp"].parse().unwrap(),
+                r["seed"].parse().unwrap(),
+            )
+        })
+        .collect();
+    let ours = keys.iter().take_while(|k| k.0 == "default").count();
+    let ours_spp: Vec<u32> = keys[..ours].iter().step_by(2).map(|k| k.1).collect();
+    assert!(ours_spp.len() >= 3, "{keys:?}");
+    for (i, spp) in ours_spp.iter().enumerate() {
+        assert_eq!(*spp, 1 << i, "{keys:?}");
+    }
+    let expected: Vec<(String, u32, u32)> = [1, 2, 4]
+        .into_iter()
+        .flat_map(|spp| [0, 1].map(move |seed| ("mitsuba-scalar".to_owned(), spp, seed)))
+        .collect();
+    assert_eq!(keys[ours..], expected[..], "{keys:?}");
+    for r in rows.iter().filter(|r| r["method"] == "mitsuba-scalar") {
+        let seconds = number(r, "seconds");
+        assert!(
+            seconds > 0.0 && number(r, "total_seconds") >= seconds,
+            "{r:?}"
+        );
+        assert!(
+            number(r, "relmse") > 0.0 && number(r, "relmse_own") > 0.0,
+            "{r:?}"
+        );
+    }
+    let (_, summary) = read_csv(&out.join("summary.csv"));
+    let last = summary
+        .iter()
+        .find(|r| r["method"] == "mitsuba-scalar" && r["spp"] == "4")
+        .expect("a summary line of the peer at 4 spp");
+    let bias = number(last, "mean_bias");
+    assert!(
+        bias.abs() < 0.02 * MEAN_RADIANCE,
+        "mitsuba's mean bias against our reference {bias}"
+    );
+    let equal_time = std::fs::read_to_string(out.join("equal_time.md")).unwrap();
+    assert_eq!(
+        equal_time
+            .matches("| lambert_plane_dome | mitsuba-scalar |")
+            .count(),
+        3
+    );
+    let svg = std::fs::read_to_string(out.join("lambert_plane_dome-relmse-own-time.svg")).unwrap();
+    assert_eq!(svg.matches("<polyline").count(), 2);
 }

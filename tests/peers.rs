@@ -1,13 +1,17 @@
-//! Agreement with a peer renderer (issue 7): `scenes/peers/compare.py`
-//! renders a scene with Cirrus and with Mitsuba 3 (`scenes/peers/to_mitsuba.py`
-//! converts the exported scene) and fails when a channel's mean ratio is off
-//! by more than 2% or the relMSE after 4x4 box downsampling reaches 1e-2.
+//! Agreement with the peer renderers (issue 7): `scenes/peers/compare.py`
+//! renders a scene with Cirrus and with a peer (`scenes/peers/render_peer.py`:
+//! Mitsuba 3 `scalar_rgb` or `llvm_ad_rgb` through `to_mitsuba.py`, Blender
+//! Cycles through `to_cycles.py`, each converting the exported scene) and
+//! fails when a channel's mean ratio is off by more than 2% or the relMSE
+//! after 4x4 box downsampling reaches 1e-2.
 //!
-//! Mitsuba lives in the project `.venv`, installed by `scenes/peers/install`.
-//! Without it these tests print a skip line and pass, unless
-//! `CIRRUS_REQUIRE_PEERS=1` (set by CI), where they fail. Each comparison's
-//! means, ratios and relMSE are written to stderr (uncaptured), so the test
-//! log shows the agreement.
+//! `scenes/peers/install` puts Mitsuba in the project `.venv` and Debian's
+//! libllvm19 on the machine; `scenes/peers/install --cycles` adds Debian's
+//! blender. Without a peer its tests print a skip line and pass, unless it
+//! is required: Mitsuba (both variants) by `CIRRUS_REQUIRE_PEERS=1` (set by
+//! CI), Cycles only by `CIRRUS_REQUIRE_CYCLES=1` (CI does not install it).
+//! Each comparison's means, ratios and relMSE are written to stderr
+//! (uncaptured), so the test log shows the agreement.
 
 mod common;
 
@@ -19,26 +23,33 @@ use std::sync::Mutex;
 /// One comparison at a time: each renderer already uses both cores.
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 
-/// Whether the `.venv` imports mitsuba; without it, panics when
-/// `CIRRUS_REQUIRE_PEERS=1` and otherwise says the test is skipped.
-fn mitsuba_installed(test: &str) -> bool {
-    let python = Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python");
-    let importable = Command::new(&python)
-        .args(["-c", "import mitsuba"])
-        .output()
-        .is_ok_and(|out| out.status.success());
-    if !importable {
-        assert!(
-            std::env::var("CIRRUS_REQUIRE_PEERS").as_deref() != Ok("1"),
-            "{test}: mitsuba is not importable by {} and CIRRUS_REQUIRE_PEERS=1 \
-             (run scenes/peers/install)",
-            python.display()
-        );
-        log(&format!(
-            "{test}: skipped: mitsuba not installed (run scenes/peers/install)"
-        ));
+/// Whether `peer` can run here (`render_peer.py --available`); without it,
+/// panics when the peer is required (see the module doc) and otherwise says
+/// the test is skipped.
+fn peer_installed(test: &str, peer: &str) -> bool {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = Command::new(root.join(".venv/bin/python"))
+        .arg(root.join("scenes/peers/render_peer.py"))
+        .args(["--available", peer])
+        .output();
+    if out.as_ref().is_ok_and(|out| out.status.success()) {
+        return true;
     }
-    importable
+    let reason = out.map_or_else(
+        |e| format!("cannot run .venv/bin/python: {e}"),
+        |out| String::from_utf8_lossy(&out.stderr).trim().to_owned(),
+    );
+    let required_by = if peer == "cycles" {
+        "CIRRUS_REQUIRE_CYCLES"
+    } else {
+        "CIRRUS_REQUIRE_PEERS"
+    };
+    assert!(
+        std::env::var(required_by).as_deref() != Ok("1"),
+        "{test}: {reason}, and {required_by}=1"
+    );
+    log(&format!("{test}: skipped: {reason}"));
+    false
 }
 
 /// Writes a line to stderr directly, past the test harness' capture.
@@ -46,20 +57,22 @@ fn log(line: &str) {
     let _ = writeln!(std::io::stderr(), "{line}");
 }
 
-/// Runs compare.py on `scenes/peers/SCENE.usda` at `res` and `spp` with the
-/// default thresholds; logs its summary and fails with its whole output when
-/// the renderers disagree (or a step fails).
-fn compare(scene: &str, res: &str, spp: &str) {
-    if !mitsuba_installed(scene) {
+/// Runs compare.py on `scenes/peers/SCENE.usda` against `peer` at `res` and
+/// `spp` with the default thresholds; logs its summary and fails with its
+/// whole output when the renderers disagree (or a step fails).
+fn compare(scene: &str, peer: &str, res: &str, spp: &str) {
+    let test = format!("{scene} against {peer}");
+    if !peer_installed(&test, peer) {
         return;
     }
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let work = common::scratch(&format!("peers_{scene}"));
+    let work = common::scratch(&format!("peers_{scene}_{peer}"));
     let out = Command::new(common::venv_python())
         .arg(root.join("scenes/peers/compare.py"))
         .arg(root.join(format!("scenes/peers/{scene}.usda")))
-        .args(["--res", res, "--spp", spp, "--seed", "1", "--threads", "2"])
+        .args(["--peer", peer, "--res", res, "--spp", spp])
+        .args(["--seed", "1", "--threads", "2"])
         .arg("--cirrus")
         .arg(env!("CARGO_BIN_EXE_cirrus"))
         .arg("--workdir")
@@ -74,7 +87,7 @@ fn compare(scene: &str, res: &str, spp: &str) {
     log(&summary.join("\n"));
     assert!(
         out.status.success() && summary.iter().any(|l| l.starts_with("AGREE")),
-        "cirrus and mitsuba disagree on {scene}:\n{stdout}\n{}",
+        "cirrus and {peer} disagree on {scene}:\n{stdout}\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
 }
@@ -83,19 +96,49 @@ fn compare(scene: &str, res: &str, spp: &str) {
 /// and a dome through a perspective camera.
 #[test]
 fn surfaces_agree_with_mitsuba() {
-    compare("surface_lights", "96x64", "64");
+    compare("surface_lights", "mitsuba-scalar", "96x64", "64");
 }
 
 /// The teapot cloud, transformed, coloured and forward-scattering, under a
 /// sun and a dome.
 #[test]
 fn volume_agrees_with_mitsuba() {
-    compare("volume_teapot", "96x64", "64");
+    compare("volume_teapot", "mitsuba-scalar", "96x64", "64");
 }
 
 /// Sub-voxel placement of VDB values: a window of about 21 voxels on the
 /// teapot cloud's edge (half a voxel off fails both thresholds).
 #[test]
 fn voxel_placement_agrees_with_mitsuba() {
-    compare("volume_voxels", "64x64", "64");
+    compare("volume_voxels", "mitsuba-scalar", "64x64", "64");
+}
+
+/// The three scenes with Mitsuba's LLVM variant (`llvm_ad_rgb`, on
+/// Debian's libllvm19): the same converter, another backend.
+#[test]
+fn scenes_agree_with_mitsuba_llvm() {
+    compare("surface_lights", "mitsuba-llvm", "96x64", "64");
+    compare("volume_teapot", "mitsuba-llvm", "96x64", "64");
+    compare("volume_voxels", "mitsuba-llvm", "64x64", "64");
+}
+
+/// Surfaces and lights with Cycles: Blender's light units (watts, sun
+/// irradiance, world radiance) converted from UsdLux.
+#[test]
+fn surfaces_agree_with_cycles() {
+    compare("surface_lights", "cycles", "96x64", "64");
+}
+
+/// The transformed teapot cloud with Cycles: density per world unit
+/// (Blender's default, object space, is 4% off here and fails).
+#[test]
+fn volume_agrees_with_cycles() {
+    compare("volume_teapot", "cycles", "96x64", "64");
+}
+
+/// VDB placement with Cycles, which puts values at voxel centres: without
+/// the converter's half-voxel shift it is 4% off (relMSE 4.3e-2) and fails.
+#[test]
+fn voxel_placement_agrees_with_cycles() {
+    compare("volume_voxels", "cycles", "64x64", "64");
 }

@@ -1,13 +1,15 @@
-"""Renders one scene with Cirrus and with Mitsuba 3 and checks that they agree.
+"""Renders one scene with Cirrus and with a peer renderer and checks that they agree.
 
 Usage (project .venv, after `cargo build --release` and scenes/peers/install):
-    .venv/bin/python scenes/peers/compare.py SCENE.usda --res 96x64 --spp 64 [--mitsuba-spp N]
+    .venv/bin/python scenes/peers/compare.py SCENE.usda --res 96x64 --spp 64 \
+        [--peer mitsuba-scalar|mitsuba-llvm|cycles] [--peer-spp N]
 
 Steps: `cirrus export` the scene, `cirrus render` it (box filter, beauty only,
-fixed seed), render the exported folder with to_mitsuba.py, then read both EXRs
-with the OpenEXR package and print per-channel means, their ratio
-(Cirrus / Mitsuba) and the relMSE of Cirrus against Mitsuba after 4x4 box
-downsampling, mean((c - m)^2 / (m^2 + 0.01)) (the metric of `cirrus bench`).
+fixed seed), render the exported folder with the peer through render_peer.py
+(Mitsuba 3 by default), then read both EXRs with the OpenEXR package and print
+per-channel means, their ratio (Cirrus / peer) and the relMSE of Cirrus against
+the peer after 4x4 box downsampling, mean((c - m)^2 / (m^2 + 0.01)) (the metric
+of `cirrus bench`).
 Exits 1 when any channel's |mean ratio - 1| exceeds --max-ratio-error (2%) or
 the relMSE reaches --max-relmse (1e-2), the thresholds of issue 7; 2 when a
 step fails.
@@ -21,8 +23,10 @@ from pathlib import Path
 import numpy as np
 import OpenEXR
 
+from render_peer import PEERS
+
 ROOT = Path(__file__).resolve().parents[2]
-TO_MITSUBA = Path(__file__).resolve().with_name("to_mitsuba.py")
+RENDER_PEER = Path(__file__).resolve().with_name("render_peer.py")
 
 
 def arguments(argv=None):
@@ -32,7 +36,8 @@ def arguments(argv=None):
     p.add_argument("--cirrus", type=Path, default=ROOT / "target/release/cirrus", help="cirrus binary")
     p.add_argument("--res", default="96x64", help="WxH (96x64)")
     p.add_argument("--spp", type=int, default=64, help="Cirrus samples per pixel (64)")
-    p.add_argument("--mitsuba-spp", type=int, help="Mitsuba samples per pixel (default: --spp)")
+    p.add_argument("--peer", choices=PEERS, default="mitsuba-scalar", help="peer renderer (mitsuba-scalar)")
+    p.add_argument("--peer-spp", type=int, help="the peer's samples per pixel (default: --spp)")
     p.add_argument("--seed", type=int, default=1, help="seed of both renders (1)")
     p.add_argument("--max-depth", type=int, default=16, help="Cirrus --max-depth (16)")
     p.add_argument("--threads", type=int, default=2, help="threads for each renderer (2)")
@@ -81,28 +86,29 @@ def main(argv=None):
     name = args.scene.stem
     work = args.workdir or ROOT / "out/peers" / name
     work.mkdir(parents=True, exist_ok=True)
-    exported, cirrus_exr, mitsuba_exr = work / "scene", work / "cirrus.exr", work / "mitsuba.exr"
+    exported, cirrus_exr, peer_exr = work / "scene", work / "cirrus.exr", work / f"{args.peer}.exr"
+    peer_spp = args.peer_spp or args.spp
     run([args.cirrus, "export", args.scene, "-o", exported])
     run([args.cirrus, "render", exported, "-o", cirrus_exr, "--spp", args.spp, "--res", args.res,
          "--aovs", "beauty", "--filter", "box", "--force", "--seed", args.seed,
          "--threads", args.threads, "--max-depth", args.max_depth])
-    run([sys.executable, TO_MITSUBA, exported, "-o", mitsuba_exr, "--res", args.res,
-         "--spp", args.mitsuba_spp or args.spp, "--seed", args.seed, "--threads", args.threads,
-         "--max-depth", args.max_depth])
-    cirrus, mitsuba = read_rgb(cirrus_exr), read_rgb(mitsuba_exr)
-    if cirrus.shape != mitsuba.shape:
-        print(f"error: image sizes differ: cirrus {cirrus.shape}, mitsuba {mitsuba.shape}",
+    run([sys.executable, RENDER_PEER, args.peer, exported, peer_exr, "--res", args.res,
+         "--spp", peer_spp, "--seed", args.seed, "--threads", args.threads,
+         "--max-depth", args.max_depth, "--no-warmup"])
+    cirrus, peer = read_rgb(cirrus_exr), read_rgb(peer_exr)
+    if cirrus.shape != peer.shape:
+        print(f"error: image sizes differ: cirrus {cirrus.shape}, {args.peer} {peer.shape}",
               file=sys.stderr)
         return 2
-    c_mean, m_mean = cirrus.mean(axis=(0, 1)), mitsuba.mean(axis=(0, 1))
-    # A channel black in both agrees (ratio 1); black in Mitsuba only does not.
+    c_mean, m_mean = cirrus.mean(axis=(0, 1)), peer.mean(axis=(0, 1))
+    # A channel black in both agrees (ratio 1); black in the peer only does not.
     ratio = np.divide(c_mean, m_mean, out=np.where(c_mean == 0, 1.0, np.inf),
                       where=m_mean != 0)
-    error = relmse(downsample(cirrus, args.block), downsample(mitsuba, args.block))
-    print(f"scene {name}: {args.res}, cirrus {args.spp} spp, mitsuba {args.mitsuba_spp or args.spp} spp")
-    print(f"  mean RGB cirrus  {fmt(c_mean)}")
-    print(f"  mean RGB mitsuba {fmt(m_mean)}")
-    print(f"  ratio cirrus/mitsuba {fmt(ratio)}")
+    error = relmse(downsample(cirrus, args.block), downsample(peer, args.block))
+    print(f"scene {name}: {args.res}, cirrus {args.spp} spp, {args.peer} {peer_spp} spp")
+    print(f"  mean RGB cirrus {fmt(c_mean)}")
+    print(f"  mean RGB {args.peer} {fmt(m_mean)}")
+    print(f"  ratio cirrus/{args.peer} {fmt(ratio)}")
     print(f"  relMSE ({args.block}x{args.block} blocks) {error:.3e}")
     worst = float(np.max(np.abs(ratio - 1)))
     failed = []

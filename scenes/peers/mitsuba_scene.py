@@ -23,8 +23,7 @@ stores the three factors separately and src/lights/emission.rs multiplies them):
   flipped normals (UsdLux emits from -Z); cylinder = `cylinder` along X; all
   divided by their world area under `normalize`. Light shapes get an opaque
   black BSDF: in Cirrus a ray that finds a light stops there (a `null` BSDF
-  would show what is behind it); Cirrus' shadow rays pass through lights,
-  Mitsuba's do not, which matters only where one light hides another. Distant = `directional` of the
+  would show what is behind it); shadow rays stop at them in both. Distant = `directional` of the
   same irradiance (normalize: the emission; else emission x pi sin^2(angle/2),
   as src/lights/distant.rs), a delta instead of a cone (reported when angle > 0).
   Dome = `constant`.
@@ -45,38 +44,29 @@ from typing import NamedTuple
 
 import numpy as np
 
-from cirrus_scene import affine4, emission
+import cirrus_scene
+from cirrus_scene import (GREY, NO_MATERIAL, affine4, conformed_aperture, distant_irradiance,
+                          emission, is_lambert, near_far)
 
 #: Debian's Python, which has pyopenvdb (the .venv does not).
 SYSTEM_PYTHON = "/usr/bin/python3"
-#: u32::MAX in triangle_materials: no material (grey 0.18 diffuse).
-NO_MATERIAL = 0xFFFFFFFF
 #: The BSDF of light shapes: opaque and non-reflecting, as Cirrus' lights are to
 #: the rays that find them (a `null` BSDF would let the light behind show through).
 BLACK = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.0, 0.0, 0.0]}}
-#: Cirrus' grey default and fallback material albedo.
-GREY = [0.18, 0.18, 0.18]
 
 
-class Converter:
+class Converter(cirrus_scene.Converter):
     """Turns one CirrusScene into a Mitsuba scene dict; `warnings` lists what was approximated."""
 
     def __init__(self, scene, width, height, max_depth, workdir, mi):
-        self.scene = scene
-        self.manifest = scene.manifest
+        super().__init__(scene)
         self.width, self.height = width, height
         self.max_depth = max_depth
         self.workdir = Path(workdir)
         self.workdir.mkdir(parents=True, exist_ok=True)
         self.mi = mi
-        self.warnings = []
         #: Mesh index -> its PlyParts, so a mesh shared by prototypes is written once.
         self.plys = {}
-
-    def warn(self, message):
-        """Records something that could not be converted exactly (printed by the caller)."""
-        if message not in self.warnings:
-            self.warnings.append(message)
 
     def transform(self, m):
         """A 4x4 numpy matrix as a Mitsuba ScalarTransform4f."""
@@ -116,10 +106,8 @@ class Converter:
         world_from_camera = affine4(cam["transform"])
         linear = world_from_camera[:3, :3]
         scales = np.linalg.norm(linear, axis=0)
-        aperture = self.conformed_aperture(cam)
-        near, far = cam["clipping_range"]
-        # Cirrus starts rays at the eye unless near exceeds 1e-3 far.
-        near = near if near > 1e-3 * far else 1e-4 * min(far, self.scene_size())
+        aperture = conformed_aperture(cam, self.width, self.height)
+        near, far = near_far(self.manifest)
         film = {
             "type": "hdrfilm",
             "width": self.width,
@@ -157,20 +145,6 @@ class Converter:
             sensor["type"] = "perspective"
         return sensor
 
-    def conformed_aperture(self, cam):
-        """(horizontal, vertical) aperture grown to the image aspect ("expandAperture")."""
-        ha, va = cam["horizontal_aperture"], cam["vertical_aperture"]
-        image_aspect = self.width / self.height
-        if image_aspect > ha / va:
-            return va * image_aspect, va
-        return ha, ha / image_aspect
-
-    def scene_size(self):
-        """Diagonal of the scene bounds (1 when empty), scene units."""
-        b = self.manifest["bounds"]
-        size = float(np.linalg.norm(np.subtract(b["max"], b["min"])))
-        return size if size > 0 else 1.0
-
     # ---------------------------------------------------------------- lights
 
     def light(self, light):
@@ -185,7 +159,7 @@ class Converter:
                 self.warn(f"light {light['path']}: dome texture not converted (constant emission used)")
             return {"type": "constant", "radiance": rgb(e)}
         if kind == "distant":
-            return self.distant(light, e, m)
+            return self.distant(light, m)
         if kind == "sphere":
             return self.sphere_light(light, e, m)
         if kind in ("rect", "disk"):
@@ -195,10 +169,9 @@ class Converter:
         self.warn(f"light {light['path']}: type {kind} not converted")
         return None
 
-    def distant(self, light, e, m):
+    def distant(self, light, m):
         """A `directional` emitter carrying the irradiance on a surface facing the light."""
-        half = math.radians(light["angle_deg"]) / 2.0
-        irradiance = e if light["normalize"] else e * math.pi * math.sin(min(half, math.pi / 2)) ** 2
+        irradiance = distant_irradiance(light)
         if light["angle_deg"] > 0:
             self.warn(f"light {light['path']}: distant cone of {light['angle_deg']:.3g} deg "
                       "rendered as a single direction (Mitsuba's directional); its disk is not visible")
@@ -249,16 +222,6 @@ class Converter:
 
     # ------------------------------------------------------------- materials
 
-    def constant(self, material, key, fallback_default):
-        """A material input's constant value; a texture is replaced by its fallback (reported)."""
-        value = material.get(key, fallback_default)
-        if isinstance(value, dict):
-            tex = self.manifest["textures"][value["texture"]]
-            self.warn(f"material {material['path']}: texture on {key} not converted (its fallback used)")
-            fb = tex["fallback"]
-            return fb[:3] if isinstance(fallback_default, list) else fb[0]
-        return value
-
     def bsdf(self, index):
         """A material as `twosided` `diffuse`, or an approximating `principled` (reported)."""
         if index == NO_MATERIAL:
@@ -274,7 +237,7 @@ class Converter:
         metallic = self.constant(mat, "metallic", 0.0)
         clearcoat = mat.get("clearcoat", 0.0)
         spec_workflow = mat.get("use_specular_workflow", False)
-        if spec_workflow and max(specular) == 0 and clearcoat == 0 and opacity >= 1:
+        if is_lambert(self.manifest, mat):
             return twosided({"type": "diffuse", "reflectance": rgb(base)})
         self.warn(f"material {mat['path']}: UsdPreviewSurface approximated by Mitsuba's principled BSDF")
         ior = mat.get("ior", 1.5)
@@ -452,7 +415,7 @@ class Converter:
             "type": "heterogeneous",
             "sigma_t": {"type": "gridvolume", "filename": str(grid["path"]),
                         "to_world": self.transform(grid_to_world)},
-            "scale": float(vol["density_scale"]),
+            "scale": cirrus_scene.density_scale(vol),
             "albedo": {"type": "constvolume", "value": rgb(vol["albedo"])},
             "phase": {"type": "hg", "g": float(vol["anisotropy"])},
         }

@@ -42,7 +42,7 @@ pub(super) const MAX_DEPTH: u32 = 16;
 
 /// Seed of every reference render, apart from the seeds of the measured ones
 /// (0, 1, 2, ...).
-const REFERENCE_SEED: u64 = 1 << 20;
+pub(super) const REFERENCE_SEED: u64 = 1 << 20;
 
 /// Settings of every benchmark and convergence render unless the measured
 /// method changes them: `cirrus render`'s defaults (MIS, Sobol, max depth
@@ -155,7 +155,7 @@ pub(super) fn cached_reference(
 /// Where the reference of scene `name` at this resolution and spp is kept:
 /// `<out>/<name>-<w>x<h>-ref<spp>.exr`. The key holds neither the settings
 /// nor the renderer's version: delete the file after changing either.
-fn reference_path(out: &Path, name: &str, resolution: UVec2, spp: u32) -> PathBuf {
+pub(super) fn reference_path(out: &Path, name: &str, resolution: UVec2, spp: u32) -> PathBuf {
     out.join(format!(
         "{name}-{}x{}-ref{spp}.exr",
         resolution.x, resolution.y
@@ -165,11 +165,8 @@ fn reference_path(out: &Path, name: &str, resolution: UVec2, spp: u32) -> PathBu
 /// The reference image at `path`, read back when it exists with the right
 /// size, else rendered with `settings` (a sample budget) and written there.
 fn reference(state: &RenderState, settings: &RenderSettings, path: &Path) -> Result<Vec<f32>> {
-    let r = state.resolution;
-    if let Ok(image) = read_image(path, crate::scene::ColorSpace::Raw) {
-        if image.channels == 3 && UVec2::new(image.width, image.height) == r {
-            return Ok(image.pixels);
-        }
+    if let Some(rgb) = read_rgb(path, state.resolution) {
+        return Ok(rgb);
     }
     let (rgb, stats) = render(state, settings);
     eprintln!(
@@ -180,6 +177,14 @@ fn reference(state: &RenderState, settings: &RenderSettings, path: &Path) -> Res
     let header = super::film_output::ExrHeader::new(state, settings, None);
     super::film_output::write_beauty(path, state.resolution, &rgb, &header, &stats)?;
     Ok(rgb)
+}
+
+/// The RGB pixels of the EXR at `path` when it exists, holds 3 channels and
+/// has this `resolution`; None otherwise.
+pub(super) fn read_rgb(path: &Path, resolution: UVec2) -> Option<Vec<f32>> {
+    let image = read_image(path, crate::scene::ColorSpace::Raw).ok()?;
+    (image.channels == 3 && UVec2::new(image.width, image.height) == resolution)
+        .then_some(image.pixels)
 }
 
 /// One method's convergence: renders with `settings` at 1, 2, 4, ... spp,
@@ -217,13 +222,16 @@ pub(super) fn ladder(
 /// between the two rungs around `t` (extrapolated from the end segments), so
 /// times are equal exactly rather than rounded to whole passes.
 pub(super) fn error_at(ladder: &[Rung], t: f64) -> f64 {
-    if ladder.len() == 1 {
-        return ladder[0].error;
+    let points: Vec<(f64, f64)> = ladder.iter().map(|r| (r.seconds(), r.error)).collect();
+    error_at_time(&points, t)
+}
+
+/// [`error_at`] on (seconds, error) points in increasing time.
+pub(super) fn error_at_time(points: &[(f64, f64)], t: f64) -> f64 {
+    if points.len() == 1 {
+        return points[0].1;
     }
-    let logs: Vec<(f64, f64)> = ladder
-        .iter()
-        .map(|r| (r.seconds().ln(), r.error.ln()))
-        .collect();
+    let logs: Vec<(f64, f64)> = points.iter().map(|&(s, e)| (s.ln(), e.ln())).collect();
     let i = logs
         .windows(2)
         .position(|w| t.ln() <= w[1].0)

@@ -1,0 +1,528 @@
+"""Renders an exported Cirrus scene folder with Blender Cycles into an EXR of the same framing.
+
+Usage (Debian's blender 3.4, installed by `scenes/peers/install --cycles`):
+    blender -b --factory-startup -t 2 --python scenes/peers/to_cycles.py -- \\
+        SCENE_DIR OUT.exr --spp 64 --threads 2 --seed 1 [--res WxH] [--max-depth 16]
+
+SCENE_DIR is what `cirrus export` writes (scenes/FORMAT.md), read with
+cirrus_scene.py in Blender's own Python (Debian's python3 + numpy). The output
+is a float RGB EXR of linear Rec.709 radiance (Blender's scene-linear space,
+view transform "Standard", nothing applied on EXR output), box-filtered over
+one pixel. What is approximated is printed as `warning: ...` on stderr. The
+last line is `render_seconds=S`: the timed render call alone; with --warmup the
+same render runs first, untimed, to sync the scene and build the BVH, which
+persistent data keeps (it ignores a changed sample count, so the warm-up cannot
+be cheaper), so S excludes scene load as for the other renderers.
+
+What each part becomes (UsdLux units per /work/shared/CONVENTIONS.md; every
+factor below was measured with Cycles 3.4.1 on a white Lambert plane
+(2026-11-24): sun 3 W/m^2 -> 0.95493 = 3/pi; point 10 W at 2 units ->
+0.063324 = 10/(4 pi^2 4); 10 W square area light of 0.01 unit^2 at 2 units ->
+0.19876 = (10/(4 x 0.01)) x 0.01/4/pi; world strength 1 -> 1):
+
+- Camera: Blender cameras, like USD's, look down -Z with +Y up, so the object
+  matrix is the camera transform (scale removed; clipping scaled by it).
+  Horizontal sensor fit, lens / sensor width = focalLength / the aperture
+  conformed by "expandAperture" (sensor 36 mm: Blender clamps both at 1 mm).
+  Orthographic: ortho_scale = conformed aperture / 10. Thin lens: Cycles'
+  aperture radius is lens x 1e-3 / (2 fstop), ours focalLength / 10 / (2 fStop)
+  x scale, so aperture_fstop = lens x 1e-3 / (2 x our radius); round blades.
+- Meshes: one Blender mesh per exported mesh (custom split normals when it has
+  normals, else flat faces), one object per placement sharing that mesh (Cycles
+  instances linked duplicates). Cycles shades both sides, as Cirrus does.
+- Materials: Lambert (the specular workflow with zero specularColor) is a
+  Diffuse BSDF (roughness 0); anything else is approximated by the Principled
+  BSDF (reported); textures by their fallback (reported); emissiveColor is an
+  Emission shader of strength 1 (radiance = colour) added on top.
+- Lights: Blender light power is not UsdLux emission; with e = color x
+  intensity x 2^exposure and A the world area:
+  - DomeLight: world Background, colour e, strength 1 (radiance).
+  - DistantLight: Sun, strength = irradiance (e with normalize, else
+    e pi sin^2(angle/2), as src/lights/distant.rs), angle = `angle`.
+  - SphereLight of radius r: Point light of radius r; Cycles gives it the
+    intensity P/(4 pi) W/sr, a sphere of radiance L radiates 4 pi^2 r^2 L, so
+    P = 4 pi^2 r^2 L (L = e, or e/(4 pi r^2) with normalize). Cycles 3.4 draws
+    it as a disk facing the shaded point, not a sphere: the same solid angle up
+    to r^2/d^2 terms. treatAsPoint: radius 0, P = 4 pi I with Mitsuba's I.
+  - RectLight / DiskLight: Area light (rectangle / disk of diameter 2r),
+    one-sided along -Z as UsdLux; Cycles' radiance is P / (4 A), so P = 4 A L.
+  - CylinderLight: not converted (reported).
+  Power and colour are RGB in UsdLux and a scalar x colour in Blender: energy =
+  the largest channel, colour = the rest relative to it. Every light is made
+  visible to camera rays (Cycles 3.4 hides them by default; Cirrus shows them).
+- Volumes: `bpy.data.volumes.new` + `filepath` = the VDB, placed by the Volume
+  prim's transform (Blender applies the grid's own index-to-world inside).
+  render.space = WORLD, so density counts per world unit (Blender's default,
+  OBJECT, keeps optical depth fixed under object scale, i.e. divides by it);
+  precision FULL (not half floats); clipping 0 (no voxel dropped); Principled
+  Volume with Density = densityScale reading the density grid, Color = albedo,
+  Absorption Color black (so sigma_t = density, sigma_s = albedo x density),
+  Anisotropy = g. Voxel placement: Cycles is half a voxel off; the object is
+  moved by -0.5 voxel along the grid's index axes to compensate (VOXEL_SHIFT).
+- Integrator: path tracing on the CPU, no denoiser, no adaptive sampling, no
+  clamping, no glossy blur, box filter of width 1 pixel. Cirrus' --max-depth
+  counts scattering events (1 = direct light only) and Cycles' bounces count
+  the ones after the first, so every Cycles bounce limit = ours - 1. Cycles 3.4
+  ray-marches heterogeneous volumes (step = one voxel x --volume-step-rate):
+  slightly biased, unlike Cirrus' and Mitsuba's null-collision tracking.
+"""
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import cirrus_scene  # noqa: E402
+from cirrus_scene import (GREY, NO_MATERIAL, CirrusScene, affine4, conformed_aperture,  # noqa: E402
+                          distant_irradiance, emission, is_lambert, near_far, parse_resolution)
+
+#: Shift of the grid, in voxels along each index axis, that puts VDB value
+#: v(i,j,k) at the integer index point (i,j,k) in Cycles (CONVENTIONS.md "Voxel
+#: centres"). Cycles 3.4 puts it at the voxel's cell centre, (i,j,k) + 0.5, half
+#: a voxel off: on scenes/peers/volume_voxels.usda (64x64, 64 spp, 2026-11-24)
+#: a shift of 0 reads 4.0% dark with a 4x4 relMSE of 4.3e-2 against Cirrus,
+#: +0.5 8.6% and 0.23, -0.5 agrees (0.06%, 1.1e-3). The one-voxel falloff to
+#: the background needs nothing more (without it the mean would be ~9% off).
+VOXEL_SHIFT = -0.5
+
+
+#: Blender sensor width, mm: the lens is scaled to keep USD's focal length to aperture ratio.
+SENSOR_WIDTH = 36.0
+#: UsdLux light types that Cirrus treats as opaque surfaces.
+AREA_LIGHTS = ("sphere", "rect", "disk", "cylinder")
+
+
+def arguments(argv):
+    """The command line after Blender's `--`."""
+    p = argparse.ArgumentParser(prog="to_cycles.py", description=__doc__.split("\n\n")[0])
+    p.add_argument("scene", type=Path, help="exported Cirrus scene folder")
+    p.add_argument("output", type=Path, help="output EXR")
+    p.add_argument("--res", type=parse_resolution, help="WxH (default: the scene's, else 640x480)")
+    p.add_argument("--spp", type=int, default=64, help="samples per pixel (64)")
+    p.add_argument("--seed", type=int, default=0, help="Cycles seed (0)")
+    p.add_argument("--max-depth", type=int, default=16, help="Cirrus' --max-depth: scattering events (16)")
+    p.add_argument("--threads", type=int, default=2, help="render threads (2)")
+    p.add_argument("--volume-step-rate", type=float, default=1.0,
+                   help="Cycles' volume step rate: step = voxel size x this (1, Cycles' default)")
+    p.add_argument("--voxel-shift", type=float, default=VOXEL_SHIFT,
+                   help=f"grid shift in voxels ({VOXEL_SHIFT}; for the placement checks)")
+    p.add_argument("--warmup", action="store_true",
+                   help="render 1 spp untimed first (scene sync and BVH build)")
+    return p.parse_args(argv)
+
+
+class Converter(cirrus_scene.Converter):
+    """Builds one CirrusScene into Blender's current (emptied) scene; `warnings` lists
+    what was approximated."""
+
+    def __init__(self, scene, args):
+        super().__init__(scene)
+        self.args = args
+        self.width, self.height = args.res or tuple(self.manifest["render"]["resolution"] or (640, 480))
+        self.bl = bpy.context.scene
+        #: Mesh index -> its Blender mesh, so a mesh shared by placements is built once.
+        self.meshes = {}
+        #: Material index -> its Blender material.
+        self.materials = {}
+
+    def link(self, name, data, matrix):
+        """A new object holding `data`, placed by the 4x4 numpy `matrix`, in the scene."""
+        obj = bpy.data.objects.new(name, data)
+        obj.matrix_world = matrix_of(matrix)
+        self.bl.collection.objects.link(obj)
+        return obj
+
+    # ------------------------------------------------------------------ build
+
+    def build(self):
+        """The whole scene: settings, camera, lights, meshes, volumes."""
+        self.settings()
+        self.camera()
+        self.world()
+        lights = self.manifest["lights"]
+        for light in lights:
+            self.light(light)
+        if len(lights) > 1 and any(light["type"] in AREA_LIGHTS for light in lights):
+            self.warn("lights: Cycles' lights are transparent to every ray but the camera's; "
+                      "where an area light hides another light or the dome, Cirrus (whose "
+                      "lights are opaque) is darker")
+        self.shapes()
+        self.volumes()
+        for w in self.manifest.get("warnings", []):
+            self.warn(f"exporter: {w}")
+
+    def settings(self):
+        """Cycles on the CPU, unbiased settings, the film and the EXR output."""
+        render, cycles = self.bl.render, self.bl.cycles
+        render.engine = "CYCLES"
+        render.resolution_x, render.resolution_y = self.width, self.height
+        render.resolution_percentage = 100
+        render.pixel_aspect_x = render.pixel_aspect_y = 1.0
+        render.threads_mode = "FIXED"
+        render.threads = self.args.threads
+        render.use_persistent_data = True
+        render.film_transparent = False
+        render.image_settings.file_format = "OPEN_EXR"
+        render.image_settings.color_mode = "RGB"
+        render.image_settings.color_depth = "32"
+        render.image_settings.exr_codec = "ZIP"
+        view = self.bl.view_settings
+        view.view_transform, view.look, view.exposure, view.gamma = "Standard", "None", 0.0, 1.0
+        cycles.device = "CPU"
+        cycles.samples = self.args.spp
+        cycles.seed = self.args.seed
+        cycles.use_adaptive_sampling = False
+        cycles.use_denoising = False
+        cycles.pixel_filter_type = "BOX"
+        cycles.filter_width = 1.0
+        cycles.sample_clamp_direct = cycles.sample_clamp_indirect = 0.0
+        cycles.blur_glossy = 0.0
+        cycles.caustics_reflective = cycles.caustics_refractive = True
+        bounces = max(self.args.max_depth - 1, 0)
+        for key in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces",
+                    "volume_bounces", "transparent_max_bounces"):
+            setattr(cycles, key, bounces)
+        cycles.volume_step_rate = self.args.volume_step_rate
+        cycles.volume_max_steps = 4096
+
+    # ---------------------------------------------------------------- camera
+
+    def camera(self):
+        """The camera: perspective, thin lens or orthographic."""
+        cam = self.manifest["camera"]
+        if cam["path"] is None:
+            raise SystemExit("error: the scene has no camera prim (Cirrus frames a default one; not converted)")
+        if cam["horizontal_aperture_offset"] or cam["vertical_aperture_offset"]:
+            self.warn("camera: aperture offsets not converted")
+        world_from_camera = affine4(cam["transform"])
+        linear = world_from_camera[:3, :3]
+        scales = np.linalg.norm(linear, axis=0)
+        if np.ptp(scales) > 1e-4 * scales.max():
+            self.warn("camera: non-uniform scale dropped")
+        scale = float(np.cbrt(abs(np.linalg.det(linear))))
+        rigid = world_from_camera.copy()
+        rigid[:3, :3] = linear / scales
+        aperture = conformed_aperture(cam, self.width, self.height)
+        near, far = near_far(self.manifest)
+        data = bpy.data.cameras.new("camera")
+        data.sensor_fit = "HORIZONTAL"
+        data.clip_start, data.clip_end = near * scale, far * scale
+        if cam["projection"] == "orthographic":
+            data.type = "ORTHO"
+            data.ortho_scale = aperture[0] / 10.0 * scale
+        else:
+            data.type = "PERSP"
+            # Blender clamps sensor and lens to 1 mm and more; only their ratio matters.
+            data.sensor_width = SENSOR_WIDTH
+            data.lens = cam["focal_length"] * SENSOR_WIDTH / aperture[0]
+            if cam["f_stop"] > 0 and cam["focus_distance"] > 0:
+                radius = cam["focal_length"] / 10.0 / (2.0 * cam["f_stop"]) * scale
+                data.dof.use_dof = True
+                data.dof.focus_distance = cam["focus_distance"] * scale
+                data.dof.aperture_fstop = data.lens * 1e-3 / (2.0 * radius)
+                data.dof.aperture_blades = 0
+        self.bl.camera = self.link("camera", data, rigid)
+
+    # ---------------------------------------------------------------- lights
+
+    def world(self):
+        """The world: the (first) dome light's radiance, else black."""
+        world = bpy.data.worlds.new("world")
+        world.use_nodes = True
+        background = world.node_tree.nodes["Background"]
+        domes = [light for light in self.manifest["lights"] if light["type"] == "dome"]
+        radiance = sum((emission(d) for d in domes), np.zeros(3))
+        for dome in domes:
+            if dome.get("texture"):
+                self.warn(f"light {dome['path']}: dome texture not converted (constant emission used)")
+        background.inputs["Color"].default_value = (*radiance, 1.0)
+        background.inputs["Strength"].default_value = 1.0
+        self.bl.world = world
+
+    def light(self, light):
+        """One UsdLux light as a Blender light (domes are the world)."""
+        if light.get("color_temperature") is not None:
+            self.warn(f"light {light['path']}: colorTemperature ignored")
+        kind, m = light["type"], affine4(light["transform"])
+        if kind == "dome":
+            return
+        if kind == "distant":
+            data = bpy.data.lights.new(light["path"], "SUN")
+            data.angle = math.radians(light["angle_deg"])
+            power = distant_irradiance(light)
+        elif kind == "sphere":
+            data, power = self.sphere_light(light, m)
+        elif kind in ("rect", "disk"):
+            data, power = self.area_light(light, m)
+        else:
+            self.warn(f"light {light['path']}: type {kind} not converted")
+            return
+        set_power(data, power)
+        # Cirrus' camera rays see lights; Cycles 3.4 hides them from the camera by default.
+        self.link(light["path"], data, m).visible_camera = True
+
+    def sphere_light(self, light, m):
+        """A Point light of the sphere's radius (or 0) and the power radiating its radiance."""
+        e = emission(light)
+        radius = light["radius"] * float(np.linalg.norm(m[:3, :3], axis=0).mean())
+        data = bpy.data.lights.new(light["path"], "POINT")
+        if light["treat_as_point"]:
+            data.shadow_soft_size = 0.0
+            intensity = e / 4.0 if light["normalize"] else math.pi * radius**2 * e
+            return data, 4.0 * math.pi * intensity
+        data.shadow_soft_size = radius
+        radiance = e / (4.0 * math.pi * radius**2) if light["normalize"] else e
+        return data, 4.0 * math.pi**2 * radius**2 * radiance
+
+    def area_light(self, light, m):
+        """An Area light (rectangle or disk) with P = 4 A L; Blender scales its size by the object's."""
+        data = bpy.data.lights.new(light["path"], "AREA")
+        if light["type"] == "rect":
+            if light.get("texture"):
+                self.warn(f"light {light['path']}: rect texture not converted")
+            data.shape = "RECTANGLE"
+            data.size, data.size_y = light["width"], light["height"]
+            unit_area = light["width"] * light["height"]
+        else:
+            data.shape = "DISK"
+            data.size = 2.0 * light["radius"]
+            unit_area = math.pi * light["radius"] ** 2
+        area = unit_area * float(np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
+        e = emission(light)
+        radiance = e / area if light["normalize"] else e
+        return data, 4.0 * area * radiance
+
+    # ------------------------------------------------------------- materials
+
+    def material(self, index):
+        """The Blender material of a Cirrus material index, built once."""
+        if index not in self.materials:
+            self.materials[index] = self.build_material(index)
+        return self.materials[index]
+
+    def build_material(self, index):
+        """Diffuse BSDF for Lambert, else an approximating Principled BSDF; plus emission."""
+        mat = None if index == NO_MATERIAL else self.manifest["materials"][index]
+        out = bpy.data.materials.new(f"material{index}")
+        out.use_nodes = True
+        nodes, links = out.node_tree.nodes, out.node_tree.links
+        nodes.remove(nodes["Principled BSDF"])
+        output = nodes["Material Output"]
+        if mat is None or mat.get("fallback"):
+            surface = diffuse(nodes, GREY)
+        elif is_lambert(self.manifest, mat):
+            surface = diffuse(nodes, self.constant(mat, "diffuse_color", GREY))
+        else:
+            surface = self.principled(nodes, mat)
+        emissive = [0.0] * 3 if mat is None else self.constant(mat, "emissive_color", [0.0] * 3)
+        if max(emissive) > 0:
+            glow = nodes.new("ShaderNodeEmission")
+            glow.inputs["Color"].default_value = (*emissive, 1.0)
+            glow.inputs["Strength"].default_value = 1.0
+            add = nodes.new("ShaderNodeAddShader")
+            links.new(surface.outputs[0], add.inputs[0])
+            links.new(glow.outputs[0], add.inputs[1])
+            surface = add
+        links.new(surface.outputs[0], output.inputs["Surface"])
+        return out
+
+    def emits(self, index):
+        """Whether material `index` has a non-zero emissiveColor."""
+        if index == NO_MATERIAL:
+            return False
+        value, _ = cirrus_scene.material_input(self.manifest, self.manifest["materials"][index],
+                                               "emissive_color", [0.0] * 3)
+        return max(value) > 0
+
+    def principled(self, nodes, mat):
+        """An approximation of a non-Lambert UsdPreviewSurface by Cycles' Principled BSDF."""
+        self.warn(f"material {mat['path']}: UsdPreviewSurface approximated by Cycles' Principled BSDF")
+        if mat.get("normal") is not None:
+            self.warn(f"material {mat['path']}: normal map not converted")
+        node = nodes.new("ShaderNodeBsdfPrincipled")
+        base = self.constant(mat, "diffuse_color", GREY)
+        opacity = self.constant(mat, "opacity", 1.0)
+        node.inputs["Base Color"].default_value = (*base, 1.0)
+        node.inputs["Roughness"].default_value = float(self.constant(mat, "roughness", 0.5))
+        node.inputs["IOR"].default_value = max(float(mat.get("ior", 1.5)), 1.0001)
+        node.inputs["Clearcoat"].default_value = float(mat.get("clearcoat", 0.0))
+        node.inputs["Clearcoat Roughness"].default_value = float(mat.get("clearcoat_roughness", 0.01))
+        node.inputs["Transmission"].default_value = 1.0 - float(opacity)
+        if mat.get("use_specular_workflow", False):
+            specular = self.constant(mat, "specular_color", [0.0] * 3)
+            # Principled "Specular" 0.5 is F0 = 0.04: scale the luminance F0 to it.
+            f0 = float(np.dot(specular, [0.2126, 0.7152, 0.0722]))
+            node.inputs["Specular"].default_value = min(f0 / 0.08, 1.0)
+            self.warn(f"material {mat['path']}: specularColor approximated by its luminance F0")
+        else:
+            node.inputs["Metallic"].default_value = float(self.constant(mat, "metallic", 0.0))
+        return node
+
+    # ---------------------------------------------------------------- shapes
+
+    def shapes(self):
+        """Every placed mesh as an object sharing its mesh data with the other placements."""
+        for n, (proto, world) in enumerate(self.scene.instances()):
+            for p_i, part in enumerate(self.manifest["prototypes"][proto]["meshes"]):
+                mesh = self.mesh(part["mesh"])
+                self.link(f"instance{n}_{p_i}", mesh, world @ affine4(part["transform"]))
+
+    def mesh(self, index):
+        """The Blender mesh of exported mesh `index` (triangles, per-face material slots)."""
+        if index in self.meshes:
+            return self.meshes[index]
+        record = self.manifest["meshes"][index]
+        points = self.scene.array(record["points"]).astype(np.float32)
+        triangles = self.scene.array(record["triangles"]).astype(np.int32)
+        materials = self.scene.array(record["triangle_materials"])
+        mesh = bpy.data.meshes.new(record["path"])
+        mesh.vertices.add(len(points))
+        mesh.vertices.foreach_set("co", points.ravel())
+        mesh.loops.add(3 * len(triangles))
+        mesh.loops.foreach_set("vertex_index", triangles.ravel())
+        mesh.polygons.add(len(triangles))
+        mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(triangles), 3, dtype=np.int32))
+        mesh.polygons.foreach_set("loop_total", np.full(len(triangles), 3, dtype=np.int32))
+        slots = {int(m): slot for slot, m in enumerate(np.unique(materials))}
+        if not record.get("double_sided") and any(self.emits(m) for m in slots):
+            self.warn(f"mesh {record['path']}: one-sided emission rendered two-sided "
+                      "(Cycles' emission shader emits from both faces)")
+        for m in slots:
+            mesh.materials.append(self.material(m))
+        mesh.polygons.foreach_set("material_index",
+                                  np.array([slots[int(m)] for m in materials], dtype=np.int32))
+        normals = record.get("normals")
+        mesh.polygons.foreach_set("use_smooth", np.full(len(triangles), normals is not None))
+        mesh.update()
+        mesh.validate()
+        if normals is not None:
+            mesh.use_auto_smooth = True
+            mesh.normals_split_custom_set_from_vertices(
+                [tuple(v) for v in self.scene.array(normals).astype(np.float64)])
+        self.meshes[index] = mesh
+        return mesh
+
+    # --------------------------------------------------------------- volumes
+
+    def volumes(self):
+        """Every placed volume: a VDB volume object with a Principled Volume material."""
+        for n, (proto, world) in enumerate(self.scene.instances()):
+            for v_i, part in enumerate(self.manifest["prototypes"][proto]["volumes"]):
+                record = self.manifest["volumes"][part["volume"]]
+                self.volume(f"volume{n}_{v_i}", record, world @ affine4(part["transform"]))
+
+    def volume(self, name, record, world_from_volume):
+        """One volume object: the density grid per world unit, at integer index points."""
+        field = record["fields"]["density"]
+        if field["index"] != 0:
+            self.warn(f"volume {record['path']}: grid {field['grid']} index {field['index']} "
+                      "read as the first grid of that name")
+        if record["fields"].get("temperature") and record.get("heat_scale", 0) > 0:
+            self.warn(f"volume {record['path']}: emission (temperature) not converted")
+        data = bpy.data.volumes.new(name)
+        data.filepath = field["file"]
+        data.render.space = "WORLD"
+        data.render.precision = "FULL"
+        data.render.clipping = 0.0
+        data.grids.load()
+        grid = data.grids.get(field["grid"])
+        if grid is None:
+            raise SystemExit(f"error: {field['file']} has no grid {field['grid']}")
+        if has_no_leaves(field["file"], field["grid"]):
+            self.warn(f"volume {record['path']}: grid {field['grid']} holds active tiles only, no "
+                      "leaf nodes: Cycles 3.4 renders such a grid empty")
+        data.materials.append(self.volume_material(name, record, field["grid"]))
+        shift = np.eye(4)
+        if self.args.voxel_shift:
+            # The grid's index-to-object map, whose columns are the index axes.
+            index_to_object = np.array(grid.matrix_object, dtype=np.float64)
+            shift[:3, 3] = index_to_object[:3, :3] @ np.full(3, self.args.voxel_shift)
+        self.link(name, data, world_from_volume @ shift)
+
+    def volume_material(self, name, record, grid):
+        """Principled Volume: density = densityScale x grid, colour = albedo, HG g."""
+        mat = bpy.data.materials.new(f"{name}_material")
+        mat.use_nodes = True
+        nodes, links = mat.node_tree.nodes, mat.node_tree.links
+        nodes.remove(nodes["Principled BSDF"])
+        node = nodes.new("ShaderNodeVolumePrincipled")
+        node.inputs["Color"].default_value = (*record["albedo"], 1.0)
+        node.inputs["Density"].default_value = cirrus_scene.density_scale(record)
+        node.inputs["Density Attribute"].default_value = grid
+        node.inputs["Anisotropy"].default_value = float(record["anisotropy"])
+        node.inputs["Absorption Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+        node.inputs["Emission Strength"].default_value = 0.0
+        node.inputs["Blackbody Intensity"].default_value = 0.0
+        links.new(node.outputs[0], nodes["Material Output"].inputs["Volume"])
+        return mat
+
+
+def has_no_leaves(path, grid):
+    """Whether a VDB grid is all active tiles without leaf nodes (False when Debian's
+    pyopenvdb, which Blender's Python shares, is missing). Cycles 3.4 renders such
+    grids empty: scenes/tests/volume_shadow.usda (volume_box.vdb, 16^3 voxels in
+    tiles) reads unshadowed, 0.5 instead of 0.5/e; the same box rewritten with
+    leaves reads 0.18394 (0.5/e = 0.18394)."""
+    try:
+        import pyopenvdb
+    except ImportError:
+        return False
+    return pyopenvdb.read(path, grid).leafCount() == 0
+
+
+def diffuse(nodes, colour):
+    """A Diffuse BSDF node (Lambert: roughness 0) of an RGB albedo."""
+    node = nodes.new("ShaderNodeBsdfDiffuse")
+    node.inputs["Color"].default_value = (*colour, 1.0)
+    node.inputs["Roughness"].default_value = 0.0
+    return node
+
+
+def set_power(data, rgb):
+    """A light's RGB power as Blender's scalar energy (the largest channel) x colour."""
+    rgb = np.asarray(rgb, dtype=np.float64)
+    energy = float(rgb.max())
+    data.energy = energy
+    data.color = tuple(rgb / energy) if energy > 0 else (0.0, 0.0, 0.0)
+
+
+def matrix_of(m):
+    """A 4x4 numpy matrix as Blender's Matrix."""
+    from mathutils import Matrix
+
+    return Matrix(np.asarray(m, dtype=np.float64).tolist())
+
+
+def main():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    args = arguments(argv)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    start = time.time()
+    converter = Converter(CirrusScene(args.scene), args)
+    converter.build()
+    for w in converter.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    if args.warmup:
+        # Persistent data keeps the synced scene and BVH but not a changed
+        # sample count or seed, so the warm-up renders the very same image.
+        bpy.ops.render.render()
+    built = time.time()
+    timer = time.perf_counter()
+    bpy.ops.render.render()
+    render_seconds = time.perf_counter() - timer
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    bpy.data.images["Render Result"].save_render(str(args.output.resolve()), scene=bpy.context.scene)
+    print(f"cycles {bpy.app.version_string}: {converter.width}x{converter.height} {args.spp} spp, "
+          f"convert{'+warmup' if args.warmup else ''} {built - start:.1f} s, "
+          f"render {render_seconds:.1f} s -> {args.output}")
+    print(f"render_seconds={render_seconds:.6f}")
+
+
+if __name__ == "__main__":
+    main()
