@@ -12,10 +12,9 @@
 mod common;
 
 use std::f64::consts::PI;
-use std::path::{Path, PathBuf};
 
-use common::{estimate, Estimate};
-use exr::prelude::{read_all_flat_layers_from_file, FlatSamples};
+use common::render::{exported, Image, Render};
+use common::{assert_within_4_sigma, estimate, Estimate};
 
 /// Every `--sampler`: the furnace runs through each with each strategy.
 const SAMPLERS: [&str; 2] = ["sobol", "independent"];
@@ -26,124 +25,9 @@ const STRATEGIES: [&str; 3] = ["mis", "bsdf", "nee"];
 /// Deep enough that paths end by Russian roulette (unbiased), not by depth.
 const UNBOUNDED_DEPTH: &str = "1000";
 
-/// `scenes/tests/NAME.usda` exported once per test process (see
-/// [`common::exported_test_scene`]).
-fn exported(name: &str) -> PathBuf {
-    common::exported_test_scene(name, "render_scenes")
-}
-
-/// One render's settings beside the scene; `extra` holds any further flags.
-struct Render<'a> {
-    scene: &'a str,
-    res: (u32, u32),
-    spp: u32,
-    seed: u64,
-    extra: &'a [&'a str],
-}
-
-/// A linear RGB image as written by `cirrus render`, row 0 at the top.
-struct Image {
-    width: usize,
-    height: usize,
-    /// Channel planes R, G, B, each `width * height` values in row order.
-    rgb: [Vec<f32>; 3],
-}
-
-impl Render<'_> {
-    /// Runs `cirrus render` into `dir` (box filter, one thread unless
-    /// `extra` says otherwise) and reads the EXR back.
-    fn run(&self, dir: &Path) -> Image {
-        let exr = dir.join(format!(
-            "{}-{}x{}-{}spp-seed{}-{}.exr",
-            self.scene,
-            self.res.0,
-            self.res.1,
-            self.spp,
-            self.seed,
-            self.extra.join("").replace('-', "")
-        ));
-        let threads: &[&str] = if self.extra.contains(&"--threads") {
-            &[]
-        } else {
-            &["--threads", "1"]
-        };
-        let (res, spp, seed) = (
-            format!("{}x{}", self.res.0, self.res.1),
-            self.spp.to_string(),
-            self.seed.to_string(),
-        );
-        let scene = exported(self.scene);
-        let mut args: Vec<&std::ffi::OsStr> = vec!["render".as_ref(), scene.as_os_str()];
-        args.extend(["-o".as_ref(), exr.as_os_str()]);
-        for arg in [
-            "--res", &res, "--spp", &spp, "--seed", &seed, "--filter", "box",
-        ]
-        .into_iter()
-        .chain(threads.iter().copied())
-        .chain(self.extra.iter().copied())
-        {
-            args.push(arg.as_ref());
-        }
-        common::cirrus_ok(&args);
-        let image = read_rgb(&exr);
-        assert_eq!(
-            (image.width, image.height),
-            (self.res.0 as usize, self.res.1 as usize)
-        );
-        image
-    }
-}
-
-/// The float R, G, B channels of `path`.
-fn read_rgb(path: &Path) -> Image {
-    let exr = read_all_flat_layers_from_file(path).unwrap();
-    let layer = &exr.layer_data[0];
-    let plane = |name: &str| -> Vec<f32> {
-        let channel = layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name.to_string() == name)
-            .unwrap_or_else(|| panic!("{}: no channel {name}", path.display()));
-        match &channel.sample_data {
-            FlatSamples::F32(v) => v.clone(),
-            other => panic!("{}: channel {name} is not float: {other:?}", path.display()),
-        }
-    };
-    Image {
-        width: layer.size.0,
-        height: layer.size.1,
-        rgb: [plane("R"), plane("G"), plane("B")],
-    }
-}
-
-impl Image {
-    /// Channel `c` of the pixels `(x, y)` that `keep` accepts.
-    fn pixels(&self, c: usize, keep: impl Fn(usize, usize) -> bool) -> Vec<f64> {
-        (0..self.height)
-            .flat_map(|y| (0..self.width).map(move |x| (x, y)))
-            .filter(|&(x, y)| keep(x, y))
-            .map(|(x, y)| f64::from(self.rgb[c][y * self.width + x]))
-            .collect()
-    }
-}
-
-/// Asserts `measured` is within 4 sigma of `expected`, where sigma also
-/// counts f32 rounding of the pixel sums (1e-5 relative) so that a
-/// noise-free region is not asked for more digits than f32 accumulation has.
-fn assert_within_4_sigma(what: &str, measured: Estimate, expected: f64) {
-    let tolerance = 4.0 * measured.sigma.hypot(1e-5 * expected.abs());
-    eprintln!(
-        "{what}: expected {expected:.6}, measured {:.6}, sigma {:.2e}",
-        measured.mean, measured.sigma
-    );
-    assert!(
-        (measured.mean - expected).abs() <= tolerance,
-        "{what}: measured {:.6} +- {:.2e} (1 sigma), expected {expected:.6}",
-        measured.mean,
-        measured.sigma
-    );
-}
+/// Relative f32 rounding of a pixel mean (sums of f32 samples), counted in
+/// the sigma of [`assert_within_4_sigma`].
+const PIXEL_ROUNDING: f64 = 1e-5;
 
 /// White furnace, diffuse (scenes/tests/furnace_diffuse.usda): a closed
 /// white Lambert surface (albedo 1, flat facets) inside a constant dome of
@@ -192,6 +76,7 @@ fn white_furnace_diffuse_is_one_everywhere() {
                         &format!("furnace {sampler}/{strategy} {region} {name}"),
                         e,
                         1.0,
+                        PIXEL_ROUNDING,
                     );
                 }
             }
@@ -298,7 +183,12 @@ fn lambert_plane_under_a_dome_reflects_albedo_times_radiance() {
             "{name}: sigma {} too large",
             e.sigma
         );
-        assert_within_4_sigma(&format!("plane under dome {name}"), e, expected);
+        assert_within_4_sigma(
+            &format!("plane under dome {name}"),
+            e,
+            expected,
+            PIXEL_ROUNDING,
+        );
     }
 }
 
@@ -340,7 +230,12 @@ fn an_area_light_hides_the_dome_from_every_strategy() {
             "{strategy}: sigma {}",
             e.sigma
         );
-        assert_within_4_sigma(&format!("light hides dome, {strategy}"), e, expected);
+        assert_within_4_sigma(
+            &format!("light hides dome, {strategy}"),
+            e,
+            expected,
+            PIXEL_ROUNDING,
+        );
     }
 }
 
@@ -457,6 +352,7 @@ fn lambert_sphere_under_a_distant_light_follows_the_cosine_law() {
                 &format!("distant sphere band {k} {name}"),
                 e,
                 radiance_per_cos * band_normal_z(k),
+                PIXEL_ROUNDING,
             );
         }
         let background = image.pixels(c, |x, y| pure_band(x, y) == Some(None));
@@ -472,6 +368,7 @@ fn lambert_sphere_under_a_distant_light_follows_the_cosine_law() {
             &format!("distant sphere image {name}"),
             estimate(image.pixels(c, |_, _| true)),
             exact_mean,
+            PIXEL_ROUNDING,
         );
     }
 }
@@ -567,6 +464,7 @@ fn sphere_light_strategies_agree_with_each_other_and_the_inverse_square_law() {
             sigma: r.sigma,
         },
         analytic,
+        PIXEL_ROUNDING,
     );
 
     let blocks = 4;
@@ -585,6 +483,7 @@ fn sphere_light_strategies_agree_with_each_other_and_the_inverse_square_law() {
                     sigma: r.sigma,
                 },
                 analytic,
+                PIXEL_ROUNDING,
             );
         }
         for a in 0..renders.len() {
@@ -779,7 +678,7 @@ fn assert_channel_mean(what: &str, image: &Image, c: usize, expected: f64) {
         "{what}: sigma {} too large",
         e.sigma
     );
-    assert_within_4_sigma(what, e, expected);
+    assert_within_4_sigma(what, e, expected, PIXEL_ROUNDING);
 }
 
 /// The mean of one channel of a grey image, see [`assert_channel_mean`].
@@ -962,7 +861,12 @@ fn emitting_volume_adds_its_blackbody_radiance() {
     let e = estimate(&luminance);
     assert!(4.0 * e.sigma < 0.02, "sigma {} too large", e.sigma);
     let inv_e = (-1.0f64).exp();
-    assert_within_4_sigma("emitting box luminance", e, 2.0 * (1.0 - inv_e) + inv_e);
+    assert_within_4_sigma(
+        "emitting box luminance",
+        e,
+        2.0 * (1.0 - inv_e) + inv_e,
+        PIXEL_ROUNDING,
+    );
     let blue = estimate(image.pixels(2, |_, _| true));
     assert!((blue.mean - inv_e).abs() < 0.01, "blue {}", blue.mean);
     // The same box emitting from an emission field (volume_emission_grid.usda):

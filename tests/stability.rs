@@ -19,13 +19,10 @@
 
 mod common;
 
-use std::ffi::OsStr;
-use std::path::{Path, PathBuf};
-
 use cirrus::sampling::Pcg32;
 use cirrus::volumes::{transmittance, MajorantSegment, TrackingStats, TransmittanceEstimator};
-use common::{estimate, Estimate};
-use exr::prelude::{read_all_flat_layers_from_file, FlatSamples};
+use common::render::{Image, Render, RenderLog};
+use common::{assert_within_4_sigma, estimate, Estimate};
 use glam::Vec3;
 
 /// Every shadow-ray transmittance estimator of the library.
@@ -56,6 +53,7 @@ struct Ramp {
 }
 
 impl Ramp {
+    /// The extinction at distance `t` along the ramp, per unit.
     fn sigma_t(&self, t: f32) -> f32 {
         self.a + self.b * t
     }
@@ -86,9 +84,8 @@ impl Ramp {
     }
 }
 
-/// `n` transmittance estimates by `estimator` along `segments` with grey
-/// extinction `sigma_t`: their mean and standard error, the per-sample
-/// variance, and the tracking counters.
+/// What [`measure`] found: the mean of the estimates and its standard
+/// error, the per-sample variance, and the tracking counters.
 struct Measured {
     estimate: Estimate,
     variance: f64,
@@ -96,6 +93,8 @@ struct Measured {
     stats: TrackingStats,
 }
 
+/// `n` transmittance estimates by `estimator` (seeded by `seed`) along
+/// `segments` with grey extinction `sigma_t`, each checked finite and grey.
 fn measure(
     estimator: TransmittanceEstimator,
     segments: &[MajorantSegment],
@@ -128,17 +127,10 @@ fn measure(
     }
 }
 
-/// Asserts `|mean - expected| <= 4 sigma` plus an f32 rounding floor (for
-/// estimators that are exact in the case at hand).
-fn assert_unbiased(what: &str, e: Estimate, expected: f64) {
-    let bound = 4.0 * e.sigma + 1e-6 * expected.abs().max(1e-3);
-    assert!(
-        (e.mean - expected).abs() <= bound,
-        "{what}: {:.6} +- {:.2e}, expected {expected:.6}",
-        e.mean,
-        e.sigma
-    );
-}
+/// Relative f32 rounding of one estimate, counted in the sigma of
+/// [`assert_within_4_sigma`] (for estimators that are exact in the case at
+/// hand: their 4-sigma bound is then 1e-6 relative).
+const ESTIMATE_ROUNDING: f64 = 2.5e-7;
 
 /// A majorant deliberately too low (half the true max of a ramp
 /// `sigma_t = 2 + t`, optical depth 2.5): delta tracking accepts every
@@ -180,10 +172,11 @@ fn too_low_majorant_biases_delta_tracking_visibly_and_ratio_tracking_not() {
         delta.stats.majorant_violations,
         delta.stats.density_lookups
     );
-    assert_unbiased(
+    assert_within_4_sigma(
         "track-length on a too-low majorant",
         delta.estimate,
         (-low_depth).exp(),
+        ESTIMATE_ROUNDING,
     );
     assert!(
         (delta.estimate.mean - truth).abs() > 20.0 * delta.estimate.sigma,
@@ -206,15 +199,17 @@ fn too_low_majorant_biases_delta_tracking_visibly_and_ratio_tracking_not() {
             right.variance,
             100.0 * low.stats.majorant_violations as f64 / low.stats.density_lookups as f64
         );
-        assert_unbiased(
+        assert_within_4_sigma(
             &format!("{estimator:?}, too-low majorant"),
             low.estimate,
             truth,
+            ESTIMATE_ROUNDING,
         );
-        assert_unbiased(
+        assert_within_4_sigma(
             &format!("{estimator:?}, true majorant"),
             right.estimate,
             truth,
+            ESTIMATE_ROUNDING,
         );
         assert!(low.stats.majorant_violations > 0, "{estimator:?}");
         assert_eq!(right.stats.majorant_violations, 0, "{estimator:?}");
@@ -245,10 +240,11 @@ fn too_low_majorant_biases_delta_tracking_visibly_and_ratio_tracking_not() {
         (-2.0f64).exp(),
         residual.stats.density_lookups
     );
-    assert_unbiased(
+    assert_within_4_sigma(
         "residual ratio on an under-scaled tight cell",
         residual.estimate,
         (-1.0f64).exp(),
+        ESTIMATE_ROUNDING,
     );
     assert_eq!(residual.stats.density_lookups, 0);
 }
@@ -285,7 +281,7 @@ fn dense_and_thin_slabs_keep_every_estimator_unbiased_and_cheap() {
                     m.lookups_per_estimate
                 );
                 let what = format!("{name} x{loose} {estimator:?}");
-                assert_unbiased(&what, m.estimate, truth);
+                assert_within_4_sigma(&what, m.estimate, truth, ESTIMATE_ROUNDING);
                 assert!(
                     m.lookups_per_estimate <= max_lookups * loose as f64,
                     "{what}: {} lookups per estimate",
@@ -330,160 +326,8 @@ fn dense_and_thin_slabs_keep_every_estimator_unbiased_and_cheap() {
 // Render level: `cirrus render` on the scenes of scenes/tests/stability/.
 // ---------------------------------------------------------------------------
 
-/// `scenes/tests/NAME.usda` exported once per test process.
-fn exported(name: &str) -> PathBuf {
-    common::exported_test_scene(name, "stability_scenes")
-}
-
-/// A linear image's red channel (the test scenes are grey), row 0 at the top.
-struct Image {
-    width: usize,
-    height: usize,
-    red: Vec<f32>,
-}
-
-impl Image {
-    /// The pixels `(x, y)` that `keep` accepts.
-    fn pixels(&self, keep: impl Fn(usize, usize) -> bool) -> Vec<f64> {
-        (0..self.height)
-            .flat_map(|y| (0..self.width).map(move |x| (x, y)))
-            .filter(|&(x, y)| keep(x, y))
-            .map(|(x, y)| f64::from(self.red[y * self.width + x]))
-            .collect()
-    }
-}
-
-/// What one `cirrus render` reported: its counters, parsed from the log.
-struct RenderLog {
-    text: String,
-    camera_rays: f64,
-    closest_hit_rays: f64,
-    /// Density lookups per camera ray, 0 when the log has no volume line.
-    lookups_per_camera_ray: f64,
-}
-
-impl RenderLog {
-    fn parse(text: String) -> Self {
-        let rays = text
-            .lines()
-            .find_map(|l| l.split_once(" M rays/s ("))
-            .unwrap_or_else(|| panic!("no ray counts in:\n{text}"))
-            .1;
-        let words: Vec<f64> = rays
-            .split([' ', ','])
-            .filter_map(|w| w.parse().ok())
-            .collect();
-        let lookups = text
-            .lines()
-            .find_map(|l| l.split_once("volumes: "))
-            .map_or(0.0, |(_, rest)| {
-                rest.split(' ').next().unwrap().parse().unwrap()
-            });
-        assert!(
-            !text.contains("NaN/Inf sample"),
-            "a sample was not finite:\n{text}"
-        );
-        Self {
-            camera_rays: words[0],
-            closest_hit_rays: words[1],
-            lookups_per_camera_ray: lookups,
-            text,
-        }
-    }
-
-    /// Closest-hit rays per camera ray: path segments per sample.
-    fn segments_per_path(&self) -> f64 {
-        self.closest_hit_rays / self.camera_rays
-    }
-}
-
-/// One render: scene, size, samples, seed and any further flags (box
-/// filter, one thread).
-struct Render<'a> {
-    scene: &'a str,
-    res: (u32, u32),
-    spp: u32,
-    seed: u64,
-    extra: &'a [&'a str],
-}
-
-impl Render<'_> {
-    /// Runs `cirrus render` into `dir` and returns its log and, unless
-    /// `extra` crops it into a film state, the image.
-    fn run(&self, dir: &Path) -> (RenderLog, Option<Image>) {
-        let cropped = self.extra.contains(&"--crop");
-        let out = dir.join(format!(
-            "{}-{}spp-seed{}-{}.{}",
-            self.scene.replace('/', "_"),
-            self.spp,
-            self.seed,
-            self.extra.join("").replace(['-', ','], ""),
-            if cropped { "film" } else { "exr" }
-        ));
-        let (res, spp, seed) = (
-            format!("{}x{}", self.res.0, self.res.1),
-            self.spp.to_string(),
-            self.seed.to_string(),
-        );
-        let scene = exported(self.scene);
-        let mut args: Vec<&OsStr> = vec!["render".as_ref(), scene.as_os_str()];
-        args.extend(["-o".as_ref(), out.as_os_str()]);
-        for arg in [
-            "--res",
-            &res,
-            "--spp",
-            &spp,
-            "--seed",
-            &seed,
-            "--filter",
-            "box",
-            "--threads",
-            "1",
-            "--aovs",
-            "beauty",
-            "--force",
-        ]
-        .into_iter()
-        .chain(self.extra.iter().copied())
-        {
-            args.push(arg.as_ref());
-        }
-        let output = std::process::Command::new(env!("CARGO_BIN_EXE_cirrus"))
-            .args(&args)
-            .output()
-            .unwrap();
-        let log = String::from_utf8_lossy(&output.stderr).into_owned();
-        assert!(output.status.success(), "cirrus {args:?} failed:\n{log}");
-        let image = (!cropped).then(|| read_red(&out));
-        (RenderLog::parse(log), image)
-    }
-}
-
-/// The float red channel of an EXR written by `cirrus render`.
-fn read_red(path: &Path) -> Image {
-    let exr = read_all_flat_layers_from_file(path).unwrap();
-    let layer = &exr.layer_data[0];
-    let red = layer
-        .channel_data
-        .list
-        .iter()
-        .find(|c| c.name.to_string() == "R")
-        .unwrap_or_else(|| panic!("{}: no R channel", path.display()));
-    let red = match &red.sample_data {
-        FlatSamples::F32(v) => v.clone(),
-        other => panic!("{}: R is not float: {other:?}", path.display()),
-    };
-    assert!(
-        red.iter().all(|v| v.is_finite()),
-        "{}: a pixel is not finite",
-        path.display()
-    );
-    Image {
-        width: layer.size.0,
-        height: layer.size.1,
-        red,
-    }
-}
+/// The channel measured: red (the stability scenes are grey).
+const RED: usize = 0;
 
 /// How many standard errors apart two independent estimates are.
 fn z(a: &Estimate, b: &Estimate) -> f64 {
@@ -496,9 +340,9 @@ fn z(a: &Estimate, b: &Estimate) -> f64 {
 /// variance of one render.
 fn paired(a: &Image, b: &Image) -> (f64, f64) {
     let differences: Vec<f64> = a
-        .pixels(|_, _| true)
+        .pixels(RED, |_, _| true)
         .iter()
-        .zip(b.pixels(|_, _| true))
+        .zip(b.pixels(RED, |_, _| true))
         .map(|(x, y)| x - y)
         .collect();
     let d = estimate(&differences);
@@ -517,7 +361,7 @@ fn assert_same_picture(what: &str, a: &Image, b: &Image) {
     let blocks = |image: &Image| -> Vec<Estimate> {
         let (bw, bh) = (image.width / 4, image.height / 4);
         (0..bw * bh)
-            .map(|i| estimate(image.pixels(|x, y| x / 4 == i % bw && y / 4 == i / bw)))
+            .map(|i| estimate(image.pixels(RED, |x, y| x / 4 == i % bw && y / 4 == i / bw)))
             .collect()
     };
     for (i, (p, q)) in blocks(a).iter().zip(&blocks(b)).enumerate() {
@@ -564,9 +408,9 @@ fn absorber_shadow_renders(scene: &str, spp: u32) -> Vec<(&'static str, RenderLo
                 seed: seed as u64,
                 extra: &["--volume-estimator", estimator],
             }
-            .run(&dir);
+            .run_logged(&dir);
             let image = image.unwrap();
-            let clear = image.pixels(|x, y| over_core(x, y) == Some(false));
+            let clear = image.pixels(RED, |x, y| over_core(x, y) == Some(false));
             assert!(
                 clear.iter().all(|&v| (v - 0.5).abs() < 1e-5),
                 "{scene}, {estimator}: the floor clear of the box is not 0.5"
@@ -574,7 +418,7 @@ fn absorber_shadow_renders(scene: &str, spp: u32) -> Vec<(&'static str, RenderLo
             (
                 estimator,
                 log,
-                image.pixels(|x, y| over_core(x, y) == Some(true)),
+                image.pixels(RED, |x, y| over_core(x, y) == Some(true)),
             )
         })
         .collect()
@@ -598,7 +442,12 @@ fn thin_medium_is_resolved_by_every_estimator() {
             4.0 * core.sigma < 0.5 - expected,
             "{estimator}: too noisy to resolve the medium"
         );
-        assert_unbiased(&format!("thin core, {estimator}"), core, expected);
+        assert_within_4_sigma(
+            &format!("thin core, {estimator}"),
+            core,
+            expected,
+            ESTIMATE_ROUNDING,
+        );
     }
 }
 
@@ -637,7 +486,7 @@ fn dense_medium_is_black_finite_and_bounded_in_cost_for_every_estimator() {
         seed: 9,
         extra: &["--crop", "10,10,22,22"],
     }
-    .run(&common::scratch("stability_dense_core"));
+    .run_logged(&common::scratch("stability_dense_core"));
     eprintln!(
         "dense, core pixels only: {:.1} lookups per camera ray",
         core.lookups_per_camera_ray
@@ -667,8 +516,8 @@ fn forward_scattering_furnace_reads_the_dome() {
             seed,
             extra,
         }
-        .run(&dir);
-        (log, estimate(image.unwrap().pixels(|_, _| true)))
+        .run_logged(&dir);
+        (log, estimate(image.unwrap().pixels(RED, |_, _| true)))
     };
     let (log, mis) = render(1, &["--max-depth", "100000"]);
     eprintln!(
@@ -679,7 +528,7 @@ fn forward_scattering_furnace_reads_the_dome() {
         log.lookups_per_camera_ray
     );
     assert!(4.0 * mis.sigma < 0.05, "sigma {}", mis.sigma);
-    assert_unbiased("furnace g 0.95", mis, 1.0);
+    assert_within_4_sigma("furnace g 0.95", mis, 1.0, ESTIMATE_ROUNDING);
     let (_, cut) = render(2, &[]);
     eprintln!(
         "furnace g 0.95 at the default max depth: {:.4} +- {:.1e}",
@@ -723,7 +572,7 @@ fn high_albedo_cloud_estimators_agree() {
             seed,
             extra: &flags,
         }
-        .run(&dir);
+        .run_logged(&dir);
         eprintln!(
             "cloud albedo 0.99 {extra:?}: {:.1} path segments, {:.1} lookups per camera ray",
             log.segments_per_path(),
@@ -769,7 +618,7 @@ fn equiangular_sampling_cuts_variance_around_a_point_light_in_fog() {
                 seed,
                 extra,
             }
-            .run(&dir)
+            .run_logged(&dir)
             .1
             .unwrap()
         };
@@ -823,12 +672,12 @@ fn caustics_through_glass_are_the_known_failure_of_path_tracing() {
             seed,
             extra: &[],
         }
-        .run(&dir)
+        .run_logged(&dir)
         .1
         .unwrap()
     };
     let bare_truth = bare_light_floor_mean(0.02, 2500.0, 1.0);
-    let bare = estimate(render("stability/sds_bare_light", 1).pixels(|_, _| true));
+    let bare = estimate(render("stability/sds_bare_light", 1).pixels(RED, |_, _| true));
     eprintln!(
         "SDS control, bare light: {:.5} +- {:.1e} (closed form {bare_truth:.5})",
         bare.mean, bare.sigma
@@ -843,7 +692,7 @@ fn caustics_through_glass_are_the_known_failure_of_path_tracing() {
         render("stability/sds_glass_light", 2),
         render("stability/sds_glass_light", 3),
     );
-    let glass = estimate(a.pixels(|_, _| true));
+    let glass = estimate(a.pixels(RED, |_, _| true));
     let noise = paired(&a, &b).1.sqrt();
     eprintln!(
         "SDS sphere light in glass: {:.4} +- {:.1e} (truth ~{truth:.4}), per-pixel noise {noise:.3} ({:.0}% of the signal)",
@@ -861,7 +710,7 @@ fn caustics_through_glass_are_the_known_failure_of_path_tracing() {
     );
 
     let point = render("stability/sds_glass_point", 4);
-    let mut values = point.pixels(|_, _| true);
+    let mut values = point.pixels(RED, |_, _| true);
     values.sort_by(f64::total_cmp);
     let median = values[values.len() / 2];
     eprintln!(
@@ -890,7 +739,7 @@ fn tiny_and_huge_scene_scales_render_the_same_picture() {
             seed,
             extra: &[],
         }
-        .run(&dir)
+        .run_logged(&dir)
         .1
         .unwrap()
     };

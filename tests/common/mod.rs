@@ -2,6 +2,8 @@
 //! project's Python live, and scratch folders.
 #![allow(dead_code)] // each test binary uses its own subset
 
+pub mod render;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -96,6 +98,24 @@ pub fn estimate<T: std::borrow::Borrow<f64>>(samples: impl IntoIterator<Item = T
         mean,
         sigma: (m2 / (n - 1.0) / n).sqrt(),
     }
+}
+
+/// Asserts `measured` is within 4 sigma of `expected`, where sigma also
+/// counts f32 rounding, `rounding` relative to `expected` (at least 1e-3 in
+/// magnitude), so that a noise-free estimate is not asked for more digits
+/// than f32 has; prints both on stderr.
+pub fn assert_within_4_sigma(what: &str, measured: Estimate, expected: f64, rounding: f64) {
+    let tolerance = 4.0 * measured.sigma.hypot(rounding * expected.abs().max(1e-3));
+    eprintln!(
+        "{what}: expected {expected:.6}, measured {:.6}, sigma {:.2e}",
+        measured.mean, measured.sigma
+    );
+    assert!(
+        (measured.mean - expected).abs() <= tolerance,
+        "{what}: measured {:.6} +- {:.2e} (1 sigma), expected {expected:.6}",
+        measured.mean,
+        measured.sigma
+    );
 }
 
 /// `scenes/tests/NAME.usda` exported once per test process into the scratch
