@@ -31,6 +31,19 @@ const MIN_FACTOR_PER_DOUBLING: f64 = 1.5;
 /// The scene's mean radiance over pixels and channels, (0.75 + 1.5 + 3) / 3.
 const MEAN_RADIANCE: f64 = 1.75;
 
+/// Each row's (method, spp, seed), in file order.
+fn row_keys(rows: &[HashMap<String, String>]) -> Vec<(String, u32, u32)> {
+    rows.iter()
+        .map(|r| {
+            (
+                r["method"].clone(),
+                r["spp"].parse().unwrap(),
+                r["seed"].parse().unwrap(),
+            )
+        })
+        .collect()
+}
+
 /// A CSV as a header and rows of named fields.
 fn read_csv(path: &Path) -> (Vec<String>, Vec<HashMap<String, String>>) {
     let text = std::fs::read_to_string(path).unwrap();
@@ -102,17 +115,7 @@ fn converge_writes_rows_and_unbiased_error_falls_with_spp() {
         .flat_map(|m| BUDGETS.iter().map(move |&spp| (m, spp)))
         .flat_map(|(m, spp)| (0..SEEDS).map(move |seed| (m.to_string(), spp, seed)))
         .collect();
-    let got: Vec<(String, u32, u32)> = rows
-        .iter()
-        .map(|r| {
-            (
-                r["method"].clone(),
-                r["spp"].parse().unwrap(),
-                r["seed"].parse().unwrap(),
-            )
-        })
-        .collect();
-    assert_eq!(got, expected);
+    assert_eq!(row_keys(&rows), expected);
     for r in &rows {
         assert_eq!(r["scene"], "lambert_plane_dome");
         assert!(number(r, "seconds") > 0.0);
@@ -221,16 +224,7 @@ fn converge_adds_peer_rows() {
     }
     // Our default method first, at 1, 2, 4 spp and on doubling past 4 until
     // it takes as long as the peer's slowest render; then the peer's rows.
-    let keys: Vec<(String, u32, u32)> = rows
-        .iter()
-        .map(|r| {
-            (
-                r["method"].clone(),
-                r["spp"].parse().unwrap(),
-                r["seed"].parse().unwrap(),
-            )
-        })
-        .collect();
+    let keys = row_keys(&rows);
     let ours = keys.iter().take_while(|k| k.0 == "default").count();
     let ours_spp: Vec<u32> = keys[..ours].iter().step_by(2).map(|k| k.1).collect();
     assert!(ours_spp.len() >= 3, "{keys:?}");

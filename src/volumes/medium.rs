@@ -24,7 +24,7 @@ use super::{
     BlackbodyTable, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
     MajorantSegments, SparseGrid, VdbFile, VolumeError,
 };
-use crate::scene::{affine, Scene};
+use crate::scene::{affine, Scene, VolumeField};
 
 /// A density field's identity: file, grid name and occurrence index. Each is
 /// read (and its majorant grid built) once, whatever the placements.
@@ -344,12 +344,11 @@ impl Media {
                 let Some(field) = volume.fields.get("density") else {
                     continue; // warned above, once per volume
                 };
-                let key = (field.file.clone(), field.grid.clone(), field.index);
+                let key = field_key(field);
                 let (density, majorant) = match grids.get(&key) {
                     Some(found) => found.clone(),
                     None => {
-                        let grid = VdbFile::open(&field.file)?
-                            .read_float_grid(&field.grid, field.index as usize)?;
+                        let grid = read_field(field)?;
                         let stats = grid.stats();
                         if stats.non_finite_count > 0 || stats.min_value < 0.0 {
                             log::warn!(
@@ -403,14 +402,11 @@ impl Media {
                             Vec3::from(volume.emission_color) * volume.emission_scale,
                         ),
                     };
-                    let key = (field.file.clone(), field.grid.clone(), field.index);
+                    let key = field_key(field);
                     let grid = match emission_grids.get(&key) {
                         Some(found) => Arc::clone(found),
                         None => {
-                            let grid = Arc::new(
-                                VdbFile::open(&field.file)?
-                                    .read_float_grid(&field.grid, field.index as usize)?,
-                            );
+                            let grid = Arc::new(read_field(field)?);
                             emission_grids.insert(key, Arc::clone(&grid));
                             grid
                         }
@@ -447,6 +443,16 @@ impl Media {
             .then(BlackbodyTable::new);
         Ok(Self { media, blackbody })
     }
+}
+
+/// The identity under which `field`'s grid is read once and shared.
+fn field_key(field: &VolumeField) -> FieldKey {
+    (field.file.clone(), field.grid.clone(), field.index)
+}
+
+/// Reads `field`'s float grid from its VDB file.
+fn read_field(field: &VolumeField) -> Result<SparseGrid, VolumeError> {
+    VdbFile::open(&field.file)?.read_float_grid(&field.grid, field.index as usize)
 }
 
 fn to_f64(a: &Affine3A) -> DAffine3 {
