@@ -321,6 +321,13 @@ const CORRUPTIONS: &[Corruption] = &[
         expect: &["scene.json: prototypes[0].volumes[0].volume: index 1 >= 1 volumes"],
     },
     Corruption {
+        name: "density scale neither grey nor RGB",
+        apply: Apply::Content(|f| set(f, "/volumes/0/density_scale", json!([1, 2]))),
+        expect: &[
+            "scene.json: volumes[0].density_scale: expected one number (grey) or three (RGB channels)",
+        ],
+    },
+    Corruption {
         name: "prototype transform too short",
         apply: Apply::Content(|f| set(f, "/prototypes/0/meshes/0/transform", json!([1, 0, 0]))),
         expect: &["scene.json: prototypes[0].meshes[0].transform:"],

@@ -560,7 +560,10 @@ fn grey_or_rgb<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<Rgb,
         Grey(f32),
         Rgb(Rgb),
     }
-    Ok(match GreyOrRgb::deserialize(deserializer)? {
+    let value = GreyOrRgb::deserialize(deserializer).map_err(|_| {
+        serde::de::Error::custom("expected one number (grey) or three (RGB channels)")
+    })?;
+    Ok(match value {
         GreyOrRgb::Grey(v) => [v; 3],
         GreyOrRgb::Rgb(rgb) => rgb,
     })
