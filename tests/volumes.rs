@@ -268,29 +268,39 @@ fn estimators_agree_with_the_exact_optical_depth_on_the_shared_vdbs() {
 const CELL: f32 = 8.0;
 
 /// The bounds the majorant grid's DDA reports over the short ray from `a` to
-/// `b` (index space, both inside one cell): its one segment's
-/// `(sigma_maj, sigma_min)` at densityScale 1, `(0, 0)` for a skipped
-/// (empty) cell. Asserts the segment covers the whole ray.
-fn dda_range(majorant: &MajorantGrid, a: Vec3, b: Vec3) -> (f32, f32) {
+/// `b` (index space, both inside one cell) at densityScale 1, as
+/// `(sigma_maj, sigma_min)`, or `None` when it yields no segment (an empty
+/// cell, or a ray through the part of a cell its support box clips away).
+/// Asserts there is at most one segment, and that the ray reads zero
+/// density at 17 points along it outside that segment (beyond f32 slack).
+fn dda_range(grid: &SparseGrid, majorant: &MajorantGrid, a: Vec3, b: Vec3) -> Option<(f32, f32)> {
     let segments: Vec<_> = majorant.segments(a, b - a, 0.0, 1.0, Vec3::ONE).collect();
-    match segments[..] {
-        [] => (0.0, 0.0),
-        [s] => {
-            assert_eq!((s.t_min, s.t_max), (0.0, 1.0), "{a} -> {b}: {s:?}");
-            (s.sigma_maj, s.sigma_min)
-        }
+    let (t_min, t_max) = match segments[..] {
+        [] => (1.0, 0.0),
+        [s] => (s.t_min - 1e-4, s.t_max + 1e-4),
         _ => panic!("{a} -> {b} inside one cell crosses {segments:?}"),
+    };
+    for k in 0..=16 {
+        let t = k as f32 / 16.0;
+        let v = grid.trilinear_index(a + (b - a) * t).max(0.0);
+        assert!(
+            (t_min..=t_max).contains(&t) || v == 0.0,
+            "{a} -> {b}: density {v} at t = {t} outside {segments:?}"
+        );
     }
+    segments.first().map(|s| (s.sigma_maj, s.sigma_min))
 }
 
 /// Every 8^3 cell of the majorant grids of the shared VDBs, probed through
-/// the public DDA: the bounds it reports at the cell's center, and along 4
-/// random short rays inside the cell (the same), hold the trilinear density
-/// at all 9^3 integer points of the closed cell (corners, edges and faces
-/// included; they are exactly the voxels its lookups read, so the max and
-/// min there ARE the bounds, which checks they are not loose either), at 64
-/// random interior points, 4 random points on each face and the ends and
-/// middles of the short rays. Empty (skipped) cells must read 0 everywhere.
+/// the public DDA. The exact bounds of a cell are the max and min of the
+/// trilinear density at the 9^3 integer points of the closed cell (they are
+/// exactly the voxels its lookups read). Every segment the DDA reports for
+/// the cell, along its center ray and 4 random short rays inside it, carries
+/// those bounds (so they are neither wrong nor loose), and wherever a ray
+/// gets no segment the density is 0 (empty cells, or the part of a cell its
+/// support box clips away). The bounds hold the density at the 9^3 points,
+/// 64 random interior points, 4 random points on each face and the ends and
+/// middles of the short rays.
 #[test]
 fn majorant_grid_bounds_trilinear_density_in_every_cell_of_the_shared_vdbs() {
     for path in [TEAPOT, SMOKE] {
@@ -308,43 +318,44 @@ fn majorant_grid_bounds_trilinear_density_in_every_cell_of_the_shared_vdbs() {
                 (0..dims.y).flat_map(move |y| (0..dims.z).map(move |z| IVec3::new(x, y, z)))
             })
             .collect();
-        let non_empty = cells
+        let (non_empty, reported) = cells
             .par_iter()
             .enumerate()
-            .filter(|&(n, &cell)| {
+            .map(|(n, &cell)| {
                 let mut rng = Pcg32::new(n as u64, 0);
                 let corner = lo + cell.as_vec3() * CELL;
+                let mut probes = Vec::new();
+                let (mut max, mut min) = (f32::NEG_INFINITY, f32::INFINITY);
+                for i in 0..=8 {
+                    for j in 0..=8 {
+                        for k in 0..=8 {
+                            let p = corner + Vec3::new(i as f32, j as f32, k as f32);
+                            let v = grid.trilinear_index(p).max(0.0);
+                            (max, min) = (max.max(v), min.min(v));
+                            probes.push(p);
+                        }
+                    }
+                }
                 let center = corner + Vec3::splat(0.5 * CELL);
-                let (max, min) = dda_range(&majorant, center, center + 0.25 * Vec3::ONE);
-                let mut probes: Vec<Vec3> = (0..4)
-                    .flat_map(|_| {
-                        let a = corner + CELL * uniform3(&mut rng);
-                        let b = corner + CELL * uniform3(&mut rng);
-                        assert_eq!(
-                            dda_range(&majorant, a, b),
-                            (max, min),
-                            "{path}: cell {cell}"
-                        );
-                        [a, 0.5 * (a + b), b]
-                    })
-                    .collect();
+                let mut rays = vec![(center, center + 0.25 * Vec3::ONE)];
+                rays.extend((0..4).map(|_| {
+                    let a = corner + CELL * uniform3(&mut rng);
+                    (a, corner + CELL * uniform3(&mut rng))
+                }));
+                let mut reported = 0;
+                for (a, b) in rays {
+                    if let Some(range) = dda_range(&grid, &majorant, a, b) {
+                        assert_eq!(range, (max, min), "{path}: cell {cell}'s bounds");
+                        reported += 1;
+                    }
+                    probes.extend([a, 0.5 * (a + b), b]);
+                }
                 probes.extend((0..64).map(|_| corner + CELL * uniform3(&mut rng)));
                 for axis in 0..6 {
                     for _ in 0..4 {
                         let mut u = uniform3(&mut rng);
                         u[axis % 3] = (axis / 3) as f32;
                         probes.push(corner + CELL * u);
-                    }
-                }
-                let mut lattice = (f32::NEG_INFINITY, f32::INFINITY);
-                for i in 0..=8 {
-                    for j in 0..=8 {
-                        for k in 0..=8 {
-                            let p = corner + Vec3::new(i as f32, j as f32, k as f32);
-                            let v = grid.trilinear_index(p).max(0.0);
-                            lattice = (lattice.0.max(v), lattice.1.min(v));
-                            probes.push(p);
-                        }
                     }
                 }
                 // f32 rounding of the interpolation weights.
@@ -356,16 +367,15 @@ fn majorant_grid_bounds_trilinear_density_in_every_cell_of_the_shared_vdbs() {
                         "{path}: density {v} at {p} outside cell {cell}'s [{min}, {max}]"
                     );
                 }
-                assert_eq!(
-                    lattice,
-                    (max, min),
-                    "{path}: cell {cell}'s bounds are not attained"
-                );
-                max > 0.0
+                (usize::from(max > 0.0), reported)
             })
-            .count();
-        println!("{path}: {} cells, {non_empty} non-empty", cells.len());
+            .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
+        println!(
+            "{path}: {} cells, {non_empty} non-empty, {reported} segments reported",
+            cells.len()
+        );
         assert!(non_empty > 1000, "{path}: only {non_empty} non-empty cells");
+        assert!(reported > 2 * non_empty, "{path}: {reported} segments");
     }
 }
 

@@ -295,34 +295,53 @@ impl SparseGrid {
         (entry != EMPTY && entry & CONSTANT == 0).then_some(entry as usize)
     }
 
-    /// Calls `f` with every value a trilinear lookup at a point inside the 8^3
-    /// block `block` (index-space box `[8 block, 8 block + 8)`) can read: the
-    /// block's own voxels and the layer one voxel beyond it on +x, +y and +z
-    /// (the 9^3 footprint of [`Self::trilinear_index`]), each at least once;
-    /// a constant or empty region is reported once. Built for majorant grids:
-    /// min and max over these values bound every interpolated value in the block.
-    pub(crate) fn for_each_footprint_value(&self, block: IVec3, mut f: impl FnMut(f32)) {
+    /// Calls `f(lo, hi, v)` for every value `v` a trilinear lookup at a point
+    /// inside the 8^3 block `block` (index-space box `[8 block, 8 block + 8)`)
+    /// can read, with the inclusive box `lo..=hi` of footprint voxels holding
+    /// it, relative to the block's first voxel: the block's own voxels and the
+    /// layer one voxel beyond it on +x, +y and +z (the 9^3 footprint of
+    /// [`Self::trilinear_index`], coordinates 0..=8), each at least once; a
+    /// constant or empty region is reported once with its whole box. Built for
+    /// majorant grids: min and max over these values bound every interpolated
+    /// value in the block, and where the non-zero ones lie bounds where
+    /// density can be non-zero.
+    pub(crate) fn for_each_footprint_value(
+        &self,
+        block: IVec3,
+        mut f: impl FnMut(IVec3, IVec3, f32),
+    ) {
         let origin = block << BRICK_LOG2;
         let e = self.entry(origin);
         if let Some(b) = self.resolve(e) {
             // The apron already holds the +1 layer.
-            self.bricks[b].iter().for_each(|&v| f(v));
+            let edge = APRON_EDGE as i32;
+            for (i, &v) in self.bricks[b].iter().enumerate() {
+                let i = i as i32;
+                let at = IVec3::new(i / (edge * edge), i / edge % edge, i % edge);
+                f(at, at, v);
+            }
             return;
         }
-        f(self.entry_value(e));
+        f(IVec3::ZERO, IVec3::splat(7), self.entry_value(e));
         for n in 1..8 {
             let d = IVec3::new(n >> 2, (n >> 1) & 1, n & 1);
-            let e = self.entry(origin + (d << BRICK_LOG2));
+            // Only the neighbour's layer touching this block: one voxel deep along each stepped axis.
+            let first = d << BRICK_LOG2;
+            let end = IVec3::select(d.cmpeq(IVec3::ONE), IVec3::ONE, IVec3::splat(8));
+            let e = self.entry(origin + first);
             let Some(b) = self.resolve(e) else {
-                f(self.entry_value(e));
+                f(first, first + end - IVec3::ONE, self.entry_value(e));
                 continue;
             };
-            // Only the neighbour's layer touching this block: one voxel deep along each stepped axis.
-            let end = IVec3::select(d.cmpeq(IVec3::ONE), IVec3::ONE, IVec3::splat(8));
             for x in 0..end.x {
                 for y in 0..end.y {
                     for z in 0..end.z {
-                        f(self.bricks[b][Self::apron_offset(IVec3::new(x, y, z))]);
+                        let at = IVec3::new(x, y, z);
+                        f(
+                            first + at,
+                            first + at,
+                            self.bricks[b][Self::apron_offset(at)],
+                        );
                     }
                 }
             }

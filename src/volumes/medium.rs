@@ -19,6 +19,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use glam::{Affine3A, DAffine3, Vec3};
+use smallvec::SmallVec;
 
 use super::{
     BlackbodyTable, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
@@ -124,7 +125,9 @@ pub struct Media {
 /// A ray prepared against the media it crosses: each medium's index-space
 /// ray, so density lookups along it are one multiply-add.
 pub struct MediaRay<'a> {
-    media: Vec<(&'a Medium, Vec3, Vec3)>,
+    /// Held inline for up to two media: most rays cross one, and a heap
+    /// allocation per ray showed in profiles.
+    media: SmallVec<[(&'a Medium, Vec3, Vec3); 2]>,
     blackbody: Option<&'a BlackbodyTable>,
     origin: Vec3,
     direction: Vec3,
