@@ -12,6 +12,10 @@
 //! CI), Cycles only by `CIRRUS_REQUIRE_CYCLES=1` (CI does not install it).
 //! Each comparison's means, ratios and relMSE are written to stderr
 //! (uncaptured), so the test log shows the agreement.
+//!
+//! Textures (`textured_quads`) are held to tighter bounds than issue 7's,
+//! [`TEXTURES`]: on Lambert quads each pixel is its texel, so a flipped t
+//! axis (relMSE 2.2 with Mitsuba) or a lost texture fails at once.
 
 mod common;
 
@@ -57,10 +61,32 @@ fn log(line: &str) {
     let _ = writeln!(std::io::stderr(), "{line}");
 }
 
+/// Agreement bounds handed to compare.py.
+struct Limits {
+    /// Largest |mean ratio - 1| of any channel.
+    ratio: &'static str,
+    /// The relMSE after 4x4 downsampling must stay below this.
+    relmse: &'static str,
+}
+
+/// Issue 7's bounds (compare.py's defaults).
+const ISSUE_7: Limits = Limits {
+    ratio: "0.02",
+    relmse: "1e-2",
+};
+
+/// Textures on Lambert quads: measured 0.5% and 6e-4 with Mitsuba, 0.2% and
+/// 1.3e-4 with Cycles (128x128, 64 spp, 2026-11-24); Cycles' own sRGB
+/// filtering (before decoding) was 1.4% off on one quad and is below these.
+const TEXTURES: Limits = Limits {
+    ratio: "0.01",
+    relmse: "2e-3",
+};
+
 /// Runs compare.py on `scenes/peers/SCENE.usda` against `peer` at `res` and
-/// `spp` with the default thresholds; logs its summary and fails with its
-/// whole output when the renderers disagree (or a step fails).
-fn compare(scene: &str, peer: &str, res: &str, spp: &str) {
+/// `spp` within `limits`; logs its summary and fails with its whole output
+/// when the renderers disagree (or a step fails).
+fn compare(scene: &str, peer: &str, res: &str, spp: &str, limits: &Limits) {
     let test = format!("{scene} against {peer}");
     if !peer_installed(&test, peer) {
         return;
@@ -73,6 +99,8 @@ fn compare(scene: &str, peer: &str, res: &str, spp: &str) {
         .arg(root.join(format!("scenes/peers/{scene}.usda")))
         .args(["--peer", peer, "--res", res, "--spp", spp])
         .args(["--seed", "1", "--threads", "2"])
+        .args(["--max-ratio-error", limits.ratio])
+        .args(["--max-relmse", limits.relmse])
         .arg("--cirrus")
         .arg(env!("CARGO_BIN_EXE_cirrus"))
         .arg("--workdir")
@@ -96,49 +124,70 @@ fn compare(scene: &str, peer: &str, res: &str, spp: &str) {
 /// and a dome through a perspective camera.
 #[test]
 fn surfaces_agree_with_mitsuba() {
-    compare("surface_lights", "mitsuba-scalar", "96x64", "64");
+    compare("surface_lights", "mitsuba-scalar", "96x64", "64", &ISSUE_7);
 }
 
 /// The teapot cloud, transformed, coloured and forward-scattering, under a
 /// sun and a dome.
 #[test]
 fn volume_agrees_with_mitsuba() {
-    compare("volume_teapot", "mitsuba-scalar", "96x64", "64");
+    compare("volume_teapot", "mitsuba-scalar", "96x64", "64", &ISSUE_7);
 }
 
 /// Sub-voxel placement of VDB values: a window of about 21 voxels on the
 /// teapot cloud's edge (half a voxel off fails both thresholds).
 #[test]
 fn voxel_placement_agrees_with_mitsuba() {
-    compare("volume_voxels", "mitsuba-scalar", "64x64", "64");
+    compare("volume_voxels", "mitsuba-scalar", "64x64", "64", &ISSUE_7);
 }
 
-/// The three scenes with Mitsuba's LLVM variant (`llvm_ad_rgb`, on
+/// Textures as `bitmap`s: orientation, sRGB decoding, st transform, wrap,
+/// channel, scale/bias and a tangent-space normal map.
+#[test]
+fn textures_agree_with_mitsuba() {
+    compare(
+        "textured_quads",
+        "mitsuba-scalar",
+        "128x128",
+        "64",
+        &TEXTURES,
+    );
+}
+
+/// The four scenes with Mitsuba's LLVM variant (`llvm_ad_rgb`, on
 /// Debian's libllvm19): the same converter, another backend.
 #[test]
 fn scenes_agree_with_mitsuba_llvm() {
-    compare("surface_lights", "mitsuba-llvm", "96x64", "64");
-    compare("volume_teapot", "mitsuba-llvm", "96x64", "64");
-    compare("volume_voxels", "mitsuba-llvm", "64x64", "64");
+    compare("surface_lights", "mitsuba-llvm", "96x64", "64", &ISSUE_7);
+    compare("volume_teapot", "mitsuba-llvm", "96x64", "64", &ISSUE_7);
+    compare("volume_voxels", "mitsuba-llvm", "64x64", "64", &ISSUE_7);
+    compare("textured_quads", "mitsuba-llvm", "128x128", "64", &TEXTURES);
 }
 
 /// Surfaces and lights with Cycles: Blender's light units (watts, sun
 /// irradiance, world radiance) converted from UsdLux.
 #[test]
 fn surfaces_agree_with_cycles() {
-    compare("surface_lights", "cycles", "96x64", "64");
+    compare("surface_lights", "cycles", "96x64", "64", &ISSUE_7);
 }
 
 /// The transformed teapot cloud with Cycles: density per world unit
 /// (Blender's default, object space, is 4% off here and fails).
 #[test]
 fn volume_agrees_with_cycles() {
-    compare("volume_teapot", "cycles", "96x64", "64");
+    compare("volume_teapot", "cycles", "96x64", "64", &ISSUE_7);
 }
 
 /// VDB placement with Cycles, which puts values at voxel centres: without
 /// the converter's half-voxel shift it is 4% off (relMSE 4.3e-2) and fails.
 #[test]
 fn voxel_placement_agrees_with_cycles() {
-    compare("volume_voxels", "cycles", "64x64", "64");
+    compare("volume_voxels", "cycles", "64x64", "64", &ISSUE_7);
+}
+
+/// Textures as Image Texture node chains on the "st" UV layer, 8-bit sRGB
+/// images decoded before filtering, and a Normal Map node.
+#[test]
+fn textures_agree_with_cycles() {
+    compare("textured_quads", "cycles", "128x128", "64", &TEXTURES);
 }

@@ -138,7 +138,7 @@ class MaterialTable:
 
     @staticmethod
     def _fallback(path: str) -> dict:
-        """The grey diffuse stand-in for a material we cannot read."""
+        """The stand-in for a material we cannot read: UsdPreviewSurface's defaults (a grey 0.18 plastic)."""
         record = {"path": path, "fallback": True}
         for key, _, default in SURFACE_INPUTS:
             record[key] = default

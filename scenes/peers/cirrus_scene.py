@@ -4,7 +4,9 @@ Plain data only: the manifest as parsed JSON, bulk arrays as numpy views of
 scene.bin (little-endian f32/u32), and 3x4 row-major transforms as 4x4 numpy
 matrices acting on column vectors; plus the few rules of Cirrus' that every
 converter repeats (UsdLux emission, aperture conforming, clipping, distant-light
-irradiance). Used by the peer-renderer converters in this folder (Mitsuba in the
+irradiance, the material Cirrus gives unbound triangles, and how Cirrus reads a
+texture: TextureInput, sRGB decoding, the st transform, scale and bias).
+Used by the peer-renderer converters in this folder (Mitsuba in the
 project .venv, Cycles inside Blender's Python: numpy only); it renders nothing.
 """
 
@@ -12,6 +14,7 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -62,10 +65,18 @@ def emission(light):
     return np.asarray(light["color"], dtype=np.float64) * light["intensity"] * 2.0 ** light["exposure"]
 
 
-#: u32::MAX in triangle_materials: no material (Cirrus' grey default).
+#: u32::MAX in triangle_materials: no material (Cirrus renders UNBOUND).
 NO_MATERIAL = 0xFFFFFFFF
-#: Cirrus' default and fallback material albedo.
+#: UsdPreviewSurface's default diffuseColor.
 GREY = [0.18, 0.18, 0.18]
+#: The material record Cirrus renders for NO_MATERIAL (src/materials/mod.rs:
+#: UsdPreviewSurface's defaults, a grey plastic with roughness 0.5 and ior 1.5,
+#: not a Lambert), which is also what the exporter writes for a material it
+#: could not read ("fallback": true; Cirrus renders those records as they are).
+UNBOUND = {"path": "(no material)", "fallback": False, "diffuse_color": GREY,
+           "emissive_color": [0.0, 0.0, 0.0], "metallic": 0.0, "roughness": 0.5,
+           "specular_color": [0.0, 0.0, 0.0], "use_specular_workflow": False, "ior": 1.5,
+           "opacity": 1.0, "clearcoat": 0.0, "clearcoat_roughness": 0.01, "normal": None}
 
 
 def parse_resolution(text):
@@ -128,7 +139,7 @@ def distant_irradiance(light):
 
 def material_input(manifest, material, key, default):
     """(a material input's constant value, whether it was a texture): a textured
-    input gives its texture's fallback value, which converters use instead."""
+    input gives its texture's fallback value (Cirrus' value where the image is missing)."""
     value = material.get(key, default)
     if isinstance(value, dict):
         fallback = manifest["textures"][value["texture"]]["fallback"]
@@ -136,18 +147,63 @@ def material_input(manifest, material, key, default):
     return value, False
 
 
-def is_lambert(manifest, material):
-    """Whether a UsdPreviewSurface is exactly Lambertian in Cirrus: the specular
-    workflow with zero specularColor, no clearcoat, opaque."""
-    specular, _ = material_input(manifest, material, "specular_color", [0.0, 0.0, 0.0])
-    opacity, _ = material_input(manifest, material, "opacity", 1.0)
-    return (material.get("use_specular_workflow", False) and max(specular) == 0
-            and material.get("clearcoat", 0.0) == 0 and opacity >= 1)
+class TextureInput(NamedTuple):
+    """A material input read from a texture whose image file exists (src/materials/texture.rs).
+
+    Conventions the converters must reproduce: st = (0, 0) is the image's
+    bottom-left corner (row = (1 - t) height), texel centres at half-integers,
+    bilinear filtering without mipmaps, `st_transform` (UsdTransform2d: scale,
+    rotate counter-clockwise, translate) applied to the mesh's st first, wrap
+    per axis on texel indices, colour space `auto` = sRGB-decode 8-bit images
+    (OIIO's tag), the value texel x scale + bias, then `channel` picked (a
+    single channel splatted to grey for colours; `rgb` reads r for scalars).
+    """
+
+    #: Index into the manifest's "textures".
+    index: int
+    #: The manifest's texture record (file, wrap_s/t, scale, bias, fallback, color_space, st_transform).
+    record: dict
+    #: The image, resolved against the scene folder.
+    file: Path
+    #: The output read: "rgb", "r", "g", "b" or "a".
+    channel: str
+
+
+def srgb_to_linear(v):
+    """The sRGB decoding Cirrus applies to sRGB images (src/output/exr.rs), elementwise."""
+    v = np.asarray(v, dtype=np.float32)
+    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def st_from_uv(record):
+    """A texture's UsdTransform2d as a 3x3 affine matrix on (s, t, 1) (identity when none)."""
+    m = np.eye(3)
+    t = record.get("st_transform")
+    if t:
+        a = math.radians(t["rotation_deg"])
+        rotate = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+        m[:2, :2] = rotate @ np.diag(t["scale"])
+        m[:2, 2] = t["translation"]
+    return m
+
+
+def stores_unit_range(record):
+    """Whether a texture's scale is 1 and bias 0 on r, g and b (texture.rs'
+    keeps_stored_range): a normal map then still needs 2 v - 1."""
+    return list(record["scale"][:3]) == [1.0] * 3 and list(record["bias"][:3]) == [0.0] * 3
+
+
+def shared_wrap(record, supported):
+    """A texture's wrap mode when both axes share it and it is in `supported`
+    (the peer's modes, by the format's names), else None."""
+    wrap = record["wrap_s"]
+    return wrap if wrap == record["wrap_t"] and wrap in supported else None
 
 
 class Converter:
     """What the peer converters share: the scene, the warnings about what was
-    approximated (printed by the caller) and material inputs read as constants."""
+    approximated (printed by the caller) and material inputs read as constants
+    or textures."""
 
     def __init__(self, scene):
         self.scene = scene
@@ -159,9 +215,42 @@ class Converter:
         if message not in self.warnings:
             self.warnings.append(message)
 
+    def material_record(self, index):
+        """The material record of a triangle_materials index (UNBOUND for NO_MATERIAL)."""
+        return UNBOUND if index == NO_MATERIAL else self.manifest["materials"][index]
+
     def constant(self, material, key, default):
-        """A material input's constant; a texture becomes its fallback (reported)."""
-        value, textured = material_input(self.manifest, material, key, default)
-        if textured:
-            self.warn(f"material {material['path']}: texture on {key} not converted (its fallback used)")
-        return value
+        """A material input's constant; a texture gives its fallback (callers
+        that cannot convert the texture report it with `keep_fallback`)."""
+        return material_input(self.manifest, material, key, default)[0]
+
+    def texture(self, material, key):
+        """The TextureInput behind a material input, or None for a constant or a
+        texture whose image is missing (Cirrus then reads the fallback too; the
+        exporter warned)."""
+        value = material.get(key)
+        if not isinstance(value, dict):
+            return None
+        record = self.manifest["textures"][value["texture"]]
+        if not record["file"]:
+            return None
+        file = Path(record["file"])
+        if not file.is_absolute():
+            file = self.scene.folder / file
+        if not file.is_file():
+            return None
+        return TextureInput(value["texture"], record, file, value.get("channel", "rgb"))
+
+    def keep_fallback(self, material, key, reason):
+        """Reports a texture that a peer cannot represent (its fallback is used)."""
+        self.warn(f"material {material['path']}: texture on {key} not converted ({reason}; "
+                  "its fallback used)")
+
+    def is_lambert(self, material):
+        """Whether a UsdPreviewSurface is exactly Lambertian in Cirrus: the specular
+        workflow with zero (untextured) specularColor, no clearcoat, opaque."""
+        specular = self.constant(material, "specular_color", [0.0, 0.0, 0.0])
+        opacity = self.constant(material, "opacity", 1.0)
+        textured = self.texture(material, "specular_color") or self.texture(material, "opacity")
+        return (material.get("use_specular_workflow", False) and max(specular) == 0
+                and material.get("clearcoat", 0.0) == 0 and opacity >= 1 and not textured)

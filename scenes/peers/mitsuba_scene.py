@@ -17,7 +17,15 @@ stores the three factors separately and src/lights/emission.rs multiplies them):
   wrapped in `twosided`.
 - Materials: pure Lambert (specular workflow with zero specularColor, no
   clearcoat, opacity 1) is `diffuse`; anything else is approximated by
-  `principled` (reported). Textures are replaced by their fallback (reported).
+  `principled` (reported). Textured diffuseColor, emissiveColor, metallic and
+  roughness become `bitmap` textures read as Cirrus reads them, and a normal
+  map a `normalmap` wrapper (mitsuba_texture.py says how, and what is refused);
+  the PLY files carry the meshes' st. Triangles without a material, and
+  materials the exporter could not read, are UsdPreviewSurface's defaults (a
+  grey plastic, as Cirrus renders them), hence `principled` too. Textured opacity and specularColor (read
+  as a scalar spec_trans and ior), and textures a bitmap cannot reproduce,
+  keep their fallback (reported); a texture whose image is missing reads its
+  fallback in Cirrus too.
 - Lights: sphere = `sphere` shape with an `area` emitter (treatAsPoint: a
   `point` of the same power); rect and disk = `rectangle`/`disk` shapes with
   flipped normals (UsdLux emits from -Z); cylinder = `cylinder` along X; all
@@ -45,8 +53,9 @@ from typing import NamedTuple
 import numpy as np
 
 import cirrus_scene
-from cirrus_scene import (GREY, NO_MATERIAL, affine4, conformed_aperture, distant_irradiance,
-                          emission, is_lambert, near_far)
+from cirrus_scene import (GREY, affine4, conformed_aperture, distant_irradiance,
+                          emission, near_far)
+from mitsuba_texture import Bitmaps, Unrepresentable
 
 #: Debian's Python, which has pyopenvdb (the .venv does not).
 SYSTEM_PYTHON = "/usr/bin/python3"
@@ -67,6 +76,7 @@ class Converter(cirrus_scene.Converter):
         self.mi = mi
         #: Mesh index -> its PlyParts, so a mesh shared by prototypes is written once.
         self.plys = {}
+        self.bitmaps = Bitmaps(self.workdir, mi)
 
     def transform(self, m):
         """A 4x4 numpy matrix as a Mitsuba ScalarTransform4f."""
@@ -223,51 +233,83 @@ class Converter(cirrus_scene.Converter):
     # ------------------------------------------------------------- materials
 
     def bsdf(self, index):
-        """A material as `twosided` `diffuse`, or an approximating `principled` (reported)."""
-        if index == NO_MATERIAL:
-            return twosided({"type": "diffuse", "reflectance": rgb(GREY)})
-        mat = self.manifest["materials"][index]
-        if mat.get("fallback"):
-            return twosided({"type": "diffuse", "reflectance": rgb(GREY)})
-        if mat.get("normal") is not None:
-            self.warn(f"material {mat['path']}: normal map not converted")
-        base = self.constant(mat, "diffuse_color", [0.18, 0.18, 0.18])
-        specular = self.constant(mat, "specular_color", [0.0, 0.0, 0.0])
-        opacity = self.constant(mat, "opacity", 1.0)
-        metallic = self.constant(mat, "metallic", 0.0)
-        clearcoat = mat.get("clearcoat", 0.0)
-        spec_workflow = mat.get("use_specular_workflow", False)
-        if is_lambert(self.manifest, mat):
-            return twosided({"type": "diffuse", "reflectance": rgb(base)})
+        """A material (UNBOUND for none) as `twosided` `diffuse`, or an approximating
+        `principled` (reported), inside a `normalmap` when it has one."""
+        mat = self.material_record(index)
+        base = self.input(mat, "diffuse_color", GREY, "color")
+        if self.is_lambert(mat):
+            return twosided(self.normal_mapped(mat, {"type": "diffuse", "reflectance": base}))
         self.warn(f"material {mat['path']}: UsdPreviewSurface approximated by Mitsuba's principled BSDF")
+        opacity = self.constant(mat, "opacity", 1.0)
+        if self.texture(mat, "opacity"):
+            self.keep_fallback(mat, "opacity", "Mitsuba's spec_trans would need 1 - opacity")
         ior = mat.get("ior", 1.5)
-        if spec_workflow:
+        metallic = self.input(mat, "metallic", 0.0, "scalar")
+        if mat.get("use_specular_workflow", False):
+            specular = self.constant(mat, "specular_color", [0.0, 0.0, 0.0])
+            if self.texture(mat, "specular_color"):
+                self.keep_fallback(mat, "specular_color", "read as one ior")
             f0 = min(max(float(np.dot(specular, [0.2126, 0.7152, 0.0722])), 0.0), 0.99)
             ior = (1 + math.sqrt(f0)) / (1 - math.sqrt(f0))
             metallic = 0.0
             self.warn(f"material {mat['path']}: specularColor approximated by "
                       "an ior of the same luminance F0")
-        principled = {
+        principled = self.normal_mapped(mat, {
             "type": "principled",
-            "base_color": rgb(base),
-            "metallic": float(metallic),
-            "roughness": float(self.constant(mat, "roughness", 0.5)),
+            "base_color": base,
+            "metallic": metallic,
+            "roughness": self.input(mat, "roughness", 0.5, "scalar"),
             "eta": max(float(ior), 1.0001),
-            "clearcoat": float(clearcoat),
+            "clearcoat": float(mat.get("clearcoat", 0.0)),
             "clearcoat_gloss": 1.0 - float(mat.get("clearcoat_roughness", 0.01)),
             "spec_trans": 1.0 - float(opacity),
-        }
+        })
         return principled if opacity < 1 else twosided(principled)
 
+    def input(self, mat, key, default, kind):
+        """A material input as a Mitsuba parameter: a `bitmap` for a texture
+        (mitsuba_texture.py), else the constant (an RGB spectrum for a colour,
+        a float for a scalar); an unrepresentable texture gives its fallback."""
+        tex = self.texture(mat, key)
+        if tex is not None:
+            try:
+                return self.bitmaps.bitmap(tex, kind)
+            except Unrepresentable as e:
+                self.keep_fallback(mat, key, str(e))
+        value = self.constant(mat, key, default)
+        return rgb(value) if kind == "color" else float(value)
+
+    def normal_mapped(self, mat, bsdf):
+        """`bsdf` inside Mitsuba's `normalmap` when the material has a normal map.
+
+        Both renderers read the map in the shading frame (x along dp/du
+        projected onto the shading normal, y = n x x) after 2 v - 1 (the bake
+        re-encodes a map whose scale and bias already give [-1, 1]). Mitsuba
+        flips a mapped normal facing away from wi (flip_invalid_normals) where
+        Cirrus bends it (preview_surface.rs' bend_normal): the same wherever
+        the view sees the mapped normal's front. Its `twosided` mirrors wi
+        instead of flipping the mapped normal, so back faces of normal-mapped
+        surfaces differ (reported)."""
+        tex = self.texture(mat, "normal")
+        if tex is None:
+            return bsdf
+        try:
+            normalmap = self.bitmaps.bitmap(tex, "normal")
+        except Unrepresentable as e:
+            self.warn(f"material {mat['path']}: normal map not converted ({e})")
+            return bsdf
+        self.warn(f"material {mat['path']}: normal map on back faces differs (Mitsuba's twosided "
+                  "mirrors the direction, Cirrus flips the mapped normal)")
+        # No shadow-terminator term (Estevez et al. 2019, Mitsuba's default): Cirrus has none.
+        return {"type": "normalmap", "normalmap": normalmap, "bsdf": bsdf,
+                "use_shadowing_function": False}
+
     def emitter(self, index):
-        """An area emitter for an emissive material, else None."""
-        if index == NO_MATERIAL:
+        """An area emitter for an emissive material (textured or not black), else None."""
+        mat = self.material_record(index)
+        if not self.texture(mat, "emissive_color") and max(self.constant(mat, "emissive_color", [0.0] * 3)) <= 0:
             return None
-        mat = self.manifest["materials"][index]
-        value = self.constant(mat, "emissive_color", [0.0, 0.0, 0.0])
-        if max(value) <= 0:
-            return None
-        return {"type": "area", "radiance": rgb(value)}
+        return {"type": "area", "radiance": self.input(mat, "emissive_color", [0.0] * 3, "color")}
 
     # ---------------------------------------------------------------- shapes
 
@@ -318,13 +360,14 @@ class Converter(cirrus_scene.Converter):
         points = self.scene.array(mesh["points"])
         triangles = self.scene.array(mesh["triangles"])
         normals = self.scene.array(mesh["normals"]) if mesh.get("normals") else None
+        uvs = self.scene.array(mesh["uvs"]) if mesh.get("uvs") else None
         materials = self.scene.array(mesh["triangle_materials"])
         if mesh.get("double_sided") and any(self.emitter(int(m)) for m in np.unique(materials)):
             self.warn(f"mesh {mesh['path']}: double-sided emission rendered one-sided")
         out = []
         for mat in np.unique(materials):
             path = self.workdir / f"mesh{mesh_index}_mat{int(mat)}.ply"
-            write_ply(path, points, triangles[materials == mat], normals)
+            write_ply(path, points, triangles[materials == mat], normals, uvs)
             out.append(PlyPart(path, int(mat), normals is None))
         self.plys[mesh_index] = out
         return out
@@ -441,19 +484,23 @@ def twosided(bsdf):
     return {"type": "twosided", "material": bsdf}
 
 
-def write_ply(path, points, triangles, normals):
-    """A binary little-endian PLY with vertex normals when given (else flat faces)."""
-    has_n = normals is not None
+def write_ply(path, points, triangles, normals, uvs):
+    """A binary little-endian PLY with vertex normals when given (else flat faces)
+    and USD's st as (u, v) when given (mitsuba_texture.py flips t in each bitmap)."""
+    columns = [points]
     header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(points)}",
               "property float x", "property float y", "property float z"]
-    if has_n:
+    if normals is not None:
         header += ["property float nx", "property float ny", "property float nz"]
+        columns.append(normals)
+    if uvs is not None:
+        header += ["property float u", "property float v"]
+        columns.append(uvs)
     header += [f"element face {len(triangles)}", "property list uchar int vertex_indices", "end_header"]
-    vertex = np.hstack([points, normals]) if has_n else points
     face = np.zeros(len(triangles), dtype=[("n", "u1"), ("i", "<i4", 3)])
     face["n"] = 3
     face["i"] = triangles
     with open(path, "wb") as f:
         f.write(("\n".join(header) + "\n").encode("ascii"))
-        f.write(np.ascontiguousarray(vertex, dtype="<f4").tobytes())
+        f.write(np.ascontiguousarray(np.hstack(columns), dtype="<f4").tobytes())
         f.write(face.tobytes())

@@ -32,8 +32,16 @@ factor below was measured with Cycles 3.4.1 on a white Lambert plane
   instances linked duplicates). Cycles shades both sides, as Cirrus does.
 - Materials: Lambert (the specular workflow with zero specularColor) is a
   Diffuse BSDF (roughness 0); anything else is approximated by the Principled
-  BSDF (reported); textures by their fallback (reported); emissiveColor is an
-  Emission shader of strength 1 (radiance = colour) added on top.
+  BSDF (reported), including triangles without a material and materials the
+  exporter could not read (UsdPreviewSurface's defaults, a grey plastic, as
+  Cirrus renders them); emissiveColor is an Emission shader of strength 1
+  (radiance = colour) added on top. Textured diffuseColor, emissiveColor,
+  metallic and roughness are Image Texture node chains on the meshes' st (UV
+  layer "st") and a normal map a Normal Map node (cycles_texture.py says how,
+  and what is refused); textured opacity and specularColor (read as one
+  Transmission and Specular level) and unrepresentable textures keep their
+  fallback (reported); a texture whose image is missing reads its fallback in
+  Cirrus too.
 - Lights: Blender light power is not UsdLux emission; with e = color x
   intensity x 2^exposure and A the world area:
   - DomeLight: world Background, colour e, strength 1 (radiance).
@@ -79,8 +87,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import cirrus_scene  # noqa: E402
-from cirrus_scene import (GREY, NO_MATERIAL, CirrusScene, affine4, conformed_aperture,  # noqa: E402
-                          distant_irradiance, emission, is_lambert, near_far, parse_resolution)
+from cirrus_scene import (GREY, CirrusScene, affine4, conformed_aperture,  # noqa: E402
+                          distant_irradiance, emission, near_far, parse_resolution)
+from cycles_texture import UV_LAYER, TextureNodes, Unrepresentable  # noqa: E402
 
 #: Shift of the grid, in voxels along each index axis, that puts VDB value
 #: v(i,j,k) at the integer index point (i,j,k) in Cycles (CONVENTIONS.md "Voxel
@@ -130,6 +139,8 @@ class Converter(cirrus_scene.Converter):
         self.meshes = {}
         #: Material index -> its Blender material.
         self.materials = {}
+        #: (image file, colour space) -> its Blender image, shared by materials.
+        self.images = {}
 
     def link(self, name, data, matrix):
         """A new object holding `data`, placed by the 4x4 numpy `matrix`, in the scene."""
@@ -308,22 +319,22 @@ class Converter(cirrus_scene.Converter):
 
     def build_material(self, index):
         """Diffuse BSDF for Lambert, else an approximating Principled BSDF; plus emission."""
-        mat = None if index == NO_MATERIAL else self.manifest["materials"][index]
+        mat = self.material_record(index)
         out = bpy.data.materials.new(f"material{index}")
         out.use_nodes = True
         nodes, links = out.node_tree.nodes, out.node_tree.links
         nodes.remove(nodes["Principled BSDF"])
         output = nodes["Material Output"]
-        if mat is None or mat.get("fallback"):
+        textures = TextureNodes(out.node_tree, self.images)
+        if self.is_lambert(mat):
             surface = diffuse(nodes, GREY)
-        elif is_lambert(self.manifest, mat):
-            surface = diffuse(nodes, self.constant(mat, "diffuse_color", GREY))
+            self.set_input(textures, mat, "diffuse_color", GREY, surface.inputs["Color"])
+            self.normal_map(textures, mat, surface.inputs["Normal"])
         else:
-            surface = self.principled(nodes, mat)
-        emissive = [0.0] * 3 if mat is None else self.constant(mat, "emissive_color", [0.0] * 3)
-        if max(emissive) > 0:
+            surface = self.principled(textures, mat)
+        if self.emits(index):
             glow = nodes.new("ShaderNodeEmission")
-            glow.inputs["Color"].default_value = (*emissive, 1.0)
+            self.set_input(textures, mat, "emissive_color", [0.0] * 3, glow.inputs["Color"])
             glow.inputs["Strength"].default_value = 1.0
             add = nodes.new("ShaderNodeAddShader")
             links.new(surface.outputs[0], add.inputs[0])
@@ -333,35 +344,60 @@ class Converter(cirrus_scene.Converter):
         return out
 
     def emits(self, index):
-        """Whether material `index` has a non-zero emissiveColor."""
-        if index == NO_MATERIAL:
-            return False
-        value, _ = cirrus_scene.material_input(self.manifest, self.manifest["materials"][index],
-                                               "emissive_color", [0.0] * 3)
-        return max(value) > 0
+        """Whether material `index` has a textured or non-zero emissiveColor."""
+        mat = self.material_record(index)
+        return bool(self.texture(mat, "emissive_color")) or max(
+            self.constant(mat, "emissive_color", [0.0] * 3)) > 0
 
-    def principled(self, nodes, mat):
+    def set_input(self, textures, mat, key, default, socket):
+        """Feeds a material input to a node socket: a texture's node chain
+        (cycles_texture.py), else the constant; an unrepresentable texture
+        gives its fallback (reported)."""
+        tex = self.texture(mat, key)
+        if tex is not None:
+            kind = "color" if isinstance(default, list) else "scalar"
+            try:
+                textures.links.new(textures.output(tex, kind), socket)
+                return
+            except Unrepresentable as e:
+                self.keep_fallback(mat, key, str(e))
+        value = self.constant(mat, key, default)
+        socket.default_value = (*value, 1.0) if isinstance(default, list) else float(value)
+
+    def normal_map(self, textures, mat, socket):
+        """Feeds the material's normal map, if any, to a BSDF's Normal socket."""
+        tex = self.texture(mat, "normal")
+        if tex is None:
+            return
+        try:
+            textures.links.new(textures.output(tex, "normal"), socket)
+        except Unrepresentable as e:
+            self.warn(f"material {mat['path']}: normal map not converted ({e})")
+
+    def principled(self, textures, mat):
         """An approximation of a non-Lambert UsdPreviewSurface by Cycles' Principled BSDF."""
         self.warn(f"material {mat['path']}: UsdPreviewSurface approximated by Cycles' Principled BSDF")
-        if mat.get("normal") is not None:
-            self.warn(f"material {mat['path']}: normal map not converted")
-        node = nodes.new("ShaderNodeBsdfPrincipled")
-        base = self.constant(mat, "diffuse_color", GREY)
+        node = textures.nodes.new("ShaderNodeBsdfPrincipled")
         opacity = self.constant(mat, "opacity", 1.0)
-        node.inputs["Base Color"].default_value = (*base, 1.0)
-        node.inputs["Roughness"].default_value = float(self.constant(mat, "roughness", 0.5))
+        if self.texture(mat, "opacity"):
+            self.keep_fallback(mat, "opacity", "read as one Transmission")
+        self.set_input(textures, mat, "diffuse_color", GREY, node.inputs["Base Color"])
+        self.set_input(textures, mat, "roughness", 0.5, node.inputs["Roughness"])
+        self.normal_map(textures, mat, node.inputs["Normal"])
         node.inputs["IOR"].default_value = max(float(mat.get("ior", 1.5)), 1.0001)
         node.inputs["Clearcoat"].default_value = float(mat.get("clearcoat", 0.0))
         node.inputs["Clearcoat Roughness"].default_value = float(mat.get("clearcoat_roughness", 0.01))
         node.inputs["Transmission"].default_value = 1.0 - float(opacity)
         if mat.get("use_specular_workflow", False):
             specular = self.constant(mat, "specular_color", [0.0] * 3)
+            if self.texture(mat, "specular_color"):
+                self.keep_fallback(mat, "specular_color", "read as one Specular level")
             # Principled "Specular" 0.5 is F0 = 0.04: scale the luminance F0 to it.
             f0 = float(np.dot(specular, [0.2126, 0.7152, 0.0722]))
             node.inputs["Specular"].default_value = min(f0 / 0.08, 1.0)
             self.warn(f"material {mat['path']}: specularColor approximated by its luminance F0")
         else:
-            node.inputs["Metallic"].default_value = float(self.constant(mat, "metallic", 0.0))
+            self.set_input(textures, mat, "metallic", 0.0, node.inputs["Metallic"])
         return node
 
     # ---------------------------------------------------------------- shapes
@@ -389,6 +425,9 @@ class Converter(cirrus_scene.Converter):
         mesh.polygons.add(len(triangles))
         mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(triangles), 3, dtype=np.int32))
         mesh.polygons.foreach_set("loop_total", np.full(len(triangles), 3, dtype=np.int32))
+        if record.get("uvs"):
+            st = mesh.uv_layers.new(name=UV_LAYER)
+            st.data.foreach_set("uv", self.scene.array(record["uvs"])[triangles.ravel()].ravel())
         slots = {int(m): slot for slot, m in enumerate(np.unique(materials))}
         if not record.get("double_sided") and any(self.emits(m) for m in slots):
             self.warn(f"mesh {record['path']}: one-sided emission rendered two-sided "

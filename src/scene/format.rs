@@ -247,7 +247,8 @@ pub struct Material {
     /// Prim path of the Material.
     pub path: String,
     /// True when the material could not be read (MaterialX-only, glslfx, ...)
-    /// and became grey diffuse 0.18; the exporter warned once naming it.
+    /// and holds UsdPreviewSurface's defaults (grey 0.18 plastic); the
+    /// exporter warned once naming it.
     pub fallback: bool,
     /// `inputs:diffuseColor` (default 0.18 grey), linear RGB.
     pub diffuse_color: Input<Rgb>,
