@@ -290,13 +290,7 @@ pub(super) fn error_cells(errors: &[f64]) -> String {
     errors.iter().map(|e| format!(" {e:.3e} |")).collect()
 }
 
-/// Writes `svg` to `path` (atomically).
-pub(super) fn write_chart(path: &Path, svg: &str) -> Result<()> {
-    crate::output::atomic::write_file(path, svg.as_bytes())
-        .with_context(|| format!("cannot write {}", path.display()))
-}
-
-/// The x axis of an [`svg_chart`]: what it shows, in the title, and its
+/// The x axis of a [`write_chart`]: what it shows, in the title, and its
 /// unit, under the axis.
 pub(super) struct ChartAxis {
     /// The quantity, e.g. "render time".
@@ -311,68 +305,107 @@ pub(super) const TIME_AXIS: ChartAxis = ChartAxis {
     unit: "seconds",
 };
 
-/// A log-log chart of the error against `x` (seconds, in the equal-time
-/// benchmarks), one polyline per labelled curve of (x, error) points.
-pub(super) fn svg_chart(
+/// Writes (atomically) a log-log SVG chart of the error against `x`
+/// (seconds, in the equal-time benchmarks) to `path`: one line with its
+/// measured points per labelled curve of (x, error) points, drawn with
+/// plotters' SVG backend (decade ticks and labels, a legend). Only curves
+/// are drawn with stroke width 2, so `stroke-width="2"` polylines count them.
+pub(super) fn write_chart(
+    path: &Path,
     title: &str,
     x_axis: &ChartAxis,
     metric: ErrorMetric,
     curves: &[(String, Vec<(f64, f64)>)],
-) -> String {
-    const COLOURS: [&str; 8] = [
-        "#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02", "#a6761d", "#666666",
+) -> Result<()> {
+    let svg = svg_chart(title, x_axis, metric, curves)
+        .map_err(|e| anyhow::anyhow!("cannot draw chart {}: {e}", path.display()))?;
+    crate::output::atomic::write_file(path, svg.as_bytes())
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// The chart of [`write_chart`] as SVG text.
+fn svg_chart(
+    title: &str,
+    x_axis: &ChartAxis,
+    metric: ErrorMetric,
+    curves: &[(String, Vec<(f64, f64)>)],
+) -> Result<String, Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    /// Dark2 (ColorBrewer), one colour per curve.
+    const COLOURS: [RGBColor; 8] = [
+        RGBColor(0x1b, 0x9e, 0x77),
+        RGBColor(0xd9, 0x5f, 0x02),
+        RGBColor(0x75, 0x70, 0xb3),
+        RGBColor(0xe7, 0x29, 0x8a),
+        RGBColor(0x66, 0xa6, 0x1e),
+        RGBColor(0xe6, 0xab, 0x02),
+        RGBColor(0xa6, 0x76, 0x1d),
+        RGBColor(0x66, 0x66, 0x66),
     ];
-    let metric = metric.name();
-    let (w, h, margin) = (640.0, 400.0, 60.0);
-    let points = curves.iter().flat_map(|(_, c)| c.iter().copied());
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for (x, y) in points.filter(|(x, y)| *x > 0.0 && *y > 0.0) {
-        (x0, x1, y0, y1) = (
-            x0.min(x.log10()),
-            x1.max(x.log10()),
-            y0.min(y.log10()),
-            y1.max(y.log10()),
-        );
-    }
-    let (x1, y1) = (x1.max(x0 + 1e-3), y1.max(y0 + 1e-3));
-    let sx = |x: f64| margin + (x.log10() - x0) / (x1 - x0) * (w - 2.0 * margin);
-    let sy = |y: f64| h - margin - (y.log10() - y0) / (y1 - y0) * (h - 2.0 * margin);
-    let mut svg = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n\
-         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
-         <text x=\"{margin}\" y=\"20\">{title}: {metric} vs {} (log-log)</text>\n\
-         <text x=\"{}\" y=\"{}\">{} (10^{x0:.2} .. 10^{x1:.2})</text>\n\
-         <text x=\"5\" y=\"{}\">{metric} 10^{y0:.1} .. 10^{y1:.1}</text>\n\
-         <rect x=\"{margin}\" y=\"{margin}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
-        x_axis.quantity,
-        w / 2.0 - 60.0,
-        h - 20.0,
-        x_axis.unit,
-        margin - 10.0,
-        w - 2.0 * margin,
-        h - 2.0 * margin
-    );
-    for (i, (label, curve)) in curves.iter().enumerate() {
-        let c = COLOURS[i % COLOURS.len()];
-        let pts: Vec<String> = curve
+    let positive = |&(x, y): &(f64, f64)| x > 0.0 && y > 0.0 && x.is_finite() && y.is_finite();
+    let points = || {
+        curves
             .iter()
-            .filter(|(x, y)| *x > 0.0 && *y > 0.0)
-            .map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y)))
-            .collect();
-        let _ = writeln!(
-            svg,
-            "<polyline points=\"{}\" fill=\"none\" stroke=\"{c}\" stroke-width=\"2\"/>",
-            pts.join(" ")
-        );
-        let _ = writeln!(
-            svg,
-            "<text x=\"{}\" y=\"{}\" fill=\"{c}\">{label}</text>",
-            w - margin - 150.0,
-            margin + 15.0 + 15.0 * i as f64
-        );
+            .flat_map(|(_, c)| c.iter().copied())
+            .filter(positive)
+    };
+    let range = |values: Vec<f64>| {
+        let lo = values.iter().copied().fold(f64::MAX, f64::min);
+        let hi = values.iter().copied().fold(f64::MIN, f64::max);
+        if lo > hi {
+            return 0.1..1.0;
+        }
+        // A little room around the data, and never an empty range.
+        lo / 1.25..(hi * 1.25).max(lo * 1.5)
+    };
+    let xs = range(points().map(|(x, _)| x).collect());
+    let ys = range(points().map(|(_, y)| y).collect());
+    let metric = metric.name();
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (640, 420)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!("{title}: {metric} vs {} (log-log)", x_axis.quantity),
+                ("sans-serif", 16),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(64)
+            .build_cartesian_2d(xs.log_scale(), ys.log_scale())?;
+        chart
+            .configure_mesh()
+            .x_desc(x_axis.unit)
+            .y_desc(metric)
+            .x_label_formatter(&|x| format!("{x:.3}"))
+            .y_label_formatter(&|y| format!("{y:.0e}"))
+            .label_style(("sans-serif", 12))
+            .draw()?;
+        for (i, (label, curve)) in curves.iter().enumerate() {
+            let colour = COLOURS[i % COLOURS.len()];
+            let curve: Vec<(f64, f64)> = curve.iter().copied().filter(positive).collect();
+            chart
+                .draw_series(LineSeries::new(
+                    curve.iter().copied(),
+                    colour.stroke_width(2),
+                ))?
+                .label(label.as_str())
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 4), (x + 16, y + 4)], colour.filled())
+                });
+            chart.draw_series(curve.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 12))
+            .draw()?;
+        root.present()?;
     }
-    svg.push_str("</svg>\n");
-    svg
+    Ok(svg)
 }
 
 #[cfg(test)]

@@ -13,8 +13,8 @@ use anyhow::{Context, Result};
 use super::bench::{machine_line, median};
 use super::bench_equal_time::{
     base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
-    median_errors, render, scene_name, spp_per_second, svg_chart, write_chart, EqualTimeBench,
-    ErrorMetric, Rung, MAX_DEPTH, TIME_AXIS,
+    median_errors, render, scene_name, spp_per_second, write_chart, EqualTimeBench, ErrorMetric,
+    Rung, MAX_DEPTH, TIME_AXIS,
 };
 use crate::integrator::{Budget, PathSettings, RenderSettings, RenderStats, Strategy};
 use crate::render_state::RenderState;
@@ -158,10 +158,7 @@ fn equal_time(
         ratios.join(", ")
     );
     let chart = bench.out.join(format!("{name}-equal-time.svg"));
-    write_chart(
-        &chart,
-        &svg_chart(name, &TIME_AXIS, ErrorMetric::Mse, &curves),
-    )?;
+    write_chart(&chart, name, &TIME_AXIS, ErrorMetric::Mse, &curves)?;
     println!("Chart: {}\n", chart.display());
     Ok(())
 }

@@ -18,8 +18,8 @@ use clap::ValueEnum;
 use super::bench::{machine_line, median, value_name};
 use super::bench_equal_time::{
     base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
-    median_errors, scene_name, spp_per_second, svg_chart, write_chart, EqualTimeBench, ErrorMetric,
-    Rung, MAX_DEPTH, TIME_AXIS,
+    median_errors, scene_name, spp_per_second, write_chart, EqualTimeBench, ErrorMetric, Rung,
+    MAX_DEPTH, TIME_AXIS,
 };
 use crate::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
 use crate::render_state::RenderState;
@@ -287,14 +287,11 @@ fn write_charts(
             )
         })
         .collect();
-    let svg = svg_chart(name, &TIME_AXIS, ErrorMetric::RelMse, &curves);
-    let chart = bench.out.join(format!("{name}-equal-time.svg"));
-    write_chart(&chart, &svg)?;
-    println!("Chart: {}", chart.display());
-    if let Some(dir) = charts {
-        let published = dir.join(format!("volumes-{name}-equal-time.svg"));
-        write_chart(&published, &svg)?;
-        println!("Chart: {}", published.display());
+    let mut paths = vec![bench.out.join(format!("{name}-equal-time.svg"))];
+    paths.extend(charts.map(|dir| dir.join(format!("volumes-{name}-equal-time.svg"))));
+    for chart in paths {
+        write_chart(&chart, name, &TIME_AXIS, ErrorMetric::RelMse, &curves)?;
+        println!("Chart: {}", chart.display());
     }
     println!();
     Ok(())

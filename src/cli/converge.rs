@@ -35,7 +35,7 @@ use glam::UVec2;
 use super::bench::{machine_line, median, scenes_or_default, value_name, with_threads};
 use super::bench_equal_time::{
     base_settings, cached_reference, error_at_time, read_rgb, reference_path, render, scene_name,
-    svg_chart, write_chart, ChartAxis, ErrorMetric, MAX_DEPTH, REFERENCE_SEED, TIME_AXIS,
+    write_chart, ChartAxis, ErrorMetric, MAX_DEPTH, REFERENCE_SEED, TIME_AXIS,
 };
 use crate::integrator::{Budget, RenderSettings, Strategy, VolumeEstimator};
 use crate::render_state::RenderState;
@@ -847,10 +847,7 @@ fn write_charts(out: &Path, name: &str, summaries: &[Summary]) -> Result<()> {
     }
     for (suffix, title, axis, curves) in charts {
         let path = out.join(format!("{name}-relmse-{suffix}.svg"));
-        write_chart(
-            &path,
-            &svg_chart(&title, axis, ErrorMetric::RelMse, &curves),
-        )?;
+        write_chart(&path, &title, axis, ErrorMetric::RelMse, &curves)?;
         println!("Chart: {}", path.display());
     }
     println!();
