@@ -522,8 +522,13 @@ fn sphere_light_strategies_agree_with_each_other_and_the_inverse_square_law() {
 /// `instanceable = true`: one prototype with five instances against five
 /// single-instance prototypes. The block mesh has no transform of its own,
 /// so both exports place every triangle by the same world-from-block
-/// transform (translation, rotation about Y, non-uniform scale), and the
-/// renders must be bit-identical, for both samplers.
+/// transform (translation, rotation about Y, non-uniform scale). Meshes
+/// placed once are intersected in world space (one flattened BVH) and
+/// instances in mesh space, so a hit can round differently and change the
+/// rest of its path: with the same samples, at most 1% of the values may
+/// differ, and the images' summed absolute difference stays under 1% of
+/// their sum (measured: 1 value of 4,608 differs; a misplaced copy changes
+/// most pixels).
 #[test]
 fn instanced_and_copied_meshes_render_identically() {
     let dir = common::scratch("render_instancing");
@@ -539,14 +544,13 @@ fn instanced_and_copied_meshes_render_identically() {
             .run(&dir)
         });
         for c in 0..3 {
-            let differing = instanced.rgb[c]
-                .iter()
-                .zip(&copies.rgb[c])
-                .filter(|(a, b)| a.to_bits() != b.to_bits())
-                .count();
-            assert_eq!(
-                differing, 0,
-                "{sampler}: channel {c} differs in {differing} pixels"
+            let pairs = || instanced.rgb[c].iter().zip(&copies.rgb[c]);
+            let differing = pairs().filter(|(a, b)| a.to_bits() != b.to_bits()).count();
+            let difference: f64 = pairs().map(|(a, b)| f64::from((a - b).abs())).sum();
+            let total: f64 = instanced.rgb[c].iter().map(|&a| f64::from(a.abs())).sum();
+            assert!(
+                differing * 100 <= instanced.rgb[c].len() && difference < 0.01 * total,
+                "{sampler}: channel {c} differs in {differing} pixels, by {difference} of {total}"
             );
             // Not a blank image: the blocks and the ground are lit.
             let e = estimate(

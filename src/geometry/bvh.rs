@@ -1,6 +1,11 @@
-//! The two-level BVH: one compressed wide BVH (obvhs `CwBvh`) per unique mesh,
-//! and a top level over the placed (instance, prototype mesh) pairs, each leaf
-//! holding the inverse transform that takes a world ray into the mesh's space.
+//! The scene's BVHs. A mesh placed exactly once goes, in world space, into one
+//! BVH over every such mesh's triangles ([`WorldMeshes`]): a ray then walks one
+//! tree where the placed meshes overlap (the StandardShaderBall's twelve
+//! meshes), not one tree per mesh under a top level. A mesh placed more than
+//! once keeps two levels: one compressed wide BVH (obvhs `CwBvh`) per such
+//! mesh, and a top level over its placed (instance, prototype mesh) pairs,
+//! each leaf holding the inverse transform that takes a world ray into the
+//! mesh's space. A ray tests both, the second cut to the first's hit.
 //!
 //! The top level is shaped by memory (`cirrus bench instances`, a million
 //! instances, 250 MB budget). One obvhs build over every placed mesh peaks
@@ -57,20 +62,53 @@ const TOP_CHUNK: usize = 1 << 14;
 /// Acceleration structures over a scene's meshes, ready for closest-hit and
 /// occlusion queries, with the per-vertex data that shading interpolates.
 pub struct Geometry {
-    /// Per scene mesh; `None` for a mesh with no triangles.
+    /// Per scene mesh placed more than once; `None` for every other mesh
+    /// (no triangles, never placed, or placed once and so in `world`).
     meshes: Vec<Option<MeshBvh>>,
     /// Per scene mesh: vertices, normals, texture coordinates, materials.
     shading: Vec<MeshShading>,
-    /// Over `leaves`; `None` when nothing is placed.
+    /// The meshes placed once, in world space; `None` when there are none.
+    world: Option<WorldMeshes>,
+    /// Over the leaves that place a mesh placed more than once (the first
+    /// ones of `leaves`); `None` when there are none.
     top: Option<TopLevel>,
+    /// Every placed mesh: the top level's leaves (placements of meshes
+    /// placed more than once) first, then the placements in `world`.
     leaves: Vec<PlacedMesh>,
+}
+
+/// How a scene mesh enters the BVHs, by how often the scene places it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum MeshRole {
+    /// No triangles, or never placed: in no BVH.
+    Unused,
+    /// Placed exactly once: its world-space triangles go into [`WorldMeshes`].
+    Flattened,
+    /// Placed more than once: one mesh-space BVH, shared under the top level.
+    Instanced,
 }
 
 /// One mesh's BVH with its triangles in BVH primitive order.
 struct MeshBvh {
     bvh: CwBvh,
-    /// `triangles[i]` is scene triangle `bvh.primitive_indices[i]`.
+    /// `triangles[i]` is input triangle `bvh.primitive_indices[i]`.
     triangles: Vec<Triangle>,
+}
+
+/// The world-space triangles of every mesh placed once, under one BVH.
+struct WorldMeshes {
+    mesh: MeshBvh,
+    /// Per input triangle of `mesh`: where it comes from.
+    sources: Vec<TriangleSource>,
+}
+
+/// A world-space triangle's placed mesh and triangle index within that mesh.
+#[derive(Clone, Copy, Debug)]
+struct TriangleSource {
+    /// Index into [`Geometry::leaves`].
+    leaf: u32,
+    /// Triangle index within the scene mesh.
+    triangle: u32,
 }
 
 /// The top-level BVH over the placed meshes, in two tiers: the placed
@@ -115,15 +153,29 @@ pub struct Hit {
 }
 
 impl Geometry {
-    /// Builds one BVH per mesh (in parallel) and the top-level BVH over every
-    /// placed mesh. Placements whose transform cannot be inverted (a zero
-    /// scale collapses the mesh) cover no area and are left out.
+    /// Builds the world-space BVH over the meshes placed once, one BVH per
+    /// mesh placed more than once (in parallel), and the top-level BVH over
+    /// those meshes' placements. Placements whose transform cannot be
+    /// inverted (a zero scale collapses the mesh) cover no area and are left
+    /// out.
     pub fn build(scene: &Scene) -> Self {
         let m = &scene.manifest;
+        let roles = mesh_roles(scene);
         let meshes: Vec<Option<MeshBvh>> = m
             .meshes
             .par_iter()
-            .map(|mesh| MeshBvh::build(scene.view(&mesh.points), scene.view(&mesh.triangles)))
+            .zip(&roles)
+            .map(|(mesh, role)| match role {
+                MeshRole::Instanced => MeshBvh::build(
+                    mesh_triangles(
+                        scene.view(&mesh.points),
+                        scene.view(&mesh.triangles),
+                        Affine3A::IDENTITY,
+                    )
+                    .collect(),
+                ),
+                _ => None,
+            })
             .collect();
         let shading = m
             .meshes
@@ -132,12 +184,12 @@ impl Geometry {
             .collect();
         // Boxes first, leaves after the top level is built: the two are
         // never held together (32 MB and 64 MB at a million instances).
-        let boxes: Vec<Aabb> = placements(scene, &meshes)
+        let boxes: Vec<Aabb> = placements(scene, &roles, MeshRole::Instanced)
             .enumerate()
             .map(|(i, (leaf, world_from_mesh))| {
                 let mesh_box = &meshes[leaf.mesh as usize]
                     .as_ref()
-                    .expect("placed meshes have triangles")
+                    .expect("instanced meshes have a BVH")
                     .bvh
                     .total_aabb;
                 padded(transform_box(&world_from_mesh, mesh_box), i)
@@ -145,53 +197,62 @@ impl Geometry {
             .collect();
         let count = boxes.len();
         let top = (count > 0).then(|| TopLevel::build(boxes));
-        let mut leaves = Vec::with_capacity(count);
-        leaves.extend(placements(scene, &meshes).map(|(leaf, _)| leaf));
+        // Sized exactly: a million leaves grown by doubling would briefly
+        // take twice their size.
+        let flattened: Vec<_> = placements(scene, &roles, MeshRole::Flattened).collect();
+        let mut leaves = Vec::with_capacity(count + flattened.len());
+        leaves.extend(placements(scene, &roles, MeshRole::Instanced).map(|(leaf, _)| leaf));
+        let world = WorldMeshes::build(scene, flattened, &mut leaves);
         Self {
             meshes,
             shading,
+            world,
             top,
             leaves,
         }
     }
 
-    /// The closest hit along `ray` within `(ray.tmin, ray.tmax)`, through both
-    /// levels: each candidate instance sees the ray in its mesh's space.
+    /// The closest hit along `ray` within `(ray.tmin, ray.tmax)`: first in
+    /// the world-space BVH, then through both levels of the instanced
+    /// meshes, where each candidate instance sees the ray in its mesh's space.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let top = self.top.as_ref()?;
-        let mut closest = None;
-        let ray = traversal_ray(ray.origin, ray.direction, ray.tmin, ray.tmax);
-        top.traverse(ray, |ray, index| {
-            let leaf = &self.leaves[index];
-            match self.mesh(leaf).intersect(&leaf.local_ray(ray)) {
-                Some((triangle, hit)) => {
-                    closest = Some(Hit {
-                        t: hit.t,
-                        instance: leaf.instance,
-                        prototype_mesh: leaf.prototype_mesh,
-                        triangle,
-                        barycentrics: hit.barycentrics,
-                        leaf: index as u32,
-                    });
-                    hit.t
-                }
-                None => f32::INFINITY,
-            }
+        let mut ray = traversal_ray(ray.origin, ray.direction, ray.tmin, ray.tmax);
+        let mut closest = self.world.as_ref().and_then(|world| {
+            let (index, hit) = world.mesh.intersect(&ray)?;
+            let source = world.sources[index as usize];
+            Some(self.hit(source.leaf, source.triangle, hit))
         });
+        if let Some(hit) = &closest {
+            ray.tmax = hit.t;
+        }
+        if let Some(top) = &self.top {
+            top.traverse(ray, |ray, index| {
+                let leaf = &self.leaves[index];
+                match self.mesh(leaf).intersect(&leaf.local_ray(ray)) {
+                    Some((triangle, hit)) => {
+                        closest = Some(self.hit(index as u32, triangle, hit));
+                        hit.t
+                    }
+                    None => f32::INFINITY,
+                }
+            });
+        }
         closest
     }
 
     /// Whether anything blocks `ray` within `(ray.tmin, ray.tmax)`: a shadow
     /// ray's query, which stops at the first hit found, nearest or not.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let Some(top) = self.top.as_ref() else {
-            return false;
-        };
         let ray = traversal_ray(ray.origin, ray.direction, ray.tmin, ray.tmax);
-        top.any(ray, |ray, index| {
-            let leaf = &self.leaves[index];
-            self.mesh(leaf).occluded(&leaf.local_ray(ray))
-        })
+        self.world
+            .as_ref()
+            .is_some_and(|world| world.mesh.occluded(&ray))
+            || self.top.as_ref().is_some_and(|top| {
+                top.any(ray, |ray, index| {
+                    let leaf = &self.leaves[index];
+                    self.mesh(leaf).occluded(&leaf.local_ray(ray))
+                })
+            })
     }
 
     /// The scene mesh a hit is on (an index into the scene's meshes): the
@@ -214,10 +275,64 @@ impl Geometry {
         )
     }
 
+    /// The [`Hit`] of triangle `triangle` of placed mesh `leaf`.
+    fn hit(&self, leaf: u32, triangle: u32, hit: TriangleHit) -> Hit {
+        let placed = &self.leaves[leaf as usize];
+        Hit {
+            t: hit.t,
+            instance: placed.instance,
+            prototype_mesh: placed.prototype_mesh,
+            triangle,
+            barycentrics: hit.barycentrics,
+            leaf,
+        }
+    }
+
     fn mesh(&self, leaf: &PlacedMesh) -> &MeshBvh {
         self.meshes[leaf.mesh as usize]
             .as_ref()
-            .expect("placed meshes have triangles")
+            .expect("instanced meshes have a BVH")
+    }
+}
+
+impl WorldMeshes {
+    /// The BVH over `placed`, the placements of the [`MeshRole::Flattened`]
+    /// meshes with their world-from-mesh transforms, their triangles carried
+    /// to world space; appends those placements to `leaves`. `None` when
+    /// there are none.
+    fn build(
+        scene: &Scene,
+        placed: Vec<(PlacedMesh, Affine3A)>,
+        leaves: &mut Vec<PlacedMesh>,
+    ) -> Option<Self> {
+        let m = &scene.manifest;
+        // Sized exactly: these arrays are as large as the flattened geometry.
+        let count = placed
+            .iter()
+            .map(|(leaf, _)| scene.view(&m.meshes[leaf.mesh as usize].triangles).len())
+            .sum();
+        let (mut triangles, mut sources) = (Vec::with_capacity(count), Vec::with_capacity(count));
+        for (leaf, world_from_mesh) in placed {
+            let mesh = &m.meshes[leaf.mesh as usize];
+            let first = triangles.len();
+            triangles.extend(mesh_triangles(
+                scene.view(&mesh.points),
+                scene.view(&mesh.triangles),
+                world_from_mesh,
+            ));
+            let index = leaves.len() as u32;
+            sources.extend(
+                (0..(triangles.len() - first) as u32).map(|triangle| TriangleSource {
+                    leaf: index,
+                    triangle,
+                }),
+            );
+            leaves.push(leaf);
+        }
+        Some(Self {
+            mesh: MeshBvh::build(triangles)?,
+            sources,
+        })
     }
 }
 
@@ -235,20 +350,13 @@ impl PlacedMesh {
 }
 
 impl MeshBvh {
-    fn build(points: &[[f32; 3]], triangles: &[[u32; 3]]) -> Option<Self> {
+    /// The BVH over `triangles` (input order is what [`Self::intersect`]
+    /// returns); `None` when there are none.
+    fn build(triangles: Vec<Triangle>) -> Option<Self> {
         if triangles.is_empty() {
             return None;
         }
-        let vertex = |i: u32| Vec3A::from_array(points[i as usize]);
-        let tris: Vec<Triangle> = triangles
-            .iter()
-            .map(|&[a, b, c]| Triangle {
-                v0: vertex(a),
-                v1: vertex(b),
-                v2: vertex(c),
-            })
-            .collect();
-        let boxes: Vec<Aabb> = tris
+        let boxes: Vec<Aabb> = triangles
             .iter()
             .enumerate()
             .map(|(i, t)| padded(t.aabb(), i))
@@ -257,12 +365,13 @@ impl MeshBvh {
         let triangles = bvh
             .primitive_indices
             .iter()
-            .map(|&i| tris[i as usize])
+            .map(|&i| triangles[i as usize])
             .collect();
         Some(Self { bvh, triangles })
     }
 
-    /// The closest triangle hit along a mesh-space ray, as (scene triangle index, hit).
+    /// The closest triangle hit along a ray in the triangles' space, as
+    /// (input triangle index, hit).
     fn intersect(&self, ray: &Ray) -> Option<(u32, TriangleHit)> {
         let watertight = WatertightRay::new(ray.origin, ray.direction);
         let mut closest = None;
@@ -279,7 +388,7 @@ impl MeshBvh {
         closest
     }
 
-    /// Whether any triangle is hit along a mesh-space ray.
+    /// Whether any triangle is hit along a ray in the triangles' space.
     fn occluded(&self, ray: &Ray) -> bool {
         let watertight = WatertightRay::new(ray.origin, ray.direction);
         !self.bvh.ray_traverse_miss(*ray, |ray, id| {
@@ -407,27 +516,69 @@ fn morton_cells(keyed: &[(u64, u32)], range: Range<usize>, runs: &mut Vec<Range<
 /// 1.0 around to 0.
 const MORTON_MAX: f32 = 1.0 - f32::EPSILON;
 
-/// Every placed mesh of `scene` in instance order, with its world-from-mesh
-/// transform: each instance's prototype meshes that have a BVH in `meshes`,
-/// except placements whose transform cannot be inverted (a zero scale
-/// collapses the mesh, which then covers no area).
+/// Each scene mesh's [`MeshRole`]: how many times the instances place it,
+/// counted per prototype (a placement whose transform turns out singular
+/// still counts), and whether it has triangles.
+fn mesh_roles(scene: &Scene) -> Vec<MeshRole> {
+    let m = &scene.manifest;
+    let mut instances_of = vec![0u64; m.prototypes.len()];
+    for &prototype in scene.view(&m.instances.prototype) {
+        instances_of[prototype as usize] += 1;
+    }
+    let mut placed = vec![0u64; m.meshes.len()];
+    for (prototype, &count) in m.prototypes.iter().zip(&instances_of) {
+        for part in &prototype.meshes {
+            placed[part.mesh as usize] += count;
+        }
+    }
+    m.meshes
+        .iter()
+        .zip(placed)
+        .map(|(mesh, placed)| match placed {
+            _ if scene.view(&mesh.triangles).is_empty() => MeshRole::Unused,
+            0 => MeshRole::Unused,
+            1 => MeshRole::Flattened,
+            _ => MeshRole::Instanced,
+        })
+        .collect()
+}
+
+/// The triangles of a mesh (`points` and vertex-index `triangles`), each
+/// vertex carried by `to`.
+fn mesh_triangles<'a>(
+    points: &'a [[f32; 3]],
+    triangles: &'a [[u32; 3]],
+    to: Affine3A,
+) -> impl Iterator<Item = Triangle> + 'a {
+    let vertex = move |i: u32| to.transform_point3a(Vec3A::from_array(points[i as usize]));
+    triangles.iter().map(move |&[a, b, c]| Triangle {
+        v0: vertex(a),
+        v1: vertex(b),
+        v2: vertex(c),
+    })
+}
+
+/// Every placed mesh of `scene` whose role is `role`, in instance order,
+/// with its world-from-mesh transform, except placements whose transform
+/// cannot be inverted (a zero scale collapses the mesh, which then covers
+/// no area).
 fn placements<'a>(
     scene: &'a Scene,
-    meshes: &'a [Option<MeshBvh>],
+    roles: &'a [MeshRole],
+    role: MeshRole,
 ) -> impl Iterator<Item = (PlacedMesh, Affine3A)> + 'a {
     let m = &scene.manifest;
     let prototypes = scene.view(&m.instances.prototype);
     let transforms = scene.view(&m.instances.transform);
     transforms.iter().zip(prototypes).enumerate().flat_map(
         move |(instance, (world_from_prototype, &prototype))| {
-            let world_from_prototype = affine(world_from_prototype);
             let parts = &m.prototypes[prototype as usize].meshes;
             parts
                 .iter()
                 .enumerate()
-                .filter(|(_, part)| meshes[part.mesh as usize].is_some())
+                .filter(move |(_, part)| roles[part.mesh as usize] == role)
                 .filter_map(move |(prototype_mesh, part)| {
-                    let world_from_mesh = world_from_prototype * affine(&part.transform);
+                    let world_from_mesh = affine(world_from_prototype) * affine(&part.transform);
                     let mesh_from_world = world_from_mesh.inverse();
                     mesh_from_world.is_finite().then_some((
                         PlacedMesh {

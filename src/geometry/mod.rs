@@ -1,17 +1,19 @@
 //! Ray intersection with a scene's triangle meshes, built from a [`Scene`]
 //! (which stays plain data).
 //!
-//! Two levels, as instancing needs: one BVH per unique mesh (shared by every
-//! instance of it) and a top-level BVH over the placed meshes; a ray enters a
-//! mesh through the inverse of its world transform, so memory grows with
-//! unique geometry plus one small leaf per placed mesh. Both levels are
-//! obvhs's compressed wide BVH8 (Ylitie, Karras and Laine 2017, "Efficient
-//! Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs"), built with
-//! PLOC (Meister and Bittner 2018); the top level is built in Morton cells
-//! (an LBVH split above PLOC), which keeps its build's peak memory small
-//! (see `bvh.rs`). Triangles are tested with the watertight algorithm of Woop, Benthin
-//! and Wald (2013), so rays through shared edges and vertices never slip
-//! between triangles.
+//! Meshes the scene places once go, in world space, into one BVH over all
+//! their triangles, so a ray walks one tree however many of them overlap.
+//! Meshes placed more than once keep two levels, as instancing needs: one
+//! BVH per such mesh (shared by every instance of it) and a top-level BVH
+//! over its placements; a ray enters a mesh through the inverse of its world
+//! transform, so memory grows with unique geometry plus one small leaf per
+//! placed mesh. Every BVH is obvhs's compressed wide BVH8 (Ylitie, Karras
+//! and Laine 2017, "Efficient Incoherent Ray Traversal on GPUs Through
+//! Compressed Wide BVHs"), built with PLOC (Meister and Bittner 2018); the
+//! top level is built in Morton cells (an LBVH split above PLOC), which
+//! keeps its build's peak memory small (see `bvh.rs`). Triangles are tested
+//! with the watertight algorithm of Woop, Benthin and Wald (2013), so rays
+//! through shared edges and vertices never slip between triangles.
 //!
 //! [`Scene`]: crate::scene::Scene
 

@@ -10,7 +10,8 @@ use std::f32::consts::PI;
 use glam::Vec3;
 
 /// What a light (or a subtree of lights) can send where: pbrt-v4's
-/// `LightBounds`. Importance is never zero where a light may contribute.
+/// `LightBounds`. Its importance ([`ImportanceBounds::importance`]) is
+/// never zero where a light may contribute.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LightBounds {
     /// World box around every emitting point.
@@ -48,8 +49,27 @@ pub(crate) struct LightBvh {
 
 #[derive(Clone, Debug)]
 struct Node {
-    bounds: LightBounds,
+    /// The node's [`LightBounds`], as importance reads them.
+    cone: ImportanceBounds,
     kind: NodeKind,
+}
+
+/// [`LightBounds`] with what [`Self::importance`] derives from them
+/// worked out once: the tree walks evaluate it at every level of every pick
+/// and every probability.
+#[derive(Clone, Copy, Debug)]
+struct ImportanceBounds {
+    /// Centre of the box.
+    centre: Vec3,
+    /// Square of half the box's diagonal, scene units squared.
+    radius_squared: f32,
+    phi: f32,
+    w: Vec3,
+    cos_o: f32,
+    /// Sine of the normal cone's half-angle.
+    sin_o: f32,
+    cos_e: f32,
+    two_sided: bool,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -70,8 +90,7 @@ impl LightBvh {
         loop {
             match self.nodes[node].kind {
                 NodeKind::Leaf { light } => {
-                    return (self.nodes[node].bounds.importance(p) > 0.0)
-                        .then_some(Pick { light, probability });
+                    return self.reaches(node, p).then_some(Pick { light, probability });
                 }
                 NodeKind::Interior { second } => {
                     let p0 = self.first_child_probability(node, second, p)?;
@@ -99,7 +118,7 @@ impl LightBvh {
         loop {
             match self.nodes[node].kind {
                 NodeKind::Leaf { .. } => {
-                    return if self.nodes[node].bounds.importance(p) > 0.0 {
+                    return if self.reaches(node, p) {
                         probability
                     } else {
                         0.0
@@ -123,9 +142,17 @@ impl LightBvh {
     }
 
     fn first_child_probability(&self, node: usize, second: usize, p: Vec3) -> Option<f32> {
-        let c0 = self.nodes[node + 1].bounds.importance(p);
-        let c1 = self.nodes[second].bounds.importance(p);
+        let c0 = self.nodes[node + 1].cone.importance(p);
+        let c1 = self.nodes[second].cone.importance(p);
         (c0 + c1 > 0.0).then(|| c0 / (c0 + c1))
+    }
+
+    /// Whether leaf `node`'s light can reach `p` (importance above 0). Only
+    /// the root needs the test: a walk takes a child with probability
+    /// `c / (c0 + c1)`, so it reaches a child of importance 0 with
+    /// probability 0 (and [`Self::probability`] has multiplied that 0 in).
+    fn reaches(&self, node: usize, p: Vec3) -> bool {
+        node != 0 || self.nodes[0].cone.importance(p) > 0.0
     }
 
     /// A tree over `lights` (index into the caller's list, bounds), split at
@@ -152,7 +179,7 @@ impl LightBvh {
         if let [(light, bounds)] = lights {
             self.trails[*light] = Some(trail);
             self.nodes.push(Node {
-                bounds: *bounds,
+                cone: ImportanceBounds::new(bounds),
                 kind: NodeKind::Leaf { light: *light },
             });
             return *bounds;
@@ -169,57 +196,23 @@ impl LightBvh {
         });
         let at = self.nodes.len();
         self.nodes.push(Node {
-            bounds: lights[0].1,
+            cone: ImportanceBounds::new(&lights[0].1),
             kind: NodeKind::Leaf { light: usize::MAX },
         });
         let (first, rest) = lights.split_at_mut(mid);
         let a = self.build_node(first, trail, depth + 1);
         let second = self.nodes.len();
         let b = self.build_node(rest, trail | 1 << depth, depth + 1);
+        let bounds = a.union(&b);
         self.nodes[at] = Node {
-            bounds: a.union(&b),
+            cone: ImportanceBounds::new(&bounds),
             kind: NodeKind::Interior { second },
         };
-        self.nodes[at].bounds
+        bounds
     }
 }
 
 impl LightBounds {
-    /// pbrt-v4's `LightBounds::Importance` without the receiver's normal:
-    /// phi x a bound on cos(angle to the nearest emitting normal) / d^2,
-    /// zero when no emitting direction of the bounds can reach `p`.
-    pub fn importance(&self, p: Vec3) -> f32 {
-        let centre = self.centroid();
-        let half_diagonal = 0.5 * (self.max - self.min).length();
-        let d2 = p
-            .distance_squared(centre)
-            .max(half_diagonal * half_diagonal)
-            .max(1e-12);
-        let to_p = (p - centre).normalize_or_zero();
-        let mut cos_w = to_p.dot(self.w);
-        if self.two_sided {
-            cos_w = cos_w.abs();
-        }
-        let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
-        // Half-angle of the cone from p holding the bounds' sphere.
-        let cos_b = if d2 <= half_diagonal * half_diagonal || to_p == Vec3::ZERO {
-            -1.0
-        } else {
-            (1.0 - half_diagonal * half_diagonal / p.distance_squared(centre))
-                .max(0.0)
-                .sqrt()
-        };
-        let sin_b = (1.0 - cos_b * cos_b).max(0.0).sqrt();
-        let sin_o = (1.0 - self.cos_o * self.cos_o).max(0.0).sqrt();
-        // cos(max(0, theta_w - theta_o - theta_b)).
-        let (cos_x, sin_x) = cos_sin_sub_clamped(sin_w, cos_w, sin_o, self.cos_o);
-        let (cos_p, _) = cos_sin_sub_clamped(sin_x, cos_x, sin_b, cos_b);
-        if cos_p <= self.cos_e {
-            return 0.0;
-        }
-        self.phi * cos_p / d2
-    }
-
     /// Centre of the box.
     pub fn centroid(&self) -> Vec3 {
         0.5 * (self.min + self.max)
@@ -251,6 +244,52 @@ impl LightBounds {
             cos_e: 0.0,
             two_sided: false,
         }
+    }
+}
+
+impl ImportanceBounds {
+    /// `b` with its centre, squared radius and cone sine worked out.
+    fn new(b: &LightBounds) -> Self {
+        let half_diagonal = 0.5 * (b.max - b.min).length();
+        Self {
+            centre: b.centroid(),
+            radius_squared: half_diagonal * half_diagonal,
+            phi: b.phi,
+            w: b.w,
+            cos_o: b.cos_o,
+            sin_o: (1.0 - b.cos_o * b.cos_o).max(0.0).sqrt(),
+            cos_e: b.cos_e,
+            two_sided: b.two_sided,
+        }
+    }
+
+    /// pbrt-v4's `LightBounds::Importance` without the receiver's normal:
+    /// phi x a bound on cos(angle to the nearest emitting normal) / d^2,
+    /// zero when no emitting direction of the bounds can reach `p`.
+    fn importance(&self, p: Vec3) -> f32 {
+        let centre = self.centre;
+        let r2 = self.radius_squared;
+        let d2 = p.distance_squared(centre).max(r2).max(1e-12);
+        let to_p = (p - centre).normalize_or_zero();
+        let mut cos_w = to_p.dot(self.w);
+        if self.two_sided {
+            cos_w = cos_w.abs();
+        }
+        let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
+        // Half-angle of the cone from p holding the bounds' sphere.
+        let cos_b = if d2 <= r2 || to_p == Vec3::ZERO {
+            -1.0
+        } else {
+            (1.0 - r2 / p.distance_squared(centre)).max(0.0).sqrt()
+        };
+        let sin_b = (1.0 - cos_b * cos_b).max(0.0).sqrt();
+        // cos(max(0, theta_w - theta_o - theta_b)).
+        let (cos_x, sin_x) = cos_sin_sub_clamped(sin_w, cos_w, self.sin_o, self.cos_o);
+        let (cos_p, _) = cos_sin_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+        if cos_p <= self.cos_e {
+            return 0.0;
+        }
+        self.phi * cos_p / d2
     }
 }
 
@@ -347,6 +386,31 @@ mod tests {
                 "light {i}: {c}"
             );
         }
+    }
+
+    /// A tree of one light is a lone leaf, the one node the walks test
+    /// themselves: a one-sided panel is picked with probability 1 in front
+    /// and never behind.
+    #[test]
+    fn a_lone_light_is_picked_only_where_it_shines() {
+        let panel = LightBounds {
+            min: Vec3::new(-1.0, -1.0, 0.0),
+            max: Vec3::new(1.0, 1.0, 0.0),
+            phi: 10.0,
+            w: Vec3::Z,
+            cos_o: 1.0,
+            cos_e: 0.0,
+            two_sided: false,
+        };
+        let bvh = LightBvh::build(vec![(0, panel)], 1);
+        let (front, behind) = (Vec3::new(0.3, 0.2, 2.0), Vec3::new(0.3, 0.2, -2.0));
+        assert_eq!(bvh.probability(front, 0), 1.0);
+        assert_eq!(
+            bvh.pick(front, 0.7).map(|p| (p.light, p.probability)),
+            Some((0, 1.0))
+        );
+        assert_eq!(bvh.probability(behind, 0), 0.0);
+        assert!(bvh.pick(behind, 0.7).is_none());
     }
 
     #[test]

@@ -106,17 +106,17 @@ impl Texels {
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
-        let texel = |i: i64, j: i64| -> Vec4 {
-            match (
-                wrap_index(i, self.width, wrap[0]),
-                wrap_index(j, self.height, wrap[1]),
-            ) {
+        // Each of the two columns and rows is wrapped once, not once per texel.
+        let columns = [x0, x0 + 1].map(|i| wrap_index(i, self.width, wrap[0]));
+        let rows = [y0, y0 + 1].map(|j| wrap_index(j, self.height, wrap[1]));
+        let texel = |i: Option<u32>, j: Option<u32>| -> Vec4 {
+            match (i, j) {
                 (Some(i), Some(j)) => self.texel(i, j),
                 _ => Vec4::ZERO,
             }
         };
-        let top = texel(x0, y0).lerp(texel(x0 + 1, y0), fx);
-        let bottom = texel(x0, y0 + 1).lerp(texel(x0 + 1, y0 + 1), fx);
+        let top = texel(columns[0], rows[0]).lerp(texel(columns[1], rows[0]), fx);
+        let bottom = texel(columns[0], rows[1]).lerp(texel(columns[1], rows[1]), fx);
         top.lerp(bottom, fy)
     }
 
@@ -136,7 +136,12 @@ impl Texels {
 }
 
 /// Texel index `i` on an axis of `n` texels under `wrap`; `None` = black.
+/// An index inside the image is itself under every mode, and returned
+/// without the modes' divisions (most lookups of an untiled texture).
 fn wrap_index(i: i64, n: u32, wrap: Wrap) -> Option<u32> {
+    if (0..i64::from(n)).contains(&i) {
+        return Some(i as u32);
+    }
     let n = i64::from(n);
     let i = match wrap {
         Wrap::Repeat => i.rem_euclid(n),
@@ -149,12 +154,7 @@ fn wrap_index(i: i64, n: u32, wrap: Wrap) -> Option<u32> {
                 2 * n - 1 - k
             }
         }
-        Wrap::Black => {
-            if !(0..n).contains(&i) {
-                return None;
-            }
-            i
-        }
+        Wrap::Black => return None,
     };
     Some(i as u32)
 }
