@@ -16,6 +16,15 @@ pub struct SurfacePoint {
     /// triangle's vertices run counter-clockwise), carried to world space by
     /// the inverse transpose, so a mirroring transform keeps the front side.
     pub ng: Vec3,
+    /// How far (scene units) a ray leaving the point first moves off the
+    /// surface along `ng`, beyond the ULP steps of [`offset_origin`]: a bound
+    /// on how far a re-intersection of this triangle can land off its plane.
+    /// Watertight intersection rounds relative to the vertices' distances
+    /// from the ray's origin, so that error grows with the triangle's size,
+    /// not with the point's coordinates: a 2e6-unit ground near the world
+    /// origin shadowed itself under an offset of 1e-5 (2^-18 of the longest
+    /// world-space edge).
+    pub offset: f32,
     /// Unit shading normal: the interpolated vertex normal (or `ng` where the
     /// mesh has none or it degenerates), flipped into `ng`'s hemisphere.
     pub ns: Vec3,
@@ -40,7 +49,7 @@ impl SurfacePoint {
     /// A ray leaving the surface along unit `direction`, its origin pushed off
     /// the surface to `direction`'s side of `ng` (see [`offset_origin`]).
     pub fn spawn_ray(&self, direction: Vec3) -> Ray {
-        let origin = offset_origin(self.p, self.ng, direction);
+        let origin = self.origin_towards(direction);
         Ray::new(origin.into(), direction.into(), 0.0, f32::INFINITY)
     }
 
@@ -49,13 +58,24 @@ impl SurfacePoint {
     /// light's own surface does not shadow it: by a relative 1e-4, far above
     /// the rounding of `distance` (about 1e-7 relative).
     pub fn shadow_ray(&self, direction: Vec3, distance: f32) -> Ray {
-        shadow_ray(
-            offset_origin(self.p, self.ng, direction),
-            direction,
-            distance,
-        )
+        shadow_ray(self.origin_towards(direction), direction, distance)
+    }
+
+    /// The origin of a ray leaving towards `direction`: `p` moved off the
+    /// surface by `offset`, then by [`offset_origin`].
+    fn origin_towards(&self, direction: Vec3) -> Vec3 {
+        let side = if self.ng.dot(direction) < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
+        offset_origin(self.p + self.ng * (side * self.offset), self.ng, direction)
     }
 }
+
+/// Relative size of [`SurfacePoint::offset`]: 2^-18 of a triangle's longest
+/// edge, about 32 f32 roundings of it.
+const EXTENT_OFFSET: f32 = 1.0 / 262_144.0;
 
 /// A shadow ray from `origin` (already off any surface, or in a medium)
 /// towards a point `distance` away along unit `direction`, stopping just
@@ -143,6 +163,8 @@ impl MeshShading {
             |n: Vec3| Vec3::from(mesh_from_world.matrix3.transpose() * Vec3A::from(n));
         let vector_to_world = |v: Vec3| world_from_mesh.transform_vector3(v);
         let ng = normal_to_world((p1 - p0).cross(p2 - p0)).normalize();
+        let [e1, e2] = [p1 - p0, p2 - p0].map(vector_to_world);
+        let longest_edge = e1.length().max(e2.length()).max((e2 - e1).length());
         let ns = self
             .normals
             .as_ref()
@@ -164,6 +186,7 @@ impl MeshShading {
         SurfacePoint {
             p: world_from_mesh.transform_point3(mix3([p0, p1, p2])),
             ng,
+            offset: EXTENT_OFFSET * longest_edge,
             ns,
             dpdu,
             uv,

@@ -585,6 +585,7 @@ mod tests {
             // Triangle 0 of the quad is mesh-space x > y: world x + 0.5 > 0.5 - y.
             let sp = SurfacePoint {
                 p,
+                offset: 0.0,
                 ng: -Vec3::Z,
                 ns: -Vec3::Z,
                 dpdu: Vec3::X,

@@ -468,6 +468,7 @@ mod tests {
     fn point(double_sided: bool) -> SurfacePoint {
         SurfacePoint {
             p: Vec3::ZERO,
+            offset: 0.0,
             ng: Vec3::Z,
             ns: Vec3::Z,
             dpdu: Vec3::X,

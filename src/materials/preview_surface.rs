@@ -269,6 +269,7 @@ mod tests {
     fn point() -> SurfacePoint {
         SurfacePoint {
             p: Vec3::ZERO,
+            offset: 0.0,
             ng: Vec3::Z,
             ns: Vec3::Z,
             dpdu: Vec3::X,
