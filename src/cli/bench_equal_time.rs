@@ -20,6 +20,7 @@ use crate::output::filter::FilterKind;
 use crate::output::read_image;
 use crate::render_state::RenderState;
 use crate::sampling::SamplerKind;
+use crate::scene::Scene;
 
 /// What an equal-time benchmark measures (`bench render`, `bench volumes`).
 pub struct EqualTimeBench {
@@ -138,26 +139,42 @@ pub(super) fn scene_name(path: &Path) -> String {
         .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
 }
 
-/// The reference of scene `name`: [`base_settings`] at `spp` with
-/// [`REFERENCE_SEED`], kept in `out` by [`reference`] at
-/// [`reference_path`].
+/// The name under which references of `scene` (called `name`) are kept:
+/// the name and a CRC-32 of the exported scene (`scene.json` and
+/// `scene.bin`), so a reference rendered before the scene changed is never
+/// read back (a stale smoke reference, from before its ground lost its
+/// specular lobe, once made every method look stuck at relMSE 0.13).
+pub(super) fn reference_key(scene: &Scene, name: &str) -> Result<String> {
+    let manifest = scene.dir.join("scene.json");
+    let json =
+        std::fs::read(&manifest).with_context(|| format!("cannot read {}", manifest.display()))?;
+    let mut crc = crc32fast::Hasher::new();
+    crc.update(&json);
+    crc.update(scene.blob_bytes());
+    Ok(format!("{name}-{:08x}", crc.finalize()))
+}
+
+/// The reference of the scene whose [`reference_key`] is `key`:
+/// [`base_settings`] at `spp` with [`REFERENCE_SEED`], kept in `out` by
+/// [`reference`] at [`reference_path`].
 pub(super) fn cached_reference(
     state: &RenderState,
     out: &Path,
-    name: &str,
+    key: &str,
     spp: u32,
 ) -> Result<Vec<f32>> {
-    let path = reference_path(out, name, state.resolution, spp);
+    let path = reference_path(out, key, state.resolution, spp);
     let settings = base_settings(Budget::Samples(spp), REFERENCE_SEED);
     reference(state, &settings, &path)
 }
 
-/// Where the reference of scene `name` at this resolution and spp is kept:
-/// `<out>/<name>-<w>x<h>-ref<spp>.exr`. The key holds neither the settings
-/// nor the renderer's version: delete the file after changing either.
-pub(super) fn reference_path(out: &Path, name: &str, resolution: UVec2, spp: u32) -> PathBuf {
+/// Where the reference of the scene keyed `key` ([`reference_key`]) at this
+/// resolution and spp is kept: `<out>/<key>-<w>x<h>-ref<spp>.exr`. The key
+/// holds neither the settings, nor the renderer's version, nor the VDB
+/// files' contents: delete the file after changing any of them.
+pub(super) fn reference_path(out: &Path, key: &str, resolution: UVec2, spp: u32) -> PathBuf {
     out.join(format!(
-        "{name}-{}x{}-ref{spp}.exr",
+        "{key}-{}x{}-ref{spp}.exr",
         resolution.x, resolution.y
     ))
 }

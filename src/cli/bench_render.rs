@@ -13,8 +13,8 @@ use anyhow::{Context, Result};
 use super::bench::{machine_line, median};
 use super::bench_equal_time::{
     base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
-    median_errors, render, scene_name, spp_per_second, write_chart, EqualTimeBench, ErrorMetric,
-    Rung, MAX_DEPTH, TIME_AXIS,
+    median_errors, reference_key, render, scene_name, spp_per_second, write_chart, EqualTimeBench,
+    ErrorMetric, Rung, MAX_DEPTH, TIME_AXIS,
 };
 use crate::integrator::{Budget, PathSettings, RenderSettings, RenderStats, Strategy};
 use crate::render_state::RenderState;
@@ -46,11 +46,12 @@ pub fn run(bench: &EqualTimeBench) -> Result<()> {
     for path in &bench.scenes {
         let scene = super::load_scene(path, None)?;
         let state = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Grid)?;
-        drop(scene);
         let name = scene_name(path);
+        let key = reference_key(&scene, &name)?;
+        drop(scene);
         println!("### {name}\n");
         throughput(&state, bench.repeats);
-        let reference = cached_reference(&state, &bench.out, &name, bench.reference_spp)?;
+        let reference = cached_reference(&state, &bench.out, &key, bench.reference_spp)?;
         equal_time(&state, bench, &name, &reference)?;
     }
     Ok(())

@@ -18,8 +18,8 @@ use clap::ValueEnum;
 use super::bench::{machine_line, median, value_name};
 use super::bench_equal_time::{
     base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
-    median_errors, scene_name, spp_per_second, write_chart, EqualTimeBench, ErrorMetric, Rung,
-    MAX_DEPTH, TIME_AXIS,
+    median_errors, reference_key, scene_name, spp_per_second, write_chart, EqualTimeBench,
+    ErrorMetric, Rung, MAX_DEPTH, TIME_AXIS,
 };
 use crate::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
 use crate::render_state::RenderState;
@@ -98,8 +98,9 @@ pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
         print_extinction(&scene)?;
         let grid = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Grid)?;
         let global = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Global)?;
+        let key = reference_key(&scene, &name)?;
         drop(scene);
-        let reference = cached_reference(&grid, &bench.out, &name, bench.reference_spp)?;
+        let reference = cached_reference(&grid, &bench.out, &key, bench.reference_spp)?;
         let mut measurements = Vec::new();
         for (majorant, state) in [(MajorantKind::Grid, &grid), (MajorantKind::Global, &global)] {
             for &estimator in VolumeEstimator::value_variants() {

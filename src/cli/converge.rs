@@ -34,8 +34,8 @@ use glam::UVec2;
 
 use super::bench::{machine_line, median, scenes_or_default, value_name, with_threads};
 use super::bench_equal_time::{
-    base_settings, cached_reference, error_at_time, read_rgb, reference_path, render, scene_name,
-    write_chart, ChartAxis, ErrorMetric, MAX_DEPTH, REFERENCE_SEED, TIME_AXIS,
+    base_settings, cached_reference, error_at_time, read_rgb, reference_key, reference_path,
+    render, scene_name, write_chart, ChartAxis, ErrorMetric, MAX_DEPTH, REFERENCE_SEED, TIME_AXIS,
 };
 use crate::integrator::{Budget, RenderSettings, Strategy, VolumeEstimator};
 use crate::render_state::RenderState;
@@ -467,8 +467,9 @@ fn converge_scene(args: &ConvergeArgs, path: &Path, name: &str) -> Result<Vec<Ro
     } else {
         None
     };
+    let key = reference_key(&scene, name)?;
     drop(scene);
-    let reference = cached_reference(&grid, &args.out, name, args.reference_spp)?;
+    let reference = cached_reference(&grid, &args.out, &key, args.reference_spp)?;
     let study = Study {
         name,
         seeds: args.seeds,
@@ -488,7 +489,8 @@ fn converge_scene(args: &ConvergeArgs, path: &Path, name: &str) -> Result<Vec<Ro
         let folder = exported_folder(path)?;
         let mut peer_rows = Vec::new();
         for &peer in &args.peers {
-            peer_rows.extend(converge_peer(args, peer, &folder, name, &reference)?);
+            let scene = (name, key.as_str());
+            peer_rows.extend(converge_peer(args, peer, &folder, scene, &reference)?);
         }
         let longest = peer_rows.iter().map(|r| r.seconds).fold(0.0, f64::max);
         study.extend_default(&grid, longest, &mut rows);
@@ -566,19 +568,20 @@ fn exported_folder(path: &Path) -> Result<PathBuf> {
     }
 }
 
-/// Every render of one peer on one scene: its own reference (kept in --out
-/// as `<scene>-<peer>-<w>x<h>-ref<spp>.exr`, like ours), then each budget
-/// and seed, measured against our reference and its own.
+/// Every render of one peer on one scene (its name and [`reference_key`]):
+/// its own reference (kept in --out as `<key>-<peer>-<w>x<h>-ref<spp>.exr`,
+/// like ours), then each budget and seed, measured against our reference
+/// and its own.
 fn converge_peer(
     args: &ConvergeArgs,
     peer: Peer,
     folder: &Path,
-    name: &str,
+    (name, key): (&str, &str),
     reference: &[f32],
 ) -> Result<Vec<Row>> {
     let label = value_name(peer);
     let own_spp = args.peer_reference_spp.unwrap_or(args.reference_spp);
-    let own_path = reference_path(&args.out, &format!("{name}-{label}"), args.res, own_spp);
+    let own_path = reference_path(&args.out, &format!("{key}-{label}"), args.res, own_spp);
     let own = match read_rgb(&own_path, args.res) {
         Some(rgb) => rgb,
         None => {
