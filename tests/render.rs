@@ -710,40 +710,37 @@ fn assert_rgb_image(what: &str, image: &Image, expected: [f64; 3]) {
 #[test]
 fn chromatic_extinction_attenuates_and_scatters_each_channel_by_its_own_depth() {
     let dir = common::scratch("render_volume_chromatic");
-    let exp = |d: f64| (-d).exp();
-    for (seed, majorant) in MAJORANTS.into_iter().enumerate() {
-        let image = Render {
-            scene: "volume_absorber_chromatic",
+    let render = |scene, seed: usize, extra: &[&str]| {
+        Render {
+            scene,
             res: (32, 32),
             spp: 128,
             seed: seed as u64,
-            extra: &["--majorant", majorant],
+            extra,
         }
-        .run(&dir);
+        .run(&dir)
+    };
+    let exp = |d: f64| (-d).exp();
+    for (seed, majorant) in MAJORANTS.into_iter().enumerate() {
+        let image = render("volume_absorber_chromatic", seed, &["--majorant", majorant]);
         let what = format!("chromatic absorber, {majorant} majorant");
         assert_rgb_image(&what, &image, [exp(2.0), exp(1.0), exp(0.25)]);
     }
     for (seed, estimator) in TRANSMITTANCE.into_iter().enumerate() {
-        let image = Render {
-            scene: "volume_shadow_chromatic",
-            res: (32, 32),
-            spp: 128,
-            seed: seed as u64,
-            extra: &["--volume-estimator", estimator],
-        }
-        .run(&dir);
+        let image = render(
+            "volume_shadow_chromatic",
+            seed,
+            &["--volume-estimator", estimator],
+        );
         let expected = [0.5 * exp(2.0), 0.5 * exp(1.0), 0.5 * exp(0.25)];
         assert_rgb_image(&format!("chromatic shadow, {estimator}"), &image, expected);
     }
     for (seed, strategy) in STRATEGIES.into_iter().enumerate() {
-        let image = Render {
-            scene: "volume_furnace_chromatic",
-            res: (32, 32),
-            spp: 128,
-            seed: seed as u64,
-            extra: &["--strategy", strategy, "--max-depth", UNBOUNDED_DEPTH],
-        }
-        .run(&dir);
+        let image = render(
+            "volume_furnace_chromatic",
+            seed,
+            &["--strategy", strategy, "--max-depth", UNBOUNDED_DEPTH],
+        );
         let what = format!("chromatic furnace, {strategy}");
         assert_rgb_image(&what, &image, [1.0; 3]);
     }

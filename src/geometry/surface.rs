@@ -49,7 +49,7 @@ impl SurfacePoint {
     /// A ray leaving the surface along unit `direction`, its origin pushed off
     /// the surface to `direction`'s side of `ng` (see [`offset_origin`]).
     pub fn spawn_ray(&self, direction: Vec3) -> Ray {
-        let origin = self.origin_towards(direction);
+        let origin = offset_origin(self.p, self.ng, direction, self.offset);
         Ray::new(origin.into(), direction.into(), 0.0, f32::INFINITY)
     }
 
@@ -58,18 +58,11 @@ impl SurfacePoint {
     /// light's own surface does not shadow it: by a relative 1e-4, far above
     /// the rounding of `distance` (about 1e-7 relative).
     pub fn shadow_ray(&self, direction: Vec3, distance: f32) -> Ray {
-        shadow_ray(self.origin_towards(direction), direction, distance)
-    }
-
-    /// The origin of a ray leaving towards `direction`: `p` moved off the
-    /// surface by `offset`, then by [`offset_origin`].
-    fn origin_towards(&self, direction: Vec3) -> Vec3 {
-        let side = if self.ng.dot(direction) < 0.0 {
-            -1.0
-        } else {
-            1.0
-        };
-        offset_origin(self.p + self.ng * (side * self.offset), self.ng, direction)
+        shadow_ray(
+            offset_origin(self.p, self.ng, direction, self.offset),
+            direction,
+            distance,
+        )
     }
 }
 
@@ -95,11 +88,14 @@ const SHADOW_RAY_SHORTENING: f32 = 1e-4;
 /// Ray Tracing Gems ch. 6): the offset scales with the coordinates' own
 /// rounding error, so it works at any scene scale, unlike a fixed epsilon.
 /// Near the origin, where ULPs vanish, a small absolute offset takes over.
-pub fn offset_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
+/// `extent_offset` (scene units) moves `p` first: the part of the error that
+/// grows with the triangle's size, not its position ([`SurfacePoint::offset`]).
+pub fn offset_origin(p: Vec3, ng: Vec3, w: Vec3, extent_offset: f32) -> Vec3 {
     const ORIGIN: f32 = 1.0 / 32.0;
     const FLOAT_SCALE: f32 = 1.0 / 65536.0;
     const INT_SCALE: f32 = 256.0;
     let n = if ng.dot(w) < 0.0 { -ng } else { ng };
+    let p = p + n * extent_offset;
     let step = |p: f32, n: f32| {
         let of = (INT_SCALE * n) as i32;
         let moved = f32::from_bits((p.to_bits() as i32 + if p < 0.0 { -of } else { of }) as u32);
@@ -162,9 +158,10 @@ impl MeshShading {
         let normal_to_world =
             |n: Vec3| Vec3::from(mesh_from_world.matrix3.transpose() * Vec3A::from(n));
         let vector_to_world = |v: Vec3| world_from_mesh.transform_vector3(v);
-        let ng = normal_to_world((p1 - p0).cross(p2 - p0)).normalize();
-        let [e1, e2] = [p1 - p0, p2 - p0].map(vector_to_world);
-        let longest_edge = e1.length().max(e2.length()).max((e2 - e1).length());
+        let (e1, e2) = (p1 - p0, p2 - p0);
+        let ng = normal_to_world(e1.cross(e2)).normalize();
+        let [w1, w2] = [e1, e2].map(vector_to_world);
+        let longest_edge = w1.length().max(w2.length()).max((w2 - w1).length());
         let ns = self
             .normals
             .as_ref()
@@ -175,7 +172,7 @@ impl MeshShading {
             Some(uvs) => {
                 let [t0, t1, t2] = [uvs[a], uvs[b], uvs[c]];
                 let uv = t0 * w.x + t1 * w.y + t2 * w.z;
-                (uv, tangent_u(p1 - p0, p2 - p0, t1 - t0, t2 - t0))
+                (uv, tangent_u(e1, e2, t1 - t0, t2 - t0))
             }
             None => (Vec2::ZERO, None),
         };
@@ -220,7 +217,7 @@ mod tests {
             let p = Vec3::new(0.3, -0.7, 0.5) * scale;
             let n = Vec3::new(0.2, 0.3, 0.9).normalize();
             for w in [n, -n] {
-                let o = offset_origin(p, n, w);
+                let o = offset_origin(p, n, w, 0.0);
                 let side = (o - p).dot(w);
                 assert!(side > 0.0, "scale {scale}: offset {side} not towards w");
                 // The plane through p, evaluated in f32 as a ray would: still clear.

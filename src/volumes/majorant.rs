@@ -131,8 +131,6 @@ pub struct MajorantSegments<'a> {
     step: IVec3,
     /// Where the ray leaves `cell` through each axis' next plane (infinity if parallel).
     t_next: Vec3,
-    /// `1 / direction` per axis (infinite where the ray is parallel).
-    inv_direction: Vec3,
     /// Start of the next segment.
     t: f32,
     /// End of the ray, clipped to the grid.
@@ -159,7 +157,8 @@ impl Iterator for MajorantSegments<'_> {
             // Carried over, never recomputed: consecutive segments share this exact value.
             let t_max = self.t_next[axis].min(self.t_exit).max(t_min);
             let cell = self.cell;
-            let range = self.grid.cells[self.grid.cell_slot(cell)];
+            let slot = self.grid.cell_slot(cell);
+            let range = self.grid.cells[slot];
             self.t = t_max;
             self.cell[axis] += self.step[axis];
             if self.cell[axis] < 0 || self.cell[axis] >= self.grid.dims[axis] {
@@ -174,7 +173,7 @@ impl Iterator for MajorantSegments<'_> {
                 );
             }
             if range.max > 0.0 && t_max > t_min {
-                let (t_min, t_max) = self.clip(cell, t_min, t_max);
+                let (t_min, t_max) = self.clip(cell, self.grid.supports[slot], t_min, t_max);
                 if t_max > t_min {
                     return Some(MajorantSegment {
                         t_min,
@@ -190,33 +189,45 @@ impl Iterator for MajorantSegments<'_> {
 }
 
 impl MajorantSegments<'_> {
-    /// `[t_min, t_max)` narrowed to the part inside `cell`'s support box
-    /// (slab test; a ray parallel to an axis is kept or dropped whole).
+    /// `[t_min, t_max)` narrowed to the part inside `cell`'s `support` box.
     #[inline]
-    fn clip(&self, cell: IVec3, mut t_min: f32, mut t_max: f32) -> (f32, f32) {
-        let grid = self.grid;
-        let support = grid.supports[grid.cell_slot(cell)];
+    fn clip(&self, cell: IVec3, support: SupportBox, t_min: f32, t_max: f32) -> (f32, f32) {
         if support == SupportBox::FULL {
             return (t_min, t_max);
         }
+        let grid = self.grid;
         let corner = grid.lo + cell.as_vec3() * grid.cell_size;
         let eighth = grid.cell_size / 8.0;
-        for a in 0..3 {
-            let lo = corner[a] + f32::from(support.lo[a]) * eighth[a];
-            let hi = corner[a] + f32::from(support.hi[a]) * eighth[a];
-            if self.direction[a] == 0.0 {
-                if !(lo <= self.origin[a] && self.origin[a] <= hi) {
-                    return (t_min, t_min);
-                }
-            } else {
-                let t0 = (lo - self.origin[a]) * self.inv_direction[a];
-                let t1 = (hi - self.origin[a]) * self.inv_direction[a];
-                t_min = t_min.max(t0.min(t1));
-                t_max = t_max.min(t0.max(t1));
-            }
-        }
-        (t_min, t_max)
+        let lo = corner + Vec3::from(support.lo.map(f32::from)) * eighth;
+        let hi = corner + Vec3::from(support.hi.map(f32::from)) * eighth;
+        clip_to_box(self.origin, self.direction, lo, hi, t_min, t_max)
     }
+}
+
+/// The part of `[t_min, t_max)` where the ray `origin + t direction` lies in
+/// the box `[lo, hi)` (slab test); empty, with `t_max` = -infinity, when the
+/// ray runs parallel to an axis outside the box's extent on it.
+fn clip_to_box(
+    origin: Vec3,
+    direction: Vec3,
+    lo: Vec3,
+    hi: Vec3,
+    mut t_min: f32,
+    mut t_max: f32,
+) -> (f32, f32) {
+    for a in 0..3 {
+        if direction[a] == 0.0 {
+            if !(lo[a] <= origin[a] && origin[a] < hi[a]) {
+                t_max = f32::NEG_INFINITY;
+            }
+        } else {
+            let t0 = (lo[a] - origin[a]) / direction[a];
+            let t1 = (hi[a] - origin[a]) / direction[a];
+            t_min = t_min.max(t0.min(t1));
+            t_max = t_max.min(t0.max(t1));
+        }
+    }
+    (t_min, t_max)
 }
 
 impl MajorantGrid {
@@ -239,20 +250,7 @@ impl MajorantGrid {
         scale: Vec3,
     ) -> MajorantSegments<'_> {
         let hi = self.lo + self.dims.as_vec3() * self.cell_size;
-        let mut t_enter = t_min;
-        let mut t_exit = t_max;
-        for a in 0..3 {
-            if direction[a] == 0.0 {
-                if !(self.lo[a] <= origin[a] && origin[a] < hi[a]) {
-                    t_exit = f32::NEG_INFINITY;
-                }
-            } else {
-                let t0 = (self.lo[a] - origin[a]) / direction[a];
-                let t1 = (hi[a] - origin[a]) / direction[a];
-                t_enter = t_enter.max(t0.min(t1));
-                t_exit = t_exit.min(t0.max(t1));
-            }
-        }
+        let (t_enter, t_exit) = clip_to_box(origin, direction, self.lo, hi, t_min, t_max);
         let p = if t_enter.is_finite() {
             origin + direction * t_enter
         } else {
@@ -277,7 +275,6 @@ impl MajorantGrid {
             cell,
             step,
             t_next,
-            inv_direction: direction.recip(),
             t: t_enter,
             t_exit,
             scale_max: scale.max_element(),
