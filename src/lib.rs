@@ -7,6 +7,7 @@
 
 pub mod camera;
 pub mod cli;
+pub mod color;
 pub mod geometry;
 pub mod integrator;
 pub mod lights;

@@ -7,8 +7,9 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use super::bvh::LightBounds;
-use super::emission::{area_radiance, luminance};
+use super::emission::area_radiance;
 use super::{world_from_light, LightError, LightHit, LightSample};
+use crate::color::luminance;
 use crate::geometry::Frame;
 use crate::sampling::warp::area_to_solid_angle;
 use crate::scene::Light as LightRecord;

@@ -7,9 +7,10 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use super::bvh::LightBounds;
-use super::emission::{area_radiance, luminance};
+use super::emission::area_radiance;
 use super::plane::Plane;
 use super::{LightError, LightHit, LightSample};
+use crate::color::luminance;
 use crate::sampling::warp::square_to_concentric_disk;
 use crate::scene::Light as LightRecord;
 

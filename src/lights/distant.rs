@@ -7,8 +7,9 @@ use std::f64::consts::PI;
 
 use glam::{Vec2, Vec3};
 
-use super::emission::{emission, luminance};
+use super::emission::emission;
 use super::{world_from_light, LightError, LightHit, LightSample};
+use crate::color::luminance;
 use crate::geometry::Frame;
 use crate::sampling::warp::square_to_uniform_cone;
 use crate::scene::Light as LightRecord;

@@ -16,9 +16,10 @@ use std::f32::consts::PI;
 
 use glam::{Mat3, Vec2, Vec3};
 
-use super::emission::{emission, luminance};
+use super::emission::emission;
 use super::image::LightImage;
 use super::{world_from_light, LightError, LightHit, LightSample};
+use crate::color::luminance;
 use crate::sampling::warp::square_to_uniform_sphere;
 use crate::sampling::Distribution2D;
 use crate::scene::Light as LightRecord;

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
-use super::emission::luminance;
+use crate::color::luminance;
 use crate::scene::ColorSpace;
 
 /// A light's texture: linear Rec.709 RGB texels, row 0 at the top.

@@ -9,8 +9,8 @@ use std::f32::consts::PI;
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
 
 use super::bvh::{cone_union, LightBounds};
-use super::emission::luminance;
 use super::LightSample;
+use crate::color::luminance;
 use crate::geometry::SurfacePoint;
 use crate::materials::Materials;
 use crate::sampling::warp::{area_to_solid_angle, square_to_uniform_triangle};

@@ -35,7 +35,6 @@ mod rect;
 mod select;
 mod sphere;
 
-pub use emission::blackbody_radiance;
 #[cfg(test)]
 pub(crate) mod test_support;
 

@@ -7,10 +7,11 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use super::bvh::LightBounds;
-use super::emission::{area_radiance, luminance};
+use super::emission::area_radiance;
 use super::image::LightImage;
 use super::plane::Plane;
 use super::{LightError, LightHit, LightSample};
+use crate::color::luminance;
 use crate::scene::Light as LightRecord;
 
 /// A rectangle light in world space (a parallelogram under shear).

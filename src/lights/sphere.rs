@@ -7,8 +7,9 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use super::bvh::LightBounds;
-use super::emission::{emission, luminance};
+use super::emission::emission;
 use super::{mean_scale, world_from_light, LightError, LightHit, LightSample};
+use crate::color::luminance;
 use crate::geometry::Frame;
 use crate::scene::Light as LightRecord;
 

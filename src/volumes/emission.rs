@@ -11,7 +11,7 @@
 
 use glam::Vec3;
 
-use crate::lights::blackbody_radiance;
+use crate::color::{blackbody_radiance, luminance};
 
 /// The temperature at which `heatScale` is the emitted luminance, kelvin.
 pub const REFERENCE_TEMPERATURE_K: f32 = 1500.0;
@@ -42,7 +42,7 @@ impl BlackbodyTable {
     /// Tabulates 0 .. 12,000 K every 10 K.
     pub fn new() -> Self {
         let reference = blackbody_radiance(REFERENCE_TEMPERATURE_K);
-        let y = reference.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let y = luminance(reference);
         let n = (MAX_K / STEP_K) as usize + 1;
         let table = (0..n)
             .map(|i| blackbody_radiance(i as f32 * STEP_K) / y)
@@ -64,7 +64,7 @@ mod tests {
     #[test]
     fn reference_temperature_has_unit_luminance_and_planck_ratios() {
         let table = BlackbodyTable::new();
-        let y = |t: f32| table.radiance(t).dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let y = |t: f32| luminance(table.radiance(t));
         assert!((y(REFERENCE_TEMPERATURE_K) - 1.0).abs() < 1e-5);
         // Hotter is brighter and bluer; 0 K is dark.
         assert!(y(2000.0) > 5.0 * y(1500.0) && y(1000.0) < 0.1 * y(1500.0));
@@ -73,8 +73,8 @@ mod tests {
         let (warm, hot) = (table.radiance(1500.0), table.radiance(6000.0));
         assert!(warm.x / warm.z > hot.x / hot.z);
         // Between entries the table interpolates the exact values closely.
-        let exact = blackbody_radiance(1234.5)
-            / blackbody_radiance(REFERENCE_TEMPERATURE_K).dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let exact =
+            blackbody_radiance(1234.5) / luminance(blackbody_radiance(REFERENCE_TEMPERATURE_K));
         assert!((table.radiance(1234.5) - exact).abs().max_element() < 0.01 * exact.max_element());
     }
 }
