@@ -7,7 +7,7 @@ use thiserror::Error;
 
 use crate::camera::{Camera, CameraError};
 use crate::geometry::Geometry;
-use crate::lights::{LightError, Lights};
+use crate::lights::{Emitters, LightError, Lights};
 use crate::materials::{MaterialError, Materials};
 use crate::scene::Scene;
 use crate::volumes::{MajorantKind, Media, VolumeError};
@@ -15,6 +15,37 @@ use crate::volumes::{MajorantKind, Media, VolumeError};
 /// Image width used when neither the command line nor the stage's render
 /// settings give a resolution; the height follows the camera's aperture aspect.
 pub const DEFAULT_WIDTH: u32 = 960;
+
+/// Choices that shape the render state, beside the scene and resolution.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StateOptions {
+    /// How finely the media's majorants follow their density (`--majorant`).
+    pub majorant: MajorantKind,
+    /// Emitting volumes are lights, sampled by next-event estimation and
+    /// MIS-combined with the emission tracking finds (on by default;
+    /// `--volume-light-sampling off` leaves them to tracking alone).
+    pub volume_lights: bool,
+}
+
+impl Default for StateOptions {
+    fn default() -> Self {
+        Self {
+            majorant: MajorantKind::Grid,
+            volume_lights: true,
+        }
+    }
+}
+
+impl StateOptions {
+    /// The defaults with one majorant over each whole grid (the baseline
+    /// the benchmarks compare the grid against).
+    pub fn global_majorant() -> Self {
+        Self {
+            majorant: MajorantKind::Global,
+            ..Self::default()
+        }
+    }
+}
 
 /// The immutable inputs of the integrator.
 pub struct RenderState {
@@ -30,6 +61,8 @@ pub struct RenderState {
     pub media: Media,
     /// Image size in pixels.
     pub resolution: UVec2,
+    /// The choices it was built with.
+    pub options: StateOptions,
 }
 
 /// Why a scene cannot be rendered.
@@ -53,20 +86,19 @@ pub enum RenderStateError {
 }
 
 impl RenderState {
-    /// Builds the render state; `resolution` overrides the stage's;
-    /// `majorant` chooses the media's majorant grids.
+    /// Builds the render state; `resolution` overrides the stage's.
     pub fn build(
         scene: &Scene,
         resolution: Option<UVec2>,
-        majorant: MajorantKind,
+        options: StateOptions,
     ) -> Result<Self, RenderStateError> {
         let resolution = resolution_for(scene, resolution);
         if resolution.min_element() == 0 {
             return Err(RenderStateError::Resolution(resolution.x, resolution.y));
         }
-        let media = Media::build(scene, majorant)?;
+        let media = Media::build(scene, options.majorant)?;
         let materials = Materials::build(scene)?;
-        let lights = Lights::build(scene, &materials)?;
+        let lights = Lights::build(scene, &materials, &media, options.volume_lights)?;
         let geometry = Geometry::build(scene);
         let camera = Camera::new(&scene.manifest.camera, resolution)?;
         Ok(Self {
@@ -76,7 +108,18 @@ impl RenderState {
             camera,
             media,
             resolution,
+            options,
         })
+    }
+}
+
+impl RenderState {
+    /// What light samples read emission from.
+    pub fn emitters(&self) -> Emitters<'_> {
+        Emitters {
+            materials: &self.materials,
+            media: &self.media,
+        }
     }
 }
 

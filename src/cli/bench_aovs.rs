@@ -15,9 +15,8 @@ use crate::integrator::{self, Budget, PathSettings, RenderSettings, Strategy, Vo
 use crate::output::aov::AovSet;
 use crate::output::filter::FilterKind;
 use crate::output::Compression;
-use crate::render_state::RenderState;
+use crate::render_state::{RenderState, StateOptions};
 use crate::sampling::SamplerKind;
-use crate::volumes::MajorantKind;
 
 /// What to measure.
 pub struct AovsBench {
@@ -53,7 +52,7 @@ pub fn run(bench: &AovsBench) -> Result<()> {
     std::fs::create_dir_all(&bench.out)?;
     for path in &bench.scenes {
         let scene = super::load_scene(path, None)?;
-        let state = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Grid)?;
+        let state = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
         let sets = [AovSet::beauty_only(), AovSet::default()];
         let name = path
             .file_stem()

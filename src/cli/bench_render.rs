@@ -17,9 +17,8 @@ use super::bench_equal_time::{
     ErrorMetric, Rung, MAX_DEPTH, TIME_AXIS,
 };
 use crate::integrator::{Budget, PathSettings, RenderSettings, RenderStats, Strategy};
-use crate::render_state::RenderState;
+use crate::render_state::{RenderState, StateOptions};
 use crate::sampling::SamplerKind;
-use crate::volumes::MajorantKind;
 
 /// The estimator and sampler pairs compared at equal time.
 const METHODS: [(Strategy, SamplerKind); 6] = [
@@ -45,7 +44,7 @@ pub fn run(bench: &EqualTimeBench) -> Result<()> {
     );
     for path in &bench.scenes {
         let scene = super::load_scene(path, None)?;
-        let state = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Grid)?;
+        let state = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
         let name = scene_name(path);
         let key = reference_key(&scene, &name)?;
         drop(scene);

@@ -22,7 +22,7 @@ use super::bench_equal_time::{
     ErrorMetric, Rung, MAX_DEPTH, TIME_AXIS,
 };
 use crate::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
-use crate::render_state::RenderState;
+use crate::render_state::{RenderState, StateOptions};
 use crate::scene::Scene;
 use crate::volumes::{MajorantKind, TrackingStats, VdbFile};
 
@@ -96,8 +96,12 @@ pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
         let name = scene_name(path);
         println!("### {name}\n");
         print_extinction(&scene)?;
-        let grid = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Grid)?;
-        let global = RenderState::build(&scene, Some(bench.resolution), MajorantKind::Global)?;
+        let grid = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
+        let global = RenderState::build(
+            &scene,
+            Some(bench.resolution),
+            StateOptions::global_majorant(),
+        )?;
         let key = reference_key(&scene, &name)?;
         drop(scene);
         let reference = cached_reference(&grid, &bench.out, &key, bench.reference_spp)?;

@@ -19,8 +19,8 @@ use crate::integrator::{Budget, FilmState, RenderProgress, RenderSettings};
 use crate::output::aov::AovSet;
 use crate::output::film::Film;
 use crate::output::film_state::{read_film_state, write_film_state};
+use crate::render_state::StateOptions;
 use crate::scene::{Scene, MANIFEST_FILE};
-use crate::volumes::MajorantKind;
 
 /// The files a render of `-o OUT.exr` writes.
 pub(super) struct OutputFiles {
@@ -117,7 +117,7 @@ impl Fingerprint {
         scene: &Scene,
         resolution: UVec2,
         settings: &RenderSettings,
-        majorant: MajorantKind,
+        options: StateOptions,
     ) -> Result<Self> {
         let p = &settings.path;
         let entries = [
@@ -140,7 +140,8 @@ impl Fingerprint {
             ("clamp", format!("{:?}", p.clamp)),
             ("volume-estimator", format!("{:?}", p.volume_estimator)),
             ("equiangular", p.equiangular.to_string()),
-            ("majorant", format!("{majorant:?}")),
+            ("majorant", format!("{:?}", options.majorant)),
+            ("volume-light-sampling", options.volume_lights.to_string()),
             ("aovs", settings.aovs.to_string()),
         ];
         Ok(Self(

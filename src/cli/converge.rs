@@ -38,7 +38,7 @@ use super::bench_equal_time::{
     render, scene_name, write_chart, ChartAxis, ErrorMetric, MAX_DEPTH, REFERENCE_SEED, TIME_AXIS,
 };
 use crate::integrator::{Budget, RenderSettings, Strategy, VolumeEstimator};
-use crate::render_state::RenderState;
+use crate::render_state::{RenderState, StateOptions};
 use crate::sampling::SamplerKind;
 use crate::volumes::MajorantKind;
 
@@ -449,7 +449,7 @@ pub fn run(args: ConvergeArgs) -> Result<()> {
 /// Every render of one scene: per method, per budget, per seed.
 fn converge_scene(args: &ConvergeArgs, path: &Path, name: &str) -> Result<Vec<Row>> {
     let scene = super::load_scene(path, None)?;
-    let grid = RenderState::build(&scene, Some(args.res), MajorantKind::Grid)?;
+    let grid = RenderState::build(&scene, Some(args.res), StateOptions::default())?;
     let methods: Vec<Method> = if args.methods.is_empty() {
         METHODS
             .into_iter()
@@ -462,7 +462,7 @@ fn converge_scene(args: &ConvergeArgs, path: &Path, name: &str) -> Result<Vec<Ro
         Some(RenderState::build(
             &scene,
             Some(args.res),
-            MajorantKind::Global,
+            StateOptions::global_majorant(),
         )?)
     } else {
         None

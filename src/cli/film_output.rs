@@ -58,6 +58,11 @@ impl ExrHeader {
             attribute("max_depth", p.max_depth.to_string()),
             attribute("volume_estimator", format!("{:?}", p.volume_estimator)),
             attribute("equiangular", p.equiangular.to_string()),
+            attribute("majorant", format!("{:?}", state.options.majorant)),
+            attribute(
+                "volume_light_sampling",
+                state.options.volume_lights.to_string(),
+            ),
             attribute("aovs", settings.aovs.to_string()),
         ];
         let camera = &state.camera;

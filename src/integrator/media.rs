@@ -34,7 +34,7 @@ pub(super) struct FreeFlight {
     /// How it ended.
     pub(super) end: FlightEnd,
     /// Emission collected at the tentative collisions, sum of
-    /// throughput x sigma_a Le / sigma_maj, W/(m^2 sr).
+    /// throughput x sigma_a Le / sigma_maj x its MIS weight, W/(m^2 sr).
     pub(super) emission: Vec3,
     /// The path throughput after the flight's collision weights (unchanged
     /// in mean over channels; equal to the throughput it started with when
@@ -61,10 +61,16 @@ pub(super) struct FreeFlight {
 /// heuristic, its choice averaged out. The majorant is grey, so the
 /// throughput's channel mean is kept and no channel's weight can grow past
 /// 3 times it; with grey extinction and albedo the weights are 1.
+///
+/// Emission at a collision is weighted by `emission_weight(t, sigma_maj,
+/// null_ratio)`: its MIS weight against light sampling of emitting volumes,
+/// given the product of sigma_maj / sigma_n over the null collisions before
+/// it (called only where something emits).
 pub(super) fn free_flight(
     along: &MediaRay,
     segments: impl IntoIterator<Item = MajorantSegment>,
     throughput: Vec3,
+    mut emission_weight: impl FnMut(f32, f32, f32) -> f32,
     rng: &mut Pcg32,
     stats: &mut TrackingStats,
 ) -> FreeFlight {
@@ -78,7 +84,10 @@ pub(super) fn free_flight(
         let point = along.at(t);
         stats.count_lookup(point.sigma_t, sigma_maj);
         let beta = flight.throughput;
-        flight.emission += beta * point.emission / sigma_maj;
+        if point.emission != Vec3::ZERO {
+            let weight = emission_weight(t, sigma_maj, flight.null_ratio);
+            flight.emission += beta * point.emission * (weight / sigma_maj);
+        }
         let sigma_s = point.sigma_s.min(point.sigma_t);
         let sigma_a = point.sigma_t - sigma_s;
         let sigma_n = (Vec3::splat(sigma_maj) - point.sigma_t).max(Vec3::ZERO);
@@ -205,7 +214,7 @@ pub(super) fn equiangular_sample(
     let wo = -eq.direction;
     let phase = along.phase(t, rng.next_f32());
     let u = Vec2::new(rng.next_f32(), rng.next_f32());
-    let ls = lights.sample_light(&state.materials, light, p, u)?;
+    let ls = lights.sample_light(state.emitters(), light, p, u)?;
     let p_select = lights.probability(p, light);
     if ls.pdf.is_nan() || ls.pdf <= 0.0 || p_select <= 0.0 {
         return None;

@@ -43,6 +43,12 @@ pub enum Strategy {
     Nee,
 }
 
+/// The default `--max-depth`: a safety cap far beyond what Russian roulette
+/// lets paths reach (survival at most 0.95 per bounce from the third: one
+/// path in 10^22 passes it in a white furnace), so the default renders
+/// multiple scattering in full; lower caps darken dense media (biased).
+pub const DEFAULT_MAX_DEPTH: u32 = 1024;
+
 /// Path-tracing parameters.
 #[derive(Clone, Copy, Debug)]
 pub struct PathSettings {

@@ -167,7 +167,27 @@ pub fn radiance(
                 }
                 segments = RaySegments::Listed(listed.into_iter());
             }
-            let flight = free_flight(&along, segments, throughput, rng, counts.tracking);
+            // Volume emission found by tracking against light sampling of
+            // emitting volumes from this ray's origin (the measure is in
+            // `lights/volume.rs`).
+            let volume_lights = (lights.has_volume_lights() && !bounce.specular)
+                .then(|| lights.volume_lights_from(origin));
+            let null_scattering = settings.volume_estimator == VolumeEstimator::NullScatteringMis;
+            let weigh_emission = |t: f32, sigma_maj: f32, null_ratio: f32| {
+                volume_lights.as_ref().map_or(1.0, |from| {
+                    let light_pdf = from.pdf(&state.media, origin + direction * t, sigma_maj);
+                    let null_ratio = if null_scattering { null_ratio } else { 1.0 };
+                    emission_weight(bounce, light_pdf, null_ratio)
+                })
+            };
+            let flight = free_flight(
+                &along,
+                segments,
+                throughput,
+                weigh_emission,
+                rng,
+                counts.tracking,
+            );
             gathered.add(flight.emission, depth);
             throughput = flight.throughput;
             if settings.volume_estimator == VolumeEstimator::NullScatteringMis {
@@ -373,7 +393,7 @@ fn next_event(
 ) -> Option<LightContribution> {
     let (light, ls) = state
         .lights
-        .sample(&state.materials, vertex.position(), u_select, u)?;
+        .sample(state.emitters(), vertex.position(), u_select, u)?;
     let f = vertex.f(ls.wi);
     if ls.pdf.is_nan() || ls.pdf <= 0.0 || f == Vec3::ZERO {
         return None;

@@ -11,7 +11,10 @@
 //!   area, converted to solid angle;
 //! - `dome.rs`: constant, or an OpenEXR lat-long image importance-sampled
 //!   by a piecewise-constant 2D distribution (pbrt-v4 `ImageInfiniteLight`);
-//! - `mesh.rs`: each placed mesh with emissive triangles, uniformly by area.
+//! - `mesh.rs`: each placed mesh with emissive triangles, uniformly by area;
+//! - `volume.rs`: each placed volume that emits (fire), a point by power
+//!   (Villemin & Hery 2013), in the measure of free-flight tracking so that
+//!   emission found by tracking and by light sampling combine by MIS.
 //!
 //! One light is picked per sample (`select.rs`): infinite against bounded
 //! lights by power, infinite lights among themselves by power, bounded lights
@@ -34,6 +37,7 @@ mod plane;
 mod rect;
 mod select;
 mod sphere;
+mod volume;
 
 #[cfg(test)]
 pub(crate) mod test_support;
@@ -52,9 +56,11 @@ use self::mesh::MeshLight;
 use self::rect::RectLight;
 use self::select::LightSelection;
 use self::sphere::SphereLight;
+use self::volume::VolumeLight;
 use crate::geometry::SurfacePoint;
 use crate::materials::Materials;
 use crate::scene::{Light as LightRecord, LightShape, Scene};
+use crate::volumes::Media;
 
 /// Every light of a scene with the structure that picks one per sample.
 pub struct Lights {
@@ -69,6 +75,8 @@ pub struct Lights {
     infinite: Vec<usize>,
     /// Light index of each emissive placed mesh, by (instance, prototype mesh).
     meshes: HashMap<(u32, u32), usize>,
+    /// Indices of the emitting volumes' lights.
+    volumes: Vec<usize>,
 }
 
 /// A light that cannot be used.
@@ -165,6 +173,8 @@ pub(crate) enum Light {
     Dome(DomeLight),
     /// A placed mesh with emissive triangles.
     Mesh(MeshLight),
+    /// A placed volume that emits.
+    Volume(VolumeLight),
 }
 
 impl Lights {
@@ -175,13 +185,13 @@ impl Lights {
     /// The picked light's index comes with the sample.
     pub fn sample(
         &self,
-        materials: &Materials,
+        emitters: Emitters,
         p: Vec3,
         u_select: f32,
         u: Vec2,
     ) -> Option<(usize, LightSample)> {
         let pick = self.selection.as_ref()?.pick(p, u_select)?;
-        let mut s = self.lights[pick.light].sample(materials, p, u)?;
+        let mut s = self.lights[pick.light].sample(emitters, p, u)?;
         s.pdf *= pick.probability;
         Some((pick.light, s))
     }
@@ -190,12 +200,12 @@ impl Lights {
     /// (equiangular sampling picks the light before the point).
     pub fn sample_light(
         &self,
-        materials: &Materials,
+        emitters: Emitters,
         index: usize,
         p: Vec3,
         u: Vec2,
     ) -> Option<LightSample> {
-        self.lights[index].sample(materials, p, u)
+        self.lights[index].sample(emitters, p, u)
     }
 
     /// Whether any light is one equiangular sampling targets (see
@@ -286,6 +296,26 @@ impl Lights {
         }
     }
 
+    /// Whether any volume emits as a light.
+    pub fn has_volume_lights(&self) -> bool {
+        !self.volumes.is_empty()
+    }
+
+    /// The emitting volumes' lights as seen from `origin`, for the MIS
+    /// weights of volume emission that tracking finds along a ray from there.
+    pub fn volume_lights_from(&self, origin: Vec3) -> VolumeLightsFrom<'_> {
+        VolumeLightsFrom {
+            lights: self,
+            origin,
+            picks: self
+                .volumes
+                .iter()
+                .map(|&i| (i, self.probability(origin, i)))
+                .filter(|&(_, p)| p > 0.0)
+                .collect(),
+        }
+    }
+
     /// Probability of picking light `index` from shading point `p`.
     pub fn probability(&self, p: Vec3, index: usize) -> f32 {
         self.selection
@@ -297,7 +327,12 @@ impl Lights {
     /// triangles, then the power-based selection over them. Lights of zero
     /// power (black, zero size without `normalize`) are left out with a
     /// warning; unusable values are a [`LightError`].
-    pub fn build(scene: &Scene, materials: &Materials) -> Result<Self, LightError> {
+    pub fn build(
+        scene: &Scene,
+        materials: &Materials,
+        media: &Media,
+        volume_lights: bool,
+    ) -> Result<Self, LightError> {
         let radius = select::scene_radius(&scene.manifest.bounds);
         let mut lights = Vec::new();
         for record in &scene.manifest.lights {
@@ -315,19 +350,38 @@ impl Lights {
                 lights.push(Light::Mesh(mesh));
             }
         }
-        if lights.is_empty() && scene.manifest.lights.is_empty() {
+        let mut volumes = Vec::new();
+        for emitter in media.emitters().filter(|_| volume_lights) {
+            let light = VolumeLight::new(&emitter);
+            if light.power() > 0.0 {
+                volumes.push(lights.len());
+                lights.push(Light::Volume(light));
+            }
+        }
+        // Fire counts as a light here whether or not it is light-sampled,
+        // so `--volume-light-sampling off` renders the same image.
+        if lights.len() == volumes.len()
+            && scene.manifest.lights.is_empty()
+            && media.emitters().next().is_none()
+        {
             log::warn!(
                 "the scene has no lights: lighting it with a white dome of radiance 1 \
                  (add a DomeLight or any UsdLux light to choose)"
             );
             lights.push(Light::from_record(&default_dome())?);
         }
-        Ok(Self::from_lights(lights, meshes, &scene.manifest.bounds))
+        Ok(Self::from_lights(
+            lights,
+            meshes,
+            volumes,
+            &scene.manifest.bounds,
+        ))
     }
 
     fn from_lights(
         lights: Vec<Light>,
         meshes: HashMap<(u32, u32), usize>,
+        volumes: Vec<usize>,
         bounds: &crate::scene::Bounds,
     ) -> Self {
         let indices = |keep: fn(&Light) -> bool| -> Vec<usize> {
@@ -351,7 +405,43 @@ impl Lights {
             area,
             infinite,
             meshes,
+            volumes,
         }
+    }
+}
+
+/// What light samples read emission from: materials for emissive meshes,
+/// media for emitting volumes.
+#[derive(Clone, Copy)]
+pub struct Emitters<'a> {
+    /// The scene's materials.
+    pub materials: &'a Materials,
+    /// The scene's media.
+    pub media: &'a Media,
+}
+
+/// The emitting volumes' lights with their selection probabilities from
+/// one ray origin (see [`Lights::volume_lights_from`]).
+pub struct VolumeLightsFrom<'a> {
+    lights: &'a Lights,
+    origin: Vec3,
+    picks: smallvec::SmallVec<[(usize, f32); 2]>,
+}
+
+impl VolumeLightsFrom<'_> {
+    /// The density, selection included, with which [`Lights::sample`] from
+    /// the origin picks the volume point `point` where tracking's majorant
+    /// is `sigma_maj` (see `volume.rs` for the measure); summed over the
+    /// volumes whose emission may hold it.
+    pub fn pdf(&self, media: &Media, point: Vec3, sigma_maj: f32) -> f32 {
+        let distance = point.distance(self.origin);
+        self.picks
+            .iter()
+            .map(|&(i, p)| match &self.lights.lights[i] {
+                Light::Volume(l) => p * l.pdf(media, point, distance, sigma_maj),
+                _ => unreachable!("the volume list holds volume lights only"),
+            })
+            .sum()
     }
 }
 
@@ -372,7 +462,7 @@ fn default_dome() -> LightRecord {
 
 impl Light {
     /// A sample of this light from `p`, its pdf without selection.
-    fn sample(&self, materials: &Materials, p: Vec3, u: Vec2) -> Option<LightSample> {
+    fn sample(&self, emitters: Emitters, p: Vec3, u: Vec2) -> Option<LightSample> {
         match self {
             Self::Distant(l) => Some(l.sample(u)),
             Self::Sphere(l) => l.sample(p, u),
@@ -380,7 +470,8 @@ impl Light {
             Self::Disk(l) => l.sample(p, u),
             Self::Cylinder(l) => l.sample(p, u),
             Self::Dome(l) => l.sample(u),
-            Self::Mesh(l) => l.sample(materials, p, u),
+            Self::Mesh(l) => l.sample(emitters.materials, p, u),
+            Self::Volume(l) => l.sample(emitters.media, p, u),
         }
     }
 
@@ -391,7 +482,7 @@ impl Light {
             Self::Rect(l) => l.intersect(origin, direction, t_max),
             Self::Disk(l) => l.intersect(origin, direction, t_max),
             Self::Cylinder(l) => l.intersect(origin, direction, t_max),
-            Self::Distant(_) | Self::Dome(_) | Self::Mesh(_) => None,
+            Self::Distant(_) | Self::Dome(_) | Self::Mesh(_) | Self::Volume(_) => None,
         }
     }
 
@@ -413,6 +504,7 @@ impl Light {
             Self::Disk(l) => Some(l.bounds()),
             Self::Cylinder(l) => Some(l.bounds()),
             Self::Mesh(l) => Some(l.bounds()),
+            Self::Volume(l) => Some(l.bounds()),
             Self::Distant(_) | Self::Dome(_) => None,
         }
     }
@@ -428,6 +520,7 @@ impl Light {
             Self::Cylinder(l) => l.power(),
             Self::Dome(l) => l.power(scene_radius),
             Self::Mesh(l) => l.power(),
+            Self::Volume(l) => l.power(),
         }
     }
 

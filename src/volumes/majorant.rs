@@ -57,6 +57,19 @@ pub struct MajorantSegment {
     pub sigma_min: f32,
 }
 
+/// A cell of a [`MajorantGrid`] whose density can be non-zero.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct OccupiedCell {
+    /// Its slot in the grid's cell array.
+    pub slot: u32,
+    /// Index-space box of its support, min corner.
+    pub lo: Vec3,
+    /// Index-space box of its support, max corner.
+    pub hi: Vec3,
+    /// Max of the interpolated density over the cell (unscaled).
+    pub density_max: f32,
+}
+
 /// How finely majorants follow the density: per 8^3 block, or one bound for
 /// the whole grid (the baseline, `--majorant global`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -195,11 +208,7 @@ impl MajorantSegments<'_> {
         if support == SupportBox::FULL {
             return (t_min, t_max);
         }
-        let grid = self.grid;
-        let corner = grid.lo + cell.as_vec3() * grid.cell_size;
-        let eighth = grid.cell_size / 8.0;
-        let lo = corner + Vec3::from(support.lo.map(f32::from)) * eighth;
-        let hi = corner + Vec3::from(support.hi.map(f32::from)) * eighth;
+        let (lo, hi) = self.grid.support_box(cell, support);
         clip_to_box(self.origin, self.direction, lo, hi, t_min, t_max)
     }
 }
@@ -312,6 +321,62 @@ impl MajorantGrid {
     /// non-zero lies inside it), as (min corner, max corner).
     pub fn index_box(&self) -> (Vec3, Vec3) {
         (self.lo, self.lo + self.cell_size * self.dims.as_vec3())
+    }
+
+    /// Every cell whose density can be non-zero, in slot order: its slot,
+    /// the index-space box of its support (where interpolated density can be
+    /// non-zero) and its density max. Emission light sampling picks among
+    /// these (`emitter.rs`).
+    pub(crate) fn occupied_cells(&self) -> impl Iterator<Item = OccupiedCell> + '_ {
+        let d = self.dims;
+        (0..self.cells.len()).filter_map(move |slot| {
+            let range = self.cells[slot];
+            if range.max <= 0.0 {
+                return None;
+            }
+            let n = slot as i32;
+            let cell = IVec3::new(n / (d.y * d.z), n / d.z % d.y, n % d.z);
+            let (lo, hi) = self.support_box(cell, self.supports[slot]);
+            Some(OccupiedCell {
+                slot: slot as u32,
+                lo,
+                hi,
+                density_max: range.max,
+            })
+        })
+    }
+
+    /// The slot of the cell holding index-space point `p` when `p` lies in
+    /// that cell's support box (so the DDA yields a segment there); `None`
+    /// outside the grid, in an empty cell or outside the support.
+    pub(crate) fn occupied_slot_at(&self, p: Vec3) -> Option<u32> {
+        let cell = ((p - self.lo) / self.cell_size).floor().as_ivec3();
+        if cell.cmplt(IVec3::ZERO).any() || cell.cmpge(self.dims).any() {
+            return None;
+        }
+        let slot = self.cell_slot(cell);
+        if self.cells[slot].max <= 0.0 {
+            return None;
+        }
+        let (lo, hi) = self.support_box(cell, self.supports[slot]);
+        (p.cmpge(lo).all() && p.cmplt(hi).all()).then_some(slot as u32)
+    }
+
+    /// The density majorant the DDA carries at index-space point `p`: its
+    /// cell's max inside the cell's support box, 0 elsewhere.
+    pub(crate) fn max_at(&self, p: Vec3) -> f32 {
+        self.occupied_slot_at(p)
+            .map_or(0.0, |slot| self.cells[slot as usize].max)
+    }
+
+    /// The index-space box `[lo, hi)` of `cell`'s `support`.
+    fn support_box(&self, cell: IVec3, support: SupportBox) -> (Vec3, Vec3) {
+        let corner = self.lo + cell.as_vec3() * self.cell_size;
+        let eighth = self.cell_size / 8.0;
+        (
+            corner + Vec3::from(support.lo.map(f32::from)) * eighth,
+            corner + Vec3::from(support.hi.map(f32::from)) * eighth,
+        )
     }
 
     /// Bytes held (the struct and its cell array).

@@ -15,16 +15,19 @@
 //! extinctions: along a ray, their majorant segments are merged and summed.
 
 use std::collections::HashMap;
+use std::f32::consts::PI;
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use glam::{Affine3A, DAffine3, Vec3};
 use smallvec::SmallVec;
 
+use super::emitter::{EmissionCells, SourceSample};
 use super::{
     BlackbodyTable, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
     MajorantSegments, SparseGrid, VdbFile, VolumeError,
 };
+use crate::color::luminance;
 use crate::scene::{affine, Scene, VolumeField};
 
 /// A density field's identity: file, grid name and occurrence index. Each is
@@ -49,6 +52,12 @@ pub struct Medium {
     /// Emission sources (temperature and/or emission fields); empty, and
     /// free, for volumes that do not emit.
     emission: Vec<Emission>,
+    /// Where it emits, for light sampling; `None` when it emits nothing.
+    emitter: Option<Arc<EmissionCells>>,
+    /// Index (voxel) space to world, the inverse of `index_from_world`.
+    world_from_index: Affine3A,
+    /// World volume of one index-space unit cube, |det(world_from_index)|.
+    voxel_volume: f32,
 }
 
 impl Medium {
@@ -64,6 +73,29 @@ impl Medium {
         } else {
             0.0
         }
+    }
+
+    /// The source term sigma_a Le at world point `p`, W/(m^3 sr) in scene
+    /// units, per RGB channel (zero for media that do not emit).
+    fn source(&self, p: Vec3, blackbody: Option<&BlackbodyTable>) -> Vec3 {
+        if self.emission.is_empty() {
+            return Vec3::ZERO;
+        }
+        let density = self.density(self.index_from_world.transform_point3(p));
+        let sigma_a = self.absorption() * density;
+        if sigma_a == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        self.emission
+            .iter()
+            .map(|e| sigma_a * e.radiance(p, blackbody))
+            .sum()
+    }
+
+    /// sigma_a per world unit per unit density, per RGB channel:
+    /// (1 - albedo) x densityScale.
+    fn absorption(&self) -> Vec3 {
+        (Vec3::ONE - self.albedo).max(Vec3::ZERO) * self.density_scale
     }
 }
 
@@ -99,6 +131,12 @@ impl Emission {
         let value = self
             .grid
             .trilinear_index(self.index_from_world.transform_point3(p));
+        // Non-finite and negative values read as 0, as densities do.
+        let value = if value.is_finite() {
+            value.max(0.0)
+        } else {
+            0.0
+        };
         match (&self.radiance, blackbody) {
             (
                 EmittedRadiance::Blackbody {
@@ -108,7 +146,7 @@ impl Emission {
                 },
                 Some(table),
             ) => table.radiance(temperature_offset + temperature_scale * value) * *heat_scale,
-            (EmittedRadiance::Scaled(scale), _) if value.is_finite() => *scale * value.max(0.0),
+            (EmittedRadiance::Scaled(scale), _) => *scale * value,
             _ => Vec3::ZERO,
         }
     }
@@ -168,7 +206,79 @@ pub struct MediumPoint {
     pub emission: Vec3,
 }
 
+/// A medium that emits, as the lights see it.
+#[derive(Clone, Copy, Debug)]
+pub struct Emitter {
+    /// Which medium ([`Media::sample_emission`] takes it).
+    pub medium: usize,
+    /// World box around every point that may emit.
+    pub world_min: Vec3,
+    /// Its max corner.
+    pub world_max: Vec3,
+    /// Luminance of the emitted power, W (4 pi x the integral of sigma_a Le
+    /// over the volume: gas emits the same in every direction), estimated.
+    pub power: f32,
+}
+
 impl Media {
+    /// The media that emit, with what the light selection needs of them.
+    pub fn emitters(&self) -> impl Iterator<Item = Emitter> + '_ {
+        self.media.iter().enumerate().filter_map(|(i, m)| {
+            let cells = m.emitter.as_ref()?;
+            let (lo, hi) = cells.index_box();
+            let (world_min, world_max) = world_box(&to_f64(&m.world_from_index), lo, hi);
+            Some(Emitter {
+                medium: i,
+                world_min,
+                world_max,
+                power: 4.0 * PI * cells.integral() * m.voxel_volume,
+            })
+        })
+    }
+
+    /// A world point of `medium`'s emission picked by power with `u` in
+    /// [0, 1)^3, and the density of that pick per cubic scene unit; `None`
+    /// for a medium that does not emit.
+    pub fn sample_emission(&self, medium: usize, u: Vec3) -> Option<(Vec3, f32)> {
+        let m = &self.media[medium];
+        let (p_index, pdf_index) = m.emitter.as_ref()?.sample(u);
+        Some((
+            m.world_from_index.transform_point3(p_index),
+            pdf_index / m.voxel_volume,
+        ))
+    }
+
+    /// The density per cubic scene unit with which [`Self::sample_emission`]
+    /// picks world point `p` of `medium`.
+    pub fn emission_pdf(&self, medium: usize, p: Vec3) -> f32 {
+        let m = &self.media[medium];
+        m.emitter.as_ref().map_or(0.0, |cells| {
+            cells.pdf(&m.majorant, m.index_from_world.transform_point3(p)) / m.voxel_volume
+        })
+    }
+
+    /// The source term sigma_a Le at world point `p`, W/(m^3 sr) in scene
+    /// units per RGB channel, summed over the media.
+    pub fn source(&self, p: Vec3) -> Vec3 {
+        self.media
+            .iter()
+            .map(|m| m.source(p, self.blackbody.as_ref()))
+            .sum()
+    }
+
+    /// The majorant tracking uses at world point `p`, per world unit: the
+    /// sum over media of their cells' (what [`MediaRay::segments`] carries
+    /// there), the rate of tentative collisions around `p`.
+    pub fn sigma_maj_at(&self, p: Vec3) -> f32 {
+        self.media
+            .iter()
+            .map(|m| {
+                let p_index = m.index_from_world.transform_point3(p);
+                m.majorant.max_at(p_index) * m.density_scale.max_element()
+            })
+            .sum()
+    }
+
     /// True when the scene has no volume: the integrator skips all media work.
     pub fn is_empty(&self) -> bool {
         self.media.is_empty()
@@ -340,6 +450,16 @@ impl Media {
                 volume.path
             );
         }
+        for volume in &m.volumes {
+            check_emission_scales(volume)?;
+        }
+        let blackbody = m
+            .volumes
+            .iter()
+            .any(|v| v.fields.contains_key("temperature") && v.emits_from("temperature"))
+            .then(BlackbodyTable::new);
+        // Emission light cells per Volume prim: shared by its placements.
+        let mut emitters: HashMap<u32, Option<Arc<EmissionCells>>> = HashMap::new();
         let mut media = Vec::new();
         for (world_from_prototype, &prototype) in transforms.iter().zip(prototypes) {
             for part in &m.prototypes[prototype as usize].volumes {
@@ -352,19 +472,7 @@ impl Media {
                     Some(found) => found.clone(),
                     None => {
                         let grid = read_field(field)?;
-                        let stats = grid.stats();
-                        if stats.non_finite_count > 0 || stats.min_value < 0.0 {
-                            log::warn!(
-                                "volume {}: grid {} of {} has {} NaN or infinite values and a \
-                                 smallest value of {}: non-finite values (with their trilinear \
-                                 neighbourhood) and negative densities are read as 0",
-                                volume.path,
-                                field.grid,
-                                field.file.display(),
-                                stats.non_finite_count,
-                                stats.min_value
-                            );
-                        }
+                        warn_bad_values(volume, field, &grid, "densities");
                         if grid.background() != 0.0 {
                             log::warn!(
                                 "volume {}: grid {} of {} has background {}; it is rendered as \
@@ -410,6 +518,7 @@ impl Media {
                         Some(found) => Arc::clone(found),
                         None => {
                             let grid = Arc::new(read_field(field)?);
+                            warn_bad_values(volume, field, &grid, "values");
                             emission_grids.insert(key, Arc::clone(&grid));
                             grid
                         }
@@ -424,7 +533,7 @@ impl Media {
                 }
                 let (lo, hi) = majorant.index_box();
                 let (world_min, world_max) = world_box(&world_from_index, lo, hi);
-                media.push(Medium {
+                let mut medium = Medium {
                     density,
                     majorant,
                     index_from_world: to_f32(&index_from_world),
@@ -436,15 +545,108 @@ impl Media {
                         g: volume.anisotropy,
                     },
                     emission,
-                });
+                    emitter: None,
+                    world_from_index: to_f32(&world_from_index),
+                    voxel_volume: world_from_index.matrix3.determinant().abs() as f32,
+                };
+                if !medium.emission.is_empty() {
+                    medium.emitter = emitters
+                        .entry(part.volume)
+                        .or_insert_with(|| medium.emission_cells(volume, blackbody.as_ref()))
+                        .clone();
+                }
+                media.push(medium);
             }
         }
-        let blackbody = media
-            .iter()
-            .flat_map(|m| &m.emission)
-            .any(|e| matches!(e.radiance, EmittedRadiance::Blackbody { .. }))
-            .then(BlackbodyTable::new);
         Ok(Self { media, blackbody })
+    }
+}
+
+impl Medium {
+    /// Where this medium emits, for light sampling (`emitter.rs`); `None`
+    /// when it emits nothing (warned: a volume that would emit but does
+    /// not absorb has no source term).
+    fn emission_cells(
+        &self,
+        volume: &crate::scene::Volume,
+        blackbody: Option<&BlackbodyTable>,
+    ) -> Option<Arc<EmissionCells>> {
+        let absorption = luminance(self.absorption());
+        if absorption <= 0.0 {
+            log::warn!(
+                "volume {}: it has emission fields but its albedo is 1 (sigma_a = 0), so it \
+                 emits nothing (the source term is sigma_a Le)",
+                volume.path
+            );
+            return None;
+        }
+        // The emission grids share the density grid's index points.
+        let aligned = self.emission.iter().all(|e| {
+            let map = e.index_from_world * self.world_from_index;
+            map.abs_diff_eq(Affine3A::IDENTITY, 1e-4)
+        });
+        let source = |p_index: Vec3| {
+            let p = self.world_from_index.transform_point3(p_index);
+            let le: Vec3 = self.emission.iter().map(|e| e.radiance(p, blackbody)).sum();
+            let sigma_a = self.absorption() * self.density(p_index);
+            SourceSample {
+                source: luminance(sigma_a * le),
+                radiance: luminance(le),
+            }
+        };
+        let cells = EmissionCells::build(&self.majorant, absorption, aligned, source);
+        if cells.is_none() {
+            log::warn!(
+                "volume {}: its emission fields emit nothing where it has density; \
+                 no emission is rendered",
+                volume.path
+            );
+        }
+        cells.map(Arc::new)
+    }
+}
+
+/// Refuses a negative or non-finite `heatScale` or `emissionScale` (0 turns
+/// emission off), naming the prim and the value.
+fn check_emission_scales(volume: &crate::scene::Volume) -> Result<(), VolumeError> {
+    for (name, value) in [
+        ("heatScale", volume.heat_scale),
+        ("emissionScale", volume.emission_scale),
+    ] {
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(VolumeError::Invalid {
+                prim: volume.path.clone(),
+                message: format!(
+                    "primvars:{name} is {value}; it must be a finite number >= 0 (0 turns \
+                     emission off)"
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Warns once per grid when `grid` holds NaN, infinite or negative values,
+/// naming the volume, grid and file: they are read as 0 (`what` names the
+/// values: densities, temperatures...).
+fn warn_bad_values(
+    volume: &crate::scene::Volume,
+    field: &VolumeField,
+    grid: &SparseGrid,
+    what: &str,
+) {
+    let stats = grid.stats();
+    if stats.non_finite_count > 0 || stats.min_value < 0.0 {
+        log::warn!(
+            "volume {}: grid {} of {} has {} NaN or infinite values and a smallest value of \
+             {}: non-finite values (with their trilinear neighbourhood) and negative {what} \
+             are read as 0",
+            volume.path,
+            field.grid,
+            field.file.display(),
+            stats.non_finite_count,
+            stats.min_value
+        );
     }
 }
 

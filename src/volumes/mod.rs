@@ -17,6 +17,7 @@
 //! scattering uses the Henyey-Greenstein (1941) phase function.
 
 mod emission;
+mod emitter;
 mod grid;
 mod majorant;
 mod medium;
@@ -27,7 +28,7 @@ mod vdb;
 pub use emission::{BlackbodyTable, REFERENCE_TEMPERATURE_K};
 pub use grid::{GridAccessor, GridStats, GridTransform, LayoutError, SparseGrid, Tile};
 pub use majorant::{MajorantGrid, MajorantKind, MajorantSegment, MajorantSegments};
-pub use medium::{Media, MediaRay, MediumPoint, RaySegments};
+pub use medium::{Emitter, Media, MediaRay, MediumPoint, RaySegments};
 pub use phase::{HenyeyGreenstein, PhaseSample};
 pub use tracking::{
     channel_mean, ratio_tracking_with_null_ratio, transmittance, walk_tentative_collisions,

@@ -16,6 +16,14 @@ use bridge::ffi;
 /// Why a VDB file or grid could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum VolumeError {
+    /// A Volume prim's shading value out of its domain.
+    #[error("volume {prim}: {message}")]
+    Invalid {
+        /// The Volume prim's path.
+        prim: String,
+        /// What is wrong, with the value.
+        message: String,
+    },
     /// The file cannot be reached (missing, unreadable).
     #[error("{path}: {message}", path = path.display())]
     Io {
