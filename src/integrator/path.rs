@@ -246,7 +246,7 @@ pub fn radiance(
             break;
         }
         let Some(hit) = hit else {
-            lights.escaped(direction, |le, pdf| {
+            lights.escaped(origin, direction, |le, pdf| {
                 gathered.add(
                     throughput * le * emission_weight(bounce, pdf, null_ratio),
                     depth,

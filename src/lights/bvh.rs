@@ -108,6 +108,13 @@ impl LightBvh {
         }
     }
 
+    /// The root's importance at `p`: a bound on what all the bounded
+    /// lights together can deliver there, in the unit of
+    /// [`ImportanceBounds::importance`] (power x cos / distance^2).
+    pub fn importance(&self, p: Vec3) -> f32 {
+        self.nodes[0].cone.importance(p)
+    }
+
     /// Probability that [`Self::pick`] returns `light` from `p` (0 for a
     /// light not in the tree).
     pub fn probability(&self, p: Vec3, light: usize) -> f32 {

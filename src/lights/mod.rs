@@ -43,6 +43,7 @@ mod volume;
 pub(crate) mod test_support;
 
 use std::collections::HashMap;
+use std::f32::consts::PI;
 
 use glam::{Mat3, Vec2, Vec3};
 use thiserror::Error;
@@ -271,14 +272,13 @@ impl Lights {
     }
 
     /// Calls `radiance_pdf(radiance, pdf)` once for each infinite light a ray
-    /// escaping the scene along unit `direction` sees: the dome, and distant
+    /// from `origin` escaping the scene along unit `direction` sees: the dome, and distant
     /// lights of non-zero angle whose cone holds `direction`. `pdf` is what
     /// [`Lights::sample`] gives that direction, selection included.
-    pub fn escaped(&self, direction: Vec3, mut radiance_pdf: impl FnMut(Vec3, f32)) {
+    pub fn escaped(&self, origin: Vec3, direction: Vec3, mut radiance_pdf: impl FnMut(Vec3, f32)) {
         for &i in &self.infinite {
             if let Some(hit) = self.lights[i].escaped(direction) {
-                // Infinite lights are picked independently of the point.
-                radiance_pdf(hit.radiance, hit.pdf * self.probability(Vec3::ZERO, i));
+                radiance_pdf(hit.radiance, hit.pdf * self.probability(origin, i));
             }
         }
     }
@@ -509,6 +509,20 @@ impl Light {
         }
     }
 
+    /// Luminance of the irradiance an infinite light delivers to a surface
+    /// facing it, W/m^2 (its power is the flux through a disk of
+    /// `scene_radius`, pi r^2 E, for a distant light, and 4 pi r^2 x pi L
+    /// for a dome of mean radiance L, as pbrt-v4's `Phi`); 0 for bounded
+    /// lights.
+    fn irradiance(&self, scene_radius: f32) -> f32 {
+        let disk = PI * scene_radius * scene_radius;
+        match self {
+            Self::Distant(l) => l.power(scene_radius) / disk,
+            Self::Dome(l) => l.power(scene_radius) / (4.0 * disk),
+            _ => 0.0,
+        }
+    }
+
     /// Luminance of the emitted power (W, up to the luminance weighting);
     /// infinite lights through a disk of `scene_radius`.
     fn power(&self, scene_radius: f32) -> f32 {
@@ -601,6 +615,16 @@ mod tests {
     use super::*;
     use crate::sampling::Pcg32;
 
+    /// No volumes: these tests light with UsdLux lights and meshes.
+    static NO_MEDIA: std::sync::LazyLock<Media> = std::sync::LazyLock::new(Media::default);
+
+    fn emitters(materials: &Materials) -> Emitters<'_> {
+        Emitters {
+            materials,
+            media: &NO_MEDIA,
+        }
+    }
+
     /// Two spheres of equal size on either side of the origin, the one on +X
     /// nine times brighter, plus an emissive quad far below: the share of
     /// samples towards each light follows its selection probability, the
@@ -619,7 +643,7 @@ mod tests {
             &[far],
         );
         let materials = Materials::build(&scene).unwrap();
-        let lights = Lights::build(&scene, &materials).unwrap();
+        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true).unwrap();
         assert_eq!(lights.lights.len(), 3);
         let probabilities: Vec<f32> = (0..3).map(|i| lights.probability(Vec3::ZERO, i)).collect();
         assert!((probabilities.iter().sum::<f32>() - 1.0).abs() < 1e-5);
@@ -635,7 +659,7 @@ mod tests {
         let mut counts = [0u32; 3];
         for _ in 0..n {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
-            let Some((_, s)) = lights.sample(&materials, Vec3::ZERO, rng.next_f32(), u) else {
+            let Some((_, s)) = lights.sample(emitters(&materials), Vec3::ZERO, rng.next_f32(), u) else {
                 continue;
             };
             let which = if s.wi.x > 0.5 {
@@ -670,9 +694,9 @@ mod tests {
         let placed = [1., 0., 0., -0.5, 0., -1., 0., 0.5, 0., 0., -1., 1.];
         let scene = scene_with("mesh", serde_json::json!([]), [2.0, 2.0, 2.0], &[placed]);
         let materials = Materials::build(&scene).unwrap();
-        let lights = Lights::build(&scene, &materials).unwrap();
+        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true).unwrap();
         let e = estimate(20_000, 22, |u| {
-            let (_, s) = lights.sample(&materials, Vec3::ZERO, 0.5, u)?;
+            let (_, s) = lights.sample(emitters(&materials), Vec3::ZERO, 0.5, u)?;
             let p = s.wi * s.distance;
             // Triangle 0 of the quad is mesh-space x > y: world x + 0.5 > 0.5 - y.
             let sp = SurfacePoint {
@@ -711,7 +735,7 @@ mod tests {
         // From above, the single-sided quad shows its back: nothing.
         let above = Vec3::new(0.0, 0.0, 3.0);
         assert!(lights
-            .sample(&materials, above, 0.5, Vec2::splat(0.4))
+            .sample(emitters(&materials), above, 0.5, Vec2::splat(0.4))
             .is_none());
     }
 
@@ -721,7 +745,7 @@ mod tests {
         bad["normalize"] = true.into();
         let scene = scene_with("bad", serde_json::json!([bad]), [0.0; 3], &[]);
         let materials = Materials::build(&scene).unwrap();
-        let err = Lights::build(&scene, &materials).err().unwrap();
+        let err = Lights::build(&scene, &materials, &NO_MEDIA, true).err().unwrap();
         assert!(err.to_string().contains("/World/Bad"), "{err}");
     }
 
@@ -731,15 +755,17 @@ mod tests {
     fn a_scene_without_lights_gets_the_default_dome() {
         let empty = scene_with("empty", serde_json::json!([]), [0.0; 3], &[]);
         let materials = Materials::build(&empty).unwrap();
-        let lights = Lights::build(&empty, &materials).unwrap();
+        let lights = Lights::build(&empty, &materials, &NO_MEDIA, true).unwrap();
         let mut seen = Vec::new();
-        lights.escaped(Vec3::new(0.3, -0.2, 0.9).normalize(), |radiance, pdf| {
-            seen.push((radiance, pdf))
-        });
+        lights.escaped(
+            Vec3::ZERO,
+            Vec3::new(0.3, -0.2, 0.9).normalize(),
+            |radiance, pdf| seen.push((radiance, pdf)),
+        );
         assert_eq!(seen.len(), 1);
         assert_eq!(seen[0].0, Vec3::ONE);
         let (_, sample) = lights
-            .sample(&materials, Vec3::ZERO, 0.5, Vec2::splat(0.3))
+            .sample(emitters(&materials), Vec3::ZERO, 0.5, Vec2::splat(0.3))
             .expect("the default dome is sampled");
         assert_eq!(sample.radiance, Vec3::ONE);
         // A constant dome is sampled uniformly over the sphere, both ways.
@@ -767,7 +793,7 @@ mod tests {
             &[],
         );
         let materials = Materials::build(&scene).unwrap();
-        let lights = Lights::build(&scene, &materials).unwrap();
+        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true).unwrap();
         let p_dome = lights.probability(Vec3::ZERO, 0);
         assert!(p_dome > 0.0 && p_dome < 1.0);
         assert!((p_dome + lights.probability(Vec3::ZERO, 1) - 1.0).abs() < 1e-6);
@@ -777,12 +803,12 @@ mod tests {
         for _ in 0..n {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
             let (_, s) = lights
-                .sample(&materials, Vec3::ZERO, rng.next_f32(), u)
+                .sample(emitters(&materials), Vec3::ZERO, rng.next_f32(), u)
                 .unwrap();
             if s.distance.is_infinite() {
                 domes += 1;
                 let mut seen = 0;
-                lights.escaped(s.wi, |radiance, pdf| {
+                lights.escaped(Vec3::ZERO, s.wi, |radiance, pdf| {
                     seen += 1;
                     assert_eq!(radiance, s.radiance);
                     assert!((pdf - s.pdf).abs() <= 1e-5 * s.pdf);

@@ -1,12 +1,19 @@
 //! Picking one light per sample. Infinite lights (dome, distant) and bounded
-//! ones (everything with a position) share the probability by their power,
-//! the infinite lights counting the flux through a disk of the scene's
-//! bounding radius as pbrt-v4's `Phi` does: with a single bounded light this
-//! is pbrt-v4's `PowerLightSampler`. Among infinite lights the choice is by
-//! power; among bounded lights a light BVH (`bvh.rs`) weighs power by
-//! distance and orientation from the shading point. Every light with power
-//! keeps a non-zero probability wherever it can contribute, so the estimator
-//! stays unbiased.
+//! ones (everything with a position) share the probability by their
+//! importance at the shading point, in one unit: 4 pi x the irradiance a
+//! light can deliver there. For the bounded lights that is the light BVH
+//! root's importance (power x orientation / distance^2, `bvh.rs`; an
+//! isotropic point of power P gives P / d^2 = 4 pi E); for an infinite light
+//! its irradiance on a surface facing it (a distant light's own, pi L for a
+//! dome of mean radiance L) times 4 pi. So a fire lights the ground beside
+//! it as often as the sky does there, however large the scene (a share by
+//! total power would weigh the sky by the flux through a disk of the
+//! scene's radius, and starve every small light of a large scene). Among
+//! infinite lights the choice is by power; among bounded lights the BVH
+//! walk. Every light with power keeps a non-zero probability wherever it
+//! can contribute, so the estimator stays unbiased.
+
+use std::f32::consts::PI;
 
 use glam::Vec3;
 
@@ -18,8 +25,8 @@ use crate::scene::Bounds;
 /// The light-picking structure over a scene's lights.
 #[derive(Clone, Debug)]
 pub(crate) struct LightSelection {
-    /// Probability of picking an infinite light (rather than a bounded one).
-    p_infinite: f32,
+    /// 4 pi x the summed irradiance of the infinite lights (see the module doc).
+    infinite_importance: f32,
     /// Light indices of the infinite lights.
     infinite: Vec<usize>,
     /// Over `infinite`, by power; `None` when there are none.
@@ -34,20 +41,39 @@ impl LightSelection {
     /// Picks a light for shading point `p` with `u` in [0, 1); `None` when
     /// no light can reach `p`.
     pub fn pick(&self, p: Vec3, u: f32) -> Option<Pick> {
-        if u < self.p_infinite {
+        let p_infinite = self.p_infinite(p);
+        if u < p_infinite {
             let s = self
                 .infinite_by_power
                 .as_ref()?
-                .sample_discrete(u / self.p_infinite);
+                .sample_discrete(u / p_infinite);
             Some(Pick {
                 light: self.infinite[s.index],
-                probability: self.p_infinite * s.probability,
+                probability: p_infinite * s.probability,
             })
         } else {
-            let u = ((u - self.p_infinite) / (1.0 - self.p_infinite)).min(1.0 - f32::EPSILON / 2.0);
+            let u = ((u - p_infinite) / (1.0 - p_infinite)).min(1.0 - f32::EPSILON / 2.0);
             let mut pick = self.bvh.as_ref()?.pick(p, u)?;
-            pick.probability *= 1.0 - self.p_infinite;
+            pick.probability *= 1.0 - p_infinite;
             Some(pick)
+        }
+    }
+
+    /// Probability of picking an infinite light (rather than a bounded one)
+    /// at `p`: their share of the importance there.
+    fn p_infinite(&self, p: Vec3) -> f32 {
+        match &self.bvh {
+            None => 1.0,
+            Some(_) if self.infinite.is_empty() => 0.0,
+            Some(bvh) => {
+                let bounded = bvh.importance(p);
+                let total = self.infinite_importance + bounded;
+                if total > 0.0 && total.is_finite() {
+                    self.infinite_importance / total
+                } else {
+                    0.5
+                }
+            }
         }
     }
 
@@ -59,8 +85,8 @@ impl LightSelection {
             &self.infinite_by_power,
             &self.bvh,
         ) {
-            (Some(slot), Some(d), _) => self.p_infinite * d.probability(slot),
-            (None, _, Some(bvh)) => (1.0 - self.p_infinite) * bvh.probability(p, light),
+            (Some(slot), Some(d), _) => self.p_infinite(p) * d.probability(slot),
+            (None, _, Some(bvh)) => (1.0 - self.p_infinite(p)) * bvh.probability(p, light),
             _ => 0.0,
         }
     }
@@ -73,31 +99,20 @@ impl LightSelection {
         let mut infinite = Vec::new();
         let mut infinite_slot = vec![None; lights.len()];
         let mut bounded = Vec::new();
-        let (mut infinite_power, mut bounded_power) = (0.0f64, 0.0f64);
+        let mut infinite_importance = 0.0f32;
         for (i, light) in lights.iter().enumerate() {
             match light.bounds() {
-                Some(b) => {
-                    bounded.push((i, b));
-                    bounded_power += f64::from(powers[i]);
-                }
+                Some(b) => bounded.push((i, b)),
                 None => {
                     infinite_slot[i] = Some(infinite.len());
                     infinite.push(i);
-                    infinite_power += f64::from(powers[i]);
+                    infinite_importance += 4.0 * PI * light.irradiance(radius);
                 }
             }
         }
-        let p_infinite = match (infinite.is_empty(), bounded.is_empty()) {
-            (true, _) => 0.0,
-            (false, true) => 1.0,
-            _ if infinite_power + bounded_power > 0.0 => {
-                (infinite_power / (infinite_power + bounded_power)) as f32
-            }
-            _ => infinite.len() as f32 / lights.len() as f32,
-        };
         let infinite_powers: Vec<f32> = infinite.iter().map(|&i| powers[i]).collect();
         Self {
-            p_infinite,
+            infinite_importance,
             infinite_by_power: (!infinite.is_empty())
                 .then(|| Distribution1D::new(&infinite_powers)),
             infinite,

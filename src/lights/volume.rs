@@ -81,15 +81,7 @@ impl VolumeLight {
         Self {
             medium: emitter.medium,
             power: emitter.power,
-            bounds: LightBounds {
-                min: emitter.world_min,
-                max: emitter.world_max,
-                phi: emitter.power,
-                w: Vec3::Z,
-                cos_o: -1.0,
-                cos_e: 0.0,
-                two_sided: false,
-            },
+            bounds: LightBounds::omni(emitter.world_min, emitter.world_max, emitter.power),
         }
     }
 }

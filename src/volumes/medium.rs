@@ -23,6 +23,7 @@ use glam::{Affine3A, DAffine3, Vec3};
 use smallvec::SmallVec;
 
 use super::emitter::{EmissionCells, SourceSample};
+use super::tracking::channel_mean;
 use super::{
     BlackbodyTable, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
     MajorantSegments, SparseGrid, VdbFile, VolumeError,
@@ -588,13 +589,17 @@ impl Medium {
         let source = |p_index: Vec3| {
             let p = self.world_from_index.transform_point3(p_index);
             let le: Vec3 = self.emission.iter().map(|e| e.radiance(p, blackbody)).sum();
-            let sigma_a = self.absorption() * self.density(p_index);
+            let density = self.density(p_index);
             SourceSample {
-                source: luminance(sigma_a * le),
+                sigma_t: channel_mean(self.density_scale) * density,
+                source: luminance(self.absorption() * density * le),
                 radiance: luminance(le),
             }
         };
-        let cells = EmissionCells::build(&self.majorant, absorption, aligned, source);
+        let m = &self.world_from_index.matrix3;
+        let axis_length = Vec3::new(m.x_axis.length(), m.y_axis.length(), m.z_axis.length());
+        let cells =
+            EmissionCells::build(&self.majorant, (absorption, axis_length), aligned, source);
         if cells.is_none() {
             log::warn!(
                 "volume {}: its emission fields emit nothing where it has density; \
