@@ -44,6 +44,7 @@ PROPS = [  # (x, z, scale, yaw in degrees) of the teapots
 ]
 HOODOOS = [(-13.0, -28.0, 1.0, 0.0), (-20.0, -44.0, 1.4, 70.0), (12.0, -60.0, 1.7, 140.0),
            (-15.5, -66.0, 1.2, 200.0), (15.0, -18.0, 0.8, 300.0), (4.0, -80.0, 2.0, 30.0)]
+EXPLOSION = (-2.2, -20.0, 3.0)  # (x, z, scale) of the fireball: in the open, a big boulder behind it
 EYE = (-1.2, 2.1, 4.0)  # the camera, metres
 # No rocks under a teapot or around the camera.
 CLEARINGS = [(x, z, 0.32 * s) for x, z, s, _ in PROPS] + [(EYE[0], EYE[2], 3.0)]
@@ -447,9 +448,13 @@ def main() -> None:
                {"densityScale": 8.0, "albedo": (0.8, 0.8, 0.8), "anisotropy": 0.4}, (7.0, 2.0, -78.0), 0.2)
     else:
         print(f"make_demo: warning: {smoke} is missing; the scene has no smoke plume")
+    # The fireball's grid spans [-1, 1] with the stem's foot at y = -0.97: stand it on the
+    # sand, 10 cm deep. Its fire (up to 2600 K) lights the boulder and the sand around it.
+    ex, ez, escale = EXPLOSION
+    centre_y = float(height(np.array(ex), np.array(ez))) + 0.97 * escale - 0.1
     volume(stage, "/World/Explosion", relative(args.explosion), ["density", "temperature"],
-           {"densityScale": 2.4, "albedo": (0.25, 0.24, 0.23), "anisotropy": 0.3, "heatScale": 0.4,
-            "temperatureOffset": 0.0, "temperatureScale": 0.8}, (-9.0, 5.0, -46.0), 5.5)
+           {"densityScale": 4.0, "albedo": (0.25, 0.24, 0.23), "anisotropy": 0.3, "heatScale": 0.03,
+            "temperatureOffset": 0.0, "temperatureScale": 1.0}, (ex, centre_y, ez), escale)
 
     sky = UsdLux.DomeLight.Define(stage, "/World/Lights/Sky")
     sky.CreateTextureFileAttr("./textures/dusk_sky.png")

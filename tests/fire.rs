@@ -125,3 +125,245 @@ fn emitting_box_lights_a_plane_as_integrated_with_and_without_light_sampling() {
         sigmas[1]
     );
 }
+
+/// Defaults never bias (scenes/tests/dense_cloud.usda: max sigma_t 25,
+/// albedo 0.95): at the default `--max-depth` the cloud matches an
+/// effectively unbounded `--max-depth 100000` render within 4 sigma (paired
+/// per-pixel differences of independent renders), while `--max-depth 16`,
+/// the old default, reads measurably darker: the test can tell.
+#[test]
+fn default_depth_renders_a_dense_cloud_without_darkening_it() {
+    let dir = common::scratch("fire_dense_cloud");
+    let render = |seed: u64, extra: &'static [&'static str]| {
+        Render {
+            scene: "dense_cloud",
+            res: (48, 24),
+            spp: 64,
+            seed,
+            extra,
+        }
+        .run(&dir)
+    };
+    let default = render(1, &[]);
+    let difference = |other: &common::render::Image| {
+        estimate((0..48 * 24).map(|i| {
+            (0..3)
+                .map(|c| f64::from(default.rgb[c][i]) - f64::from(other.rgb[c][i]))
+                .sum::<f64>()
+                / 3.0
+        }))
+    };
+    let unbounded = difference(&render(2, &["--max-depth", "100000"]));
+    eprintln!(
+        "default - unbounded: {:.5} +- {:.5}",
+        unbounded.mean, unbounded.sigma
+    );
+    assert!(
+        unbounded.mean.abs() < 4.0 * unbounded.sigma,
+        "default depth differs from unbounded: {} +- {}",
+        unbounded.mean,
+        unbounded.sigma
+    );
+    let capped = difference(&render(3, &["--max-depth", "16"]));
+    eprintln!(
+        "default - depth 16: {:.5} +- {:.5}",
+        capped.mean, capped.sigma
+    );
+    assert!(
+        capped.mean > 4.0 * capped.sigma,
+        "depth 16 should read darker than the default: {} +- {}",
+        capped.mean,
+        capped.sigma
+    );
+}
+
+/// Light sampling on and off estimate the same image of the demo
+/// explosion (scenes/demo/explosion.usda over the fireball of
+/// scenes/make_explosion.py at 48^3 voxels): per channel, the mean of the
+/// paired per-pixel differences of two independent renders within 4 sigma,
+/// and the difference's sigma below 2% of the image mean, so that a bias of
+/// a few percent would show.
+#[test]
+fn light_sampling_on_and_off_render_the_same_explosion() {
+    let dir = common::scratch("fire_explosion");
+    let vdb = dir.join("explosion.vdb");
+    common::run_python(
+        std::path::Path::new("/usr/bin/python3"),
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/make_explosion.py"),
+        &[&vdb.to_string_lossy(), "--res", "48"],
+    );
+    let demo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/demo/explosion.usda");
+    let stage = std::fs::read_to_string(demo)
+        .unwrap()
+        .replace("../../out/explosion.vdb", &vdb.to_string_lossy());
+    let usda = dir.join("explosion.usda");
+    std::fs::write(&usda, stage).unwrap();
+    let (w, h) = (40usize, 24usize);
+    let render = |sampling: &str, seed: &str| {
+        let exr = dir.join(format!("explosion_{sampling}.exr"));
+        let (usda, exr_arg, res) = (
+            usda.to_string_lossy(),
+            exr.to_string_lossy(),
+            format!("{w}x{h}"),
+        );
+        let args = [
+            "render",
+            &usda,
+            "-o",
+            &exr_arg,
+            "--res",
+            &res,
+            "--spp",
+            "256",
+            "--seed",
+            seed,
+            "--volume-light-sampling",
+            sampling,
+            "--filter",
+            "box",
+            "--aovs",
+            "beauty",
+        ];
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
+        common::cirrus_ok(&args);
+        common::render::Image::read(&exr, (w as u32, h as u32))
+    };
+    let (on, off) = (render("on", "1"), render("off", "2"));
+    for c in 0..3 {
+        let d = estimate((0..w * h).map(|i| f64::from(on.rgb[c][i]) - f64::from(off.rgb[c][i])));
+        let mean = estimate(on.pixels(c, |_, _| true)).mean;
+        eprintln!(
+            "channel {c}: on - off {:.5} +- {:.5} (image mean {mean:.4})",
+            d.mean, d.sigma
+        );
+        assert!(
+            d.mean.abs() < 4.0 * d.sigma,
+            "channel {c}: on - off = {} +- {}",
+            d.mean,
+            d.sigma
+        );
+        assert!(
+            d.sigma < 0.02 * mean,
+            "channel {c}: too noisy to tell: sigma {} vs mean {mean}",
+            d.sigma
+        );
+    }
+}
+
+/// `cirrus render` of a box of fire (tests/python/make_fire_box.py in
+/// `mode`) whose Volume prim /World/Fire reads field `field` with
+/// `primvars` (USD lines), over a ground, 8x8 at 4 spp; the command's output.
+fn render_fire_box(name: &str, mode: &str, field: &str, primvars: &str) -> std::process::Output {
+    let dir = common::scratch(&format!("fire_bad_{name}"));
+    let vdb = dir.join("fire.vdb");
+    common::run_python(
+        std::path::Path::new("/usr/bin/python3"),
+        &common::python_script("make_fire_box.py"),
+        &[&vdb.to_string_lossy(), mode],
+    );
+    let usda = dir.join("fire.usda");
+    std::fs::write(
+        &usda,
+        format!(
+            r#"#usda 1.0
+(
+    defaultPrim = "World"
+)
+def Xform "World"
+{{
+    def Volume "Fire"
+    {{
+        rel field:density = </World/Fire/density>
+        rel field:{field} = </World/Fire/{field}>
+        color3f primvars:albedo = (0.2, 0.2, 0.2)
+        {primvars}
+        def OpenVDBAsset "density"
+        {{
+            asset filePath = @{vdb}@
+            token fieldName = "density"
+        }}
+        def OpenVDBAsset "{field}"
+        {{
+            asset filePath = @{vdb}@
+            token fieldName = "{field}"
+        }}
+    }}
+    def Mesh "Ground"
+    {{
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(-5, -1, 5), (5, -1, 5), (5, -1, -5), (-5, -1, -5)]
+    }}
+}}
+"#,
+            vdb = vdb.display()
+        ),
+    )
+    .unwrap();
+    std::process::Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .args(["render".as_ref(), usda.as_os_str(), "-o".as_ref()])
+        .arg(dir.join("out.exr"))
+        .args(["--res", "8x8", "--spp", "4", "--aovs", "beauty", "--force"])
+        .output()
+        .unwrap()
+}
+
+/// Bad fire input (issue 19), each end to end: NaN, infinite and negative
+/// temperatures are read as 0 with one warning naming the volume, grid and
+/// file, and no sample goes non-finite; a negative heatScale or
+/// emissionScale is an error naming the prim and the value; an emission
+/// field that is not a float grid is an error naming the grid; a volume
+/// whose emission is zero everywhere renders (no light entry, no division
+/// by zero) with a warning.
+#[test]
+fn bad_fire_input_is_reported_by_name() {
+    let text = |o: &std::process::Output| String::from_utf8_lossy(&o.stderr).into_owned();
+    let hot = "float primvars:heatScale = 1";
+    let out = render_fire_box("nan", "bad_temperature", "temperature", hot);
+    let log = text(&out);
+    assert!(out.status.success(), "{log}");
+    assert!(
+        log.contains("volume /World/Fire: grid temperature of")
+            && log.contains("has 2 NaN or infinite values and a smallest value of -5"),
+        "no bad-temperature warning in:\n{log}"
+    );
+    assert!(!log.contains("NaN/Inf sample"), "{log}");
+
+    for (name, primvar) in [
+        ("heatScale", hot.replace('1', "-1")),
+        (
+            "emissionScale",
+            format!("{hot}\n        float primvars:emissionScale = -2"),
+        ),
+    ] {
+        let out = render_fire_box(
+            &format!("negative_{name}"),
+            "bad_temperature",
+            "temperature",
+            &primvar,
+        );
+        let log = text(&out);
+        assert_eq!(out.status.code(), Some(1), "{log}");
+        assert!(
+            log.contains("volume /World/Fire: primvars:") && log.contains(&format!("{name} is -")),
+            "no error naming the prim and {name} in:\n{log}"
+        );
+    }
+
+    let out = render_fire_box("vector", "vector_emission", "emission", "");
+    let log = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{log}");
+    assert!(
+        log.contains("grid 'emission' holds 'vec3s' values"),
+        "no error naming the grid in:\n{log}"
+    );
+
+    let out = render_fire_box("cold", "cold", "temperature", hot);
+    let log = text(&out);
+    assert!(out.status.success(), "{log}");
+    assert!(
+        log.contains("volume /World/Fire: its emission fields emit nothing"),
+        "{log}"
+    );
+    assert!(!log.contains("NaN/Inf sample"), "{log}");
+}

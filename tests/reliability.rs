@@ -193,7 +193,7 @@ fn foreign_and_damaged_checkpoints_are_refused() {
         |spp: u32, extra: &[&str]| fails(command(&exr, spp, &[extra, &["--resume"]].concat()));
     for (extra, wanted) in [
         (&["--seed", "4"][..], "seed: checkpoint 3, this render 4"),
-        (&["--max-depth", "3"][..], "max-depth: checkpoint 16"),
+        (&["--max-depth", "3"][..], "max-depth: checkpoint 1024"),
         (&["--aovs", "default"][..], "aovs: checkpoint"),
         (&["--res", "32x32"][..], "resolution: checkpoint 96x64"),
     ] {

@@ -659,7 +659,8 @@ mod tests {
         let mut counts = [0u32; 3];
         for _ in 0..n {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
-            let Some((_, s)) = lights.sample(emitters(&materials), Vec3::ZERO, rng.next_f32(), u) else {
+            let Some((_, s)) = lights.sample(emitters(&materials), Vec3::ZERO, rng.next_f32(), u)
+            else {
                 continue;
             };
             let which = if s.wi.x > 0.5 {
@@ -745,7 +746,9 @@ mod tests {
         bad["normalize"] = true.into();
         let scene = scene_with("bad", serde_json::json!([bad]), [0.0; 3], &[]);
         let materials = Materials::build(&scene).unwrap();
-        let err = Lights::build(&scene, &materials, &NO_MEDIA, true).err().unwrap();
+        let err = Lights::build(&scene, &materials, &NO_MEDIA, true)
+            .err()
+            .unwrap();
         assert!(err.to_string().contains("/World/Bad"), "{err}");
     }
 

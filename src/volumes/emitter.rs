@@ -27,6 +27,11 @@ use crate::sampling::Distribution1D;
 /// The smallest share of its emission bound a cell's weight is given.
 const FLOOR: f32 = 1e-3;
 
+/// Tentative collisions a ray crossing the brightest emitting cell meets
+/// at least (fewer in dimmer cells, in proportion to their emission): see
+/// [`EmissionCells::collision_floors`].
+const COLLISIONS_IN_BRIGHTEST_CELL: f32 = 4.0;
+
 /// The medium at an index-space point, as luminance.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct SourceSample {
@@ -49,6 +54,9 @@ pub(crate) struct EmissionCells {
     /// Estimated luminance of the integral of sigma_a Le over the cells, per
     /// unit of index-space volume (a world volume is |det| times it).
     integral: f32,
+    /// Per emitting cell (slot), the least majorant tracking needs there,
+    /// per world unit (see [`Self::collision_floors`]).
+    floors: Vec<(u32, f32)>,
 }
 
 /// One cell that may emit: its majorant-grid slot and its support box.
@@ -92,6 +100,21 @@ impl EmissionCells {
         )
     }
 
+    /// Per emitting cell (majorant-grid slot), the least majorant sigma_maj
+    /// (per world unit) free-flight tracking must use there for emission
+    /// found along camera rays not to sparkle: emission is collected at
+    /// tentative collisions, so a thin, hot region crossed with few of them
+    /// gives a few bright samples among many dark ones (relative variance
+    /// 1 / the number of collisions). The brightest cell (mean sigma_a Le)
+    /// gets [`COLLISIONS_IN_BRIGHTEST_CELL`] collisions per edge crossed,
+    /// dimmer cells fewer in proportion to their emission; where density is
+    /// dense enough already nothing changes. Cycles 5 raises its majorants
+    /// with emission for the same reason. A majorant above sigma_t is still
+    /// a majorant: tracking stays unbiased, and pays in null collisions.
+    pub(crate) fn collision_floors(&self) -> &[(u32, f32)] {
+        &self.floors
+    }
+
     /// Estimated luminance of the integral of sigma_a Le, per unit of
     /// index-space volume: W/sr after scaling by the index-to-world volume.
     pub(crate) fn integral(&self) -> f32 {
@@ -123,8 +146,10 @@ impl EmissionCells {
         if global_max <= 0.0 || absorption <= 0.0 {
             return None;
         }
+        let brightest = sampled.iter().map(|s| s.source_mean).fold(0.0f32, f32::max);
         let mut cells = Vec::new();
         let mut weights = Vec::new();
+        let mut floors = Vec::new();
         for ((cell, sample), escape) in occupied.iter().zip(&sampled).zip(escape) {
             let bound = if aligned {
                 sample.radiance_max
@@ -143,6 +168,11 @@ impl EmissionCells {
                 extent,
             });
             weights.push(volume * (sample.source_mean * escape).max(floor));
+            if sample.source_mean > 0.0 {
+                let edge_world = (extent * axis_length).element_sum() / 3.0;
+                let share = sample.source_mean / brightest;
+                floors.push((cell.slot, COLLISIONS_IN_BRIGHTEST_CELL * share / edge_world));
+            }
         }
         if cells.is_empty() {
             return None;
@@ -152,6 +182,7 @@ impl EmissionCells {
             distribution: Distribution1D::new(&weights),
             cells,
             integral,
+            floors,
         })
     }
 }

@@ -476,6 +476,18 @@ impl MajorantGrid {
         }
     }
 
+    /// A copy whose cells `(slot, floor)` hold at least `floor` as their
+    /// density max (the support boxes unchanged): still a majorant, with
+    /// more tentative collisions there (see `EmissionCells::collision_floors`).
+    pub(crate) fn with_floors(&self, floors: impl IntoIterator<Item = (u32, f32)>) -> Self {
+        let mut raised = self.clone();
+        for (slot, floor) in floors {
+            let cell = &mut raised.cells[slot as usize];
+            cell.max = cell.max.max(floor);
+        }
+        raised
+    }
+
     /// One cell over the same bounds, bounding all of them.
     fn merged(self) -> Self {
         let all = self.cells.iter().fold(

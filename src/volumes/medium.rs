@@ -35,6 +35,10 @@ use crate::scene::{affine, Scene, VolumeField};
 /// read (and its majorant grid built) once, whatever the placements.
 type FieldKey = (PathBuf, String, u32);
 
+/// An emitting volume's light cells and its majorant grid raised where it
+/// emits (see [`Medium::emission_cells`]).
+type EmittingGrids = (Option<Arc<EmissionCells>>, Option<Arc<MajorantGrid>>);
+
 /// One placed volume.
 pub struct Medium {
     density: Arc<SparseGrid>,
@@ -459,8 +463,9 @@ impl Media {
             .iter()
             .any(|v| v.fields.contains_key("temperature") && v.emits_from("temperature"))
             .then(BlackbodyTable::new);
-        // Emission light cells per Volume prim: shared by its placements.
-        let mut emitters: HashMap<u32, Option<Arc<EmissionCells>>> = HashMap::new();
+        // Emission light cells and the majorant grid raised where the volume
+        // emits, per Volume prim: shared by its placements.
+        let mut emitters: HashMap<u32, EmittingGrids> = HashMap::new();
         let mut media = Vec::new();
         for (world_from_prototype, &prototype) in transforms.iter().zip(prototypes) {
             for part in &m.prototypes[prototype as usize].volumes {
@@ -551,10 +556,14 @@ impl Media {
                     voxel_volume: world_from_index.matrix3.determinant().abs() as f32,
                 };
                 if !medium.emission.is_empty() {
-                    medium.emitter = emitters
+                    let (cells, raised) = emitters
                         .entry(part.volume)
-                        .or_insert_with(|| medium.emission_cells(volume, blackbody.as_ref()))
+                        .or_insert_with(|| medium.emission_cells(volume, blackbody.as_ref(), kind))
                         .clone();
+                    medium.emitter = cells;
+                    if let Some(raised) = raised {
+                        medium.majorant = raised;
+                    }
                 }
                 media.push(medium);
             }
@@ -564,14 +573,16 @@ impl Media {
 }
 
 impl Medium {
-    /// Where this medium emits, for light sampling (`emitter.rs`); `None`
-    /// when it emits nothing (warned: a volume that would emit but does
-    /// not absorb has no source term).
+    /// Where this medium emits, for light sampling (`emitter.rs`), and its
+    /// majorant grid raised where it emits (`kind` grid only: the global
+    /// baseline stays one bound); `None`s when it emits nothing (warned: a
+    /// volume that would emit but does not absorb has no source term).
     fn emission_cells(
         &self,
         volume: &crate::scene::Volume,
         blackbody: Option<&BlackbodyTable>,
-    ) -> Option<Arc<EmissionCells>> {
+        kind: MajorantKind,
+    ) -> EmittingGrids {
         let absorption = luminance(self.absorption());
         if absorption <= 0.0 {
             log::warn!(
@@ -579,7 +590,7 @@ impl Medium {
                  emits nothing (the source term is sigma_a Le)",
                 volume.path
             );
-            return None;
+            return (None, None);
         }
         // The emission grids share the density grid's index points.
         let aligned = self.emission.iter().all(|e| {
@@ -600,14 +611,23 @@ impl Medium {
         let axis_length = Vec3::new(m.x_axis.length(), m.y_axis.length(), m.z_axis.length());
         let cells =
             EmissionCells::build(&self.majorant, (absorption, axis_length), aligned, source);
-        if cells.is_none() {
+        let Some(cells) = cells else {
             log::warn!(
                 "volume {}: its emission fields emit nothing where it has density; \
                  no emission is rendered",
                 volume.path
             );
-        }
-        cells.map(Arc::new)
+            return (None, None);
+        };
+        let raised = (kind == MajorantKind::Grid).then(|| {
+            let per_density = 1.0 / self.density_scale.max_element();
+            let floors = cells.collision_floors().iter();
+            Arc::new(
+                self.majorant
+                    .with_floors(floors.map(|&(slot, sigma)| (slot, sigma * per_density))),
+            )
+        });
+        (Some(Arc::new(cells)), raised)
     }
 }
 

@@ -117,7 +117,7 @@ pub struct Image {
 impl Image {
     /// The float R, G, B channels of the EXR at `path`, checked to be `res`
     /// pixels and finite.
-    fn read(path: &Path, res: (u32, u32)) -> Self {
+    pub fn read(path: &Path, res: (u32, u32)) -> Self {
         let exr = read_all_flat_layers_from_file(path).unwrap();
         let layer = &exr.layer_data[0];
         let plane = |name: &str| -> Vec<f32> {
