@@ -128,6 +128,40 @@ pub enum Bench {
         #[arg(long, value_name = "DIR")]
         charts: Option<PathBuf>,
     },
+    /// Emitting volumes as lights: the equal-time relative MSE against a
+    /// long reference with `--volume-light-sampling` on and off, time per
+    /// sample and density lookups per camera ray (table + SVG chart).
+    Fire {
+        /// Scenes (USD or exported); default: scenes/bench/fire_lit.usda
+        /// and scenes/bench/canyon_fire.usda (docs/benchmarks.md says how to
+        /// write the VDB and the canyon they read).
+        scenes: Vec<PathBuf>,
+        /// Image size WIDTHxHEIGHT.
+        #[arg(long, default_value = "160x90", value_parser = super::render::parse_resolution)]
+        res: glam::UVec2,
+        /// Samples per pixel of the reference (light sampling on).
+        #[arg(long, default_value_t = 4096)]
+        reference_spp: u32,
+        /// Equal-time budgets in seconds.
+        #[arg(long, value_delimiter = ',', default_value = "5,10,20,30")]
+        times: Vec<f64>,
+        /// Seeds per measurement; the table shows medians.
+        #[arg(long, default_value_t = 3)]
+        repeats: u32,
+        /// Smoke check in about a minute: budgets 0.2,0.5 s, one seed, a
+        /// 64-spp reference (numbers are noisy).
+        #[arg(long, conflicts_with_all = ["reference_spp", "times", "repeats"])]
+        quick: bool,
+        /// Worker threads.
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+        /// Folder for the reference EXRs and the charts.
+        #[arg(long, default_value = "out/bench-fire")]
+        out: PathBuf,
+        /// Also write each chart as DIR/fire-<scene>-equal-time.svg.
+        #[arg(long, value_name = "DIR")]
+        charts: Option<PathBuf>,
+    },
     /// Internal to `bench instances`: loads one exported scene and builds its
     /// BVHs in this fresh process, and prints the resident bytes added.
     #[command(hide = true)]
@@ -215,6 +249,35 @@ pub fn run(bench: Bench) -> Result<()> {
             };
             with_threads(threads, || {
                 super::bench_volumes::run(&bench, charts.as_deref())
+            })
+        }
+        Bench::Fire {
+            scenes,
+            res,
+            reference_spp,
+            times,
+            repeats,
+            quick,
+            threads,
+            out,
+            charts,
+        } => {
+            let scenes = scenes_or_default(scenes, super::bench_fire::default_scenes);
+            let (reference_spp, times, repeats) = if quick {
+                (64, vec![0.2, 0.5], 1)
+            } else {
+                (reference_spp, times, repeats)
+            };
+            let bench = super::bench_equal_time::EqualTimeBench {
+                scenes,
+                resolution: res,
+                reference_spp,
+                times,
+                repeats,
+                out,
+            };
+            with_threads(threads, || {
+                super::bench_fire::run(&bench, charts.as_deref())
             })
         }
         Bench::InstancesMemory { scene } => super::bench_instances::print_memory(&scene),

@@ -14,6 +14,7 @@ use glam::UVec2;
 use super::bench::median;
 use crate::integrator::{
     self, Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
+    DEFAULT_MAX_DEPTH,
 };
 use crate::output::aov::AovSet;
 use crate::output::filter::FilterKind;
@@ -38,16 +39,13 @@ pub struct EqualTimeBench {
     pub out: PathBuf,
 }
 
-/// Path depth of the equal-time benchmarks (the CLI's default).
-pub(super) const MAX_DEPTH: u32 = 16;
-
 /// Seed of every reference render, apart from the seeds of the measured ones
 /// (0, 1, 2, ...).
 pub(super) const REFERENCE_SEED: u64 = 1 << 20;
 
 /// Settings of every benchmark and convergence render unless the measured
 /// method changes them: `cirrus render`'s defaults (MIS, Sobol, max depth
-/// [`MAX_DEPTH`], null-scattering MIS with equiangular sampling, no clamp)
+/// [`DEFAULT_MAX_DEPTH`], null-scattering MIS with equiangular sampling, no clamp)
 /// but a box filter, so each sample lands in its own pixel only, and the
 /// beauty alone.
 pub(super) fn base_settings(budget: Budget, seed: u64) -> RenderSettings {
@@ -58,7 +56,7 @@ pub(super) fn base_settings(budget: Budget, seed: u64) -> RenderSettings {
         filter: FilterKind::Box,
         path: PathSettings {
             strategy: Strategy::Mis,
-            max_depth: MAX_DEPTH,
+            max_depth: DEFAULT_MAX_DEPTH,
             clamp: None,
             volume_estimator: VolumeEstimator::NullScatteringMis,
             equiangular: true,
@@ -321,6 +319,26 @@ pub(super) const TIME_AXIS: ChartAxis = ChartAxis {
     quantity: "render time",
     unit: "seconds",
 };
+
+/// Writes the relMSE-against-time chart of scene `name` into the bench's
+/// output folder and, when asked, into `charts` as
+/// `<prefix>-<name>-equal-time.svg` (the README's charts live in
+/// docs/bench); one labelled curve per method.
+pub(super) fn write_scene_charts(
+    bench: &EqualTimeBench,
+    charts: Option<&Path>,
+    (prefix, name): (&str, &str),
+    curves: &[(String, Vec<(f64, f64)>)],
+) -> Result<()> {
+    let mut paths = vec![bench.out.join(format!("{name}-equal-time.svg"))];
+    paths.extend(charts.map(|dir| dir.join(format!("{prefix}-{name}-equal-time.svg"))));
+    for chart in paths {
+        write_chart(&chart, name, &TIME_AXIS, ErrorMetric::RelMse, curves)?;
+        println!("Chart: {}", chart.display());
+    }
+    println!();
+    Ok(())
+}
 
 /// Writes (atomically) a log-log SVG chart of the error against `x`
 /// (seconds, in the equal-time benchmarks) to `path`: one line with its

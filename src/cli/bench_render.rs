@@ -14,9 +14,11 @@ use super::bench::{machine_line, median};
 use super::bench_equal_time::{
     base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
     median_errors, reference_key, render, scene_name, spp_per_second, write_chart, EqualTimeBench,
-    ErrorMetric, Rung, MAX_DEPTH, TIME_AXIS,
+    ErrorMetric, Rung, TIME_AXIS,
 };
-use crate::integrator::{Budget, PathSettings, RenderSettings, RenderStats, Strategy};
+use crate::integrator::{
+    Budget, PathSettings, RenderSettings, RenderStats, Strategy, DEFAULT_MAX_DEPTH,
+};
 use crate::render_state::{RenderState, StateOptions};
 use crate::sampling::SamplerKind;
 
@@ -36,7 +38,7 @@ pub fn run(bench: &EqualTimeBench) -> Result<()> {
         .with_context(|| format!("cannot create {}", bench.out.display()))?;
     println!("{}\n", machine_line());
     println!(
-        "Threads: {}; {}x{} pixels; max depth {MAX_DEPTH}; box filter; reference: MIS + Sobol at {} spp.\n",
+        "Threads: {}; {}x{} pixels; max depth {DEFAULT_MAX_DEPTH}; box filter; reference: MIS + Sobol at {} spp.\n",
         rayon::current_num_threads(),
         bench.resolution.x,
         bench.resolution.y,
@@ -98,8 +100,10 @@ fn throughput(state: &RenderState, repeats: u32) {
         )
     };
     let primary = rate(0, Strategy::Bsdf, |s| s.rays.camera);
-    let rays = rate(MAX_DEPTH, Strategy::Mis, |s| s.rays.closest + s.rays.shadow);
-    let samples = rate(MAX_DEPTH, Strategy::Mis, |s| s.rays.camera);
+    let rays = rate(DEFAULT_MAX_DEPTH, Strategy::Mis, |s| {
+        s.rays.closest + s.rays.shadow
+    });
+    let samples = rate(DEFAULT_MAX_DEPTH, Strategy::Mis, |s| s.rays.camera);
     println!("| camera rays (M/s) | path rays, closest + shadow (M/s) | samples (M/s) | rays per sample |");
     println!("|---:|---:|---:|---:|");
     println!(
@@ -127,7 +131,7 @@ fn equal_time(
     let mut curves = Vec::new();
     let mut at_times = Vec::new();
     for (strategy, sampler) in METHODS {
-        let s = settings(Budget::Samples(1), strategy, sampler, 0, MAX_DEPTH);
+        let s = settings(Budget::Samples(1), strategy, sampler, 0, DEFAULT_MAX_DEPTH);
         let runs: Vec<Vec<Rung>> = (0..bench.repeats.max(1))
             .map(|seed| {
                 let s = RenderSettings {

@@ -18,10 +18,10 @@ use clap::ValueEnum;
 use super::bench::{machine_line, median, value_name};
 use super::bench_equal_time::{
     base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
-    median_errors, reference_key, scene_name, spp_per_second, write_chart, EqualTimeBench,
-    ErrorMetric, Rung, MAX_DEPTH, TIME_AXIS,
+    median_errors, reference_key, scene_name, spp_per_second, write_scene_charts, EqualTimeBench,
+    ErrorMetric, Rung,
 };
-use crate::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
+use crate::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator, DEFAULT_MAX_DEPTH};
 use crate::render_state::{RenderState, StateOptions};
 use crate::scene::Scene;
 use crate::volumes::{MajorantKind, TrackingStats, VdbFile};
@@ -84,7 +84,7 @@ pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
     }
     println!("{}\n", machine_line());
     println!(
-        "Threads: {}; {}x{} pixels; max depth {MAX_DEPTH}; MIS + Sobol; box filter; {} seed(s) per method; reference: null-scattering MIS, grid majorant, {} spp. relMSE = mean (x - ref)^2 / (ref^2 + 0.01).\n",
+        "Threads: {}; {}x{} pixels; max depth {DEFAULT_MAX_DEPTH}; MIS + Sobol; box filter; {} seed(s) per method; reference: null-scattering MIS, grid majorant, {} spp. relMSE = mean (x - ref)^2 / (ref^2 + 0.01).\n",
         rayon::current_num_threads(),
         bench.resolution.x,
         bench.resolution.y,
@@ -125,7 +125,7 @@ pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
         }
         print_measurements(bench, &measurements);
         print_ratios(bench, &measurements);
-        write_charts(bench, charts, &name, &measurements)?;
+        write_scene_charts(bench, charts, ("volumes", &name), &curves(&measurements))?;
     }
     Ok(())
 }
@@ -275,15 +275,9 @@ fn print_ratios(bench: &EqualTimeBench, measurements: &[Measurement]) {
     println!();
 }
 
-/// The relMSE-against-time chart of one scene, in the output folder and, when
-/// asked, in the charts folder as `volumes-<scene>-equal-time.svg`.
-fn write_charts(
-    bench: &EqualTimeBench,
-    charts: Option<&Path>,
-    name: &str,
-    measurements: &[Measurement],
-) -> Result<()> {
-    let curves: Vec<(String, Vec<(f64, f64)>)> = measurements
+/// The chart curves of one scene's measurements.
+fn curves(measurements: &[Measurement]) -> Vec<(String, Vec<(f64, f64)>)> {
+    measurements
         .iter()
         .map(|m| {
             (
@@ -291,15 +285,7 @@ fn write_charts(
                 m.curve.clone(),
             )
         })
-        .collect();
-    let mut paths = vec![bench.out.join(format!("{name}-equal-time.svg"))];
-    paths.extend(charts.map(|dir| dir.join(format!("volumes-{name}-equal-time.svg"))));
-    for chart in paths {
-        write_chart(&chart, name, &TIME_AXIS, ErrorMetric::RelMse, &curves)?;
-        println!("Chart: {}", chart.display());
-    }
-    println!();
-    Ok(())
+        .collect()
 }
 
 /// Default scenes of the benchmark: the teapot cloud and the smoke plume.

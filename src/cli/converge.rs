@@ -35,9 +35,9 @@ use glam::UVec2;
 use super::bench::{machine_line, median, scenes_or_default, value_name, with_threads};
 use super::bench_equal_time::{
     base_settings, cached_reference, error_at_time, read_rgb, reference_key, reference_path,
-    render, scene_name, write_chart, ChartAxis, ErrorMetric, MAX_DEPTH, REFERENCE_SEED, TIME_AXIS,
+    render, scene_name, write_chart, ChartAxis, ErrorMetric, REFERENCE_SEED, TIME_AXIS,
 };
-use crate::integrator::{Budget, RenderSettings, Strategy, VolumeEstimator};
+use crate::integrator::{Budget, RenderSettings, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH};
 use crate::render_state::{RenderState, StateOptions};
 use crate::sampling::SamplerKind;
 use crate::volumes::MajorantKind;
@@ -689,7 +689,7 @@ fn render_peer(
         .args(["--seed", &budget.seed.to_string()])
         .args(["--threads", &args.threads.to_string()])
         .args(["--res", &format!("{}x{}", args.res.x, args.res.y)])
-        .args(["--max-depth", &MAX_DEPTH.to_string()])
+        .args(["--max-depth", &DEFAULT_MAX_DEPTH.to_string()])
         .output()
         .context("cannot run scenes/peers/render_peer.py with .venv/bin/python")?;
     let (stdout, stderr) = (

@@ -5,6 +5,7 @@ mod aovs;
 mod bench;
 mod bench_aovs;
 mod bench_equal_time;
+mod bench_fire;
 mod bench_instances;
 mod bench_render;
 mod bench_volumes;

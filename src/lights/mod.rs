@@ -353,6 +353,13 @@ impl Lights {
         let mut volumes = Vec::new();
         for emitter in media.emitters().filter(|_| volume_lights) {
             let light = VolumeLight::new(&emitter);
+            log::debug!(
+                "emitting volume {} as a light: power {:.4} W (luminance), box {} .. {}",
+                emitter.medium,
+                emitter.power,
+                emitter.world_min,
+                emitter.world_max
+            );
             if light.power() > 0.0 {
                 volumes.push(lights.len());
                 lights.push(Light::Volume(light));

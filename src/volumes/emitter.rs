@@ -1,14 +1,15 @@
 //! Where an emitting volume emits, for sampling it as a light (Villemin &
 //! Hery 2013, "Practical Illumination from Flames", JCGT 2(2)): the
 //! majorant grid's occupied cells, each weighed by an estimate of the power
-//! that leaves the volume from it, and sampled in proportion (a cell by
-//! weight, then a point uniformly in its support box). A cell's weight is
-//! the integral of sigma_a Le over its support box times its mean escape
-//! transmittance along the six axis directions, marched through the cells'
-//! mean extinctions: fire wrapped in dense smoke mostly lights the smoke,
-//! and what reaches the scene comes from near the surface, so samples go
-//! there. Everything here is in the density grid's index space; the medium
+//! it emits, the integral of sigma_a Le over its support box, and sampled
+//! in proportion (a cell by weight, then a point uniformly in its support
+//! box). Everything here is in the density grid's index space; the medium
 //! places it in the world.
+//!
+//! Tried and measured worse: weighing each cell by its mean escape
+//! transmittance along the six axes as well (fire inside dense smoke mostly
+//! lights the smoke): 2.4x more variance on the boulder the canyon's fire
+//! lights, no gain on the flame or the fireball's ground.
 //!
 //! Unbiased whatever the estimate: a cell's weight never falls below
 //! [`FLOOR`] times a bound on its emission, so every cell that may emit
@@ -32,11 +33,9 @@ const FLOOR: f32 = 1e-3;
 /// [`EmissionCells::collision_floors`].
 const COLLISIONS_IN_BRIGHTEST_CELL: f32 = 4.0;
 
-/// The medium at an index-space point, as luminance.
+/// The emission of one medium at an index-space point, as luminance.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct SourceSample {
-    /// Extinction sigma_t (channel mean), per world unit.
-    pub sigma_t: f32,
     /// Luminance of the source term sigma_a Le, W/(m^3 sr) in scene units.
     pub source: f32,
     /// Luminance of the emitted radiance Le alone, W/(m^2 sr).
@@ -124,7 +123,8 @@ impl EmissionCells {
     /// Weighs every occupied cell of `majorant` by `source` evaluated at the
     /// integer index points its trilinear lookups read; `absorption` is the
     /// luminance of sigma_a per unit density, `axis_length` the world length
-    /// of one index unit along each index axis, and `aligned` says that the
+    /// of one index unit along each index axis (for the collision floors),
+    /// and `aligned` says that the
     /// emission grids' index points are the density grid's (then a cell
     /// whose points emit nothing gets weight 0). `None` when nothing emits.
     pub(crate) fn build(
@@ -138,7 +138,6 @@ impl EmissionCells {
             .par_iter()
             .map(|cell| CellSample::of(cell, &source))
             .collect();
-        let escape = escape_transmittances(majorant, &occupied, &sampled, axis_length);
         let global_max = sampled
             .iter()
             .map(|s| s.radiance_max)
@@ -150,7 +149,7 @@ impl EmissionCells {
         let mut cells = Vec::new();
         let mut weights = Vec::new();
         let mut floors = Vec::new();
-        for ((cell, sample), escape) in occupied.iter().zip(&sampled).zip(escape) {
+        for (cell, sample) in occupied.iter().zip(&sampled) {
             let bound = if aligned {
                 sample.radiance_max
             } else {
@@ -167,7 +166,7 @@ impl EmissionCells {
                 lo: cell.lo,
                 extent,
             });
-            weights.push(volume * (sample.source_mean * escape).max(floor));
+            weights.push(volume * sample.source_mean.max(floor));
             if sample.source_mean > 0.0 {
                 let edge_world = (extent * axis_length).element_sum() / 3.0;
                 let share = sample.source_mean / brightest;
@@ -192,8 +191,6 @@ impl EmissionCells {
 struct CellSample {
     /// Mean source luminance over the points.
     source_mean: f32,
-    /// Mean extinction over the points, per world unit.
-    sigma_t_mean: f32,
     /// Largest emitted radiance luminance at a point.
     radiance_max: f32,
 }
@@ -203,13 +200,12 @@ impl CellSample {
     /// `cell`'s support box reads.
     fn of(cell: &OccupiedCell, source: &impl Fn(Vec3) -> SourceSample) -> Self {
         let (first, last) = (cell.lo.floor().as_ivec3(), cell.hi.ceil().as_ivec3());
-        let (mut sum, mut sigma_t, mut count, mut radiance_max) = (0.0f64, 0.0f64, 0u32, 0.0f32);
+        let (mut sum, mut count, mut radiance_max) = (0.0f64, 0u32, 0.0f32);
         for x in first.x..=last.x {
             for y in first.y..=last.y {
                 for z in first.z..=last.z {
                     let s = source(IVec3::new(x, y, z).as_vec3());
                     sum += f64::from(s.source);
-                    sigma_t += f64::from(s.sigma_t);
                     count += 1;
                     radiance_max = radiance_max.max(s.radiance);
                 }
@@ -218,48 +214,7 @@ impl CellSample {
         let n = f64::from(count.max(1));
         Self {
             source_mean: (sum / n) as f32,
-            sigma_t_mean: (sigma_t / n) as f32,
             radiance_max,
         }
     }
-}
-
-/// Per occupied cell, the mean over the six axis directions of exp(-optical
-/// depth) from its centre to the grid's edge, each cell crossed counting
-/// its mean extinction over its full edge (its own over half of it).
-fn escape_transmittances(
-    majorant: &MajorantGrid,
-    occupied: &[OccupiedCell],
-    sampled: &[CellSample],
-    axis_length: Vec3,
-) -> Vec<f32> {
-    let (dims, cell_size) = majorant.cell_layout();
-    let mut sigma_t = vec![0.0f32; dims.element_product().max(0) as usize];
-    for (cell, sample) in occupied.iter().zip(sampled) {
-        sigma_t[cell.slot as usize] = sample.sigma_t_mean;
-    }
-    let slot = |c: IVec3| ((c.x * dims.y + c.y) * dims.z + c.z) as usize;
-    let edge = cell_size * axis_length;
-    occupied
-        .par_iter()
-        .map(|cell| {
-            let n = cell.slot as i32;
-            let at = IVec3::new(n / (dims.y * dims.z), n / dims.z % dims.y, n % dims.z);
-            let own = 0.5 * sigma_t[cell.slot as usize];
-            let mut sum = 0.0;
-            for axis in 0..3 {
-                for step in [-1, 1] {
-                    let mut depth = own * edge[axis];
-                    let mut c = at;
-                    c[axis] += step;
-                    while c[axis] >= 0 && c[axis] < dims[axis] {
-                        depth += sigma_t[slot(c)] * edge[axis];
-                        c[axis] += step;
-                    }
-                    sum += (-depth).exp();
-                }
-            }
-            sum / 6.0
-        })
-        .collect()
 }

@@ -23,7 +23,6 @@ use glam::{Affine3A, DAffine3, Vec3};
 use smallvec::SmallVec;
 
 use super::emitter::{EmissionCells, SourceSample};
-use super::tracking::channel_mean;
 use super::{
     BlackbodyTable, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
     MajorantSegments, SparseGrid, VdbFile, VolumeError,
@@ -602,7 +601,6 @@ impl Medium {
             let le: Vec3 = self.emission.iter().map(|e| e.radiance(p, blackbody)).sum();
             let density = self.density(p_index);
             SourceSample {
-                sigma_t: channel_mean(self.density_scale) * density,
                 source: luminance(self.absorption() * density * le),
                 radiance: luminance(le),
             }

@@ -1,0 +1,166 @@
+//! `cirrus bench fire`: emitting volumes as lights. Per scene (default: the
+//! flame column of `scenes/bench/fire_lit.usda` and the quick-start
+//! canyon framed on its fireball, `scenes/bench/canyon_fire.usda`), renders
+//! with `--volume-light-sampling` on and off at 1, 2, 4, ... spp per seed;
+//! the table gives the spp reached at the largest time budget, the time
+//! per sample per pixel, density lookups per camera ray and the equal-time
+//! relative MSE against a long reference (light sampling on; both ways are
+//! unbiased), then the off / on ratio at each budget. References are kept
+//! in the output folder, keyed by the exported scene's contents.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+
+use super::bench::{machine_line, median};
+use super::bench_equal_time::{
+    base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
+    median_errors, reference_key, scene_name, spp_per_second, write_scene_charts, EqualTimeBench,
+    ErrorMetric, Rung,
+};
+use crate::integrator::{Budget, DEFAULT_MAX_DEPTH};
+use crate::render_state::{RenderState, StateOptions};
+
+/// One way of rendering one scene, measured.
+struct Measurement {
+    /// `--volume-light-sampling`.
+    light_sampling: bool,
+    /// relMSE per time budget, median over seeds.
+    errors: Vec<f64>,
+    /// Samples per pixel per second at the largest budget (median over seeds).
+    spp_per_second: f64,
+    /// Density lookups per camera ray over every render of every seed.
+    lookups_per_camera_ray: f64,
+    /// (seconds, relMSE) of the median seed's renders, for the chart.
+    curve: Vec<(f64, f64)>,
+}
+
+impl Measurement {
+    fn name(&self) -> &'static str {
+        if self.light_sampling {
+            "light sampling on"
+        } else {
+            "light sampling off"
+        }
+    }
+}
+
+/// Runs the benchmark and prints its tables; `charts` is a folder that also
+/// receives each chart as `fire-<scene>-equal-time.svg`, when given.
+pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
+    for dir in std::iter::once(bench.out.as_path()).chain(charts) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    println!("{}\n", machine_line());
+    println!(
+        "Threads: {}; {}x{} pixels; max depth {DEFAULT_MAX_DEPTH}; MIS + Sobol; box filter; {} seed(s) per method; reference: light sampling on, {} spp. relMSE = mean (x - ref)^2 / (ref^2 + 0.01).\n",
+        rayon::current_num_threads(),
+        bench.resolution.x,
+        bench.resolution.y,
+        bench.repeats.max(1),
+        bench.reference_spp
+    );
+    for path in &bench.scenes {
+        let scene = super::load_scene(path, None)?;
+        let name = scene_name(path);
+        let build = |volume_lights| {
+            let options = StateOptions {
+                volume_lights,
+                ..StateOptions::default()
+            };
+            RenderState::build(&scene, Some(bench.resolution), options)
+        };
+        let (on, off) = (build(true)?, build(false)?);
+        if !on.lights.has_volume_lights() {
+            bail!(
+                "{}: no volume emits light (is its VDB missing? see docs/benchmarks.md for the \
+                 commands that write it)",
+                path.display()
+            );
+        }
+        let key = reference_key(&scene, &name)?;
+        drop(scene);
+        println!("### {name}\n");
+        let reference = cached_reference(&on, &bench.out, &key, bench.reference_spp)?;
+        let measurements = [
+            measure(&on, true, bench, &reference),
+            measure(&off, false, bench, &reference),
+        ];
+        print_measurements(bench, &measurements);
+        let curves: Vec<(String, Vec<(f64, f64)>)> = measurements
+            .iter()
+            .map(|m| (m.name().to_string(), m.curve.clone()))
+            .collect();
+        write_scene_charts(bench, charts, ("fire", &name), &curves)?;
+    }
+    Ok(())
+}
+
+/// Ladders of one way of rendering, one per seed, summarised.
+fn measure(
+    state: &RenderState,
+    light_sampling: bool,
+    bench: &EqualTimeBench,
+    reference: &[f32],
+) -> Measurement {
+    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
+    let ladders: Vec<Vec<Rung>> = (0..bench.repeats.max(1))
+        .map(|seed| {
+            let settings = base_settings(Budget::Samples(1), u64::from(seed));
+            ladder(state, reference, ErrorMetric::RelMse, &settings, max_time)
+        })
+        .collect();
+    let (lookups, camera_rays) = ladders.iter().flatten().fold((0u64, 0u64), |(l, c), r| {
+        (
+            l + r.stats.tracking.density_lookups,
+            c + r.stats.rays.camera,
+        )
+    });
+    Measurement {
+        light_sampling,
+        errors: median_errors(&ladders, &bench.times),
+        spp_per_second: median(ladders.iter().map(|l| spp_per_second(l)).collect()),
+        lookups_per_camera_ray: lookups as f64 / camera_rays.max(1) as f64,
+        curve: median_curve(&ladders),
+    }
+}
+
+/// The per-method table, then the off / on relMSE ratios (with the cost of
+/// a sample, on / off).
+fn print_measurements(bench: &EqualTimeBench, measurements: &[Measurement; 2]) {
+    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
+    let (errors_header, errors_rule) = error_columns(ErrorMetric::RelMse, &bench.times);
+    println!(
+        "| method | spp @ {max_time} s | ms per spp | lookups / camera ray |{errors_header}\n|---|---:|---:|---:|{errors_rule}"
+    );
+    for m in measurements {
+        println!(
+            "| {} | {:.1} | {:.1} | {:.1} |{}",
+            m.name(),
+            m.spp_per_second * max_time,
+            1000.0 / m.spp_per_second,
+            m.lookups_per_camera_ray,
+            error_cells(&m.errors)
+        );
+    }
+    let [on, off] = measurements;
+    let ratios: String = off
+        .errors
+        .iter()
+        .zip(&on.errors)
+        .map(|(a, b)| format!(" {:.2}x |", a / b))
+        .collect();
+    println!(
+        "| relMSE off / on (ms per spp on / off) | | {:.2}x | |{ratios}\n",
+        off.spp_per_second / on.spp_per_second
+    );
+}
+
+/// Default scenes of the benchmark: the flame column and the canyon's fire.
+pub fn default_scenes(repo: &Path) -> Vec<PathBuf> {
+    let scenes = repo.join("scenes/bench");
+    vec![
+        scenes.join("fire_lit.usda"),
+        scenes.join("canyon_fire.usda"),
+    ]
+}
