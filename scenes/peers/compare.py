@@ -39,7 +39,7 @@ def arguments(argv=None):
     p.add_argument("--peer", choices=PEERS, default="mitsuba-scalar", help="peer renderer (mitsuba-scalar)")
     p.add_argument("--peer-spp", type=int, help="the peer's samples per pixel (default: --spp)")
     p.add_argument("--seed", type=int, default=1, help="seed of both renders (1)")
-    p.add_argument("--max-depth", type=int, default=16, help="Cirrus --max-depth (16)")
+    p.add_argument("--max-depth", type=int, default=1024, help="Cirrus --max-depth (1024, its unbiased default)")
     p.add_argument("--threads", type=int, default=2, help="threads for each renderer (2)")
     p.add_argument("--workdir", type=Path, help="output folder (default: out/peers/SCENE_NAME)")
     p.add_argument("--max-ratio-error", type=float, default=0.02, help="largest |mean ratio - 1| (0.02)")

@@ -3,7 +3,7 @@
 
 Usage (project .venv):
     .venv/bin/python scenes/peers/render_peer.py PEER SCENE_DIR OUT.exr --spp N --seed S \\
-        [--threads 2] [--res WxH] [--max-depth 16] [--no-warmup]
+        [--threads 2] [--res WxH] [--max-depth 1024] [--no-warmup]
     .venv/bin/python scenes/peers/render_peer.py --available PEER
 
 PEER is one of PEERS: mitsuba-scalar (Mitsuba 3 `scalar_rgb`, to_mitsuba.py),
@@ -78,7 +78,7 @@ def arguments(argv=None):
     p.add_argument("--seed", type=int, default=0, help="sampler seed (0)")
     p.add_argument("--threads", type=int, default=2, help="render threads (2)")
     p.add_argument("--res", help="WxH (default: the scene's)")
-    p.add_argument("--max-depth", type=int, default=16, help="Cirrus' --max-depth (16)")
+    p.add_argument("--max-depth", type=int, default=1024, help="Cirrus' --max-depth (1024, its unbiased default)")
     p.add_argument("--no-warmup", dest="warmup", action="store_false",
                    help="no warm-up (render_seconds then includes compilation, sync and BVH build)")
     args = p.parse_args(argv)

@@ -2,7 +2,7 @@
 
 Usage (Debian's blender 3.4, installed by `scenes/peers/install --cycles`):
     blender -b --factory-startup -t 2 --python scenes/peers/to_cycles.py -- \\
-        SCENE_DIR OUT.exr --spp 64 --threads 2 --seed 1 [--res WxH] [--max-depth 16]
+        SCENE_DIR OUT.exr --spp 64 --threads 2 --seed 1 [--res WxH] [--max-depth 1024]
 
 SCENE_DIR is what `cirrus export` writes (scenes/FORMAT.md), read with
 cirrus_scene.py in Blender's own Python (Debian's python3 + numpy). The output
@@ -115,7 +115,7 @@ def arguments(argv):
     p.add_argument("--res", type=parse_resolution, help="WxH (default: the scene's, else 640x480)")
     p.add_argument("--spp", type=int, default=64, help="samples per pixel (64)")
     p.add_argument("--seed", type=int, default=0, help="Cycles seed (0)")
-    p.add_argument("--max-depth", type=int, default=16, help="Cirrus' --max-depth: scattering events (16)")
+    p.add_argument("--max-depth", type=int, default=1024, help="Cirrus' --max-depth: scattering events (1024, its unbiased default)")
     p.add_argument("--threads", type=int, default=2, help="render threads (2)")
     p.add_argument("--volume-step-rate", type=float, default=1.0,
                    help="Cycles' volume step rate: step = voxel size x this (1, Cycles' default)")

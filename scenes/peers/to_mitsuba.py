@@ -40,8 +40,8 @@ def arguments(argv=None):
     p.add_argument("--res", type=parse_resolution, help="WxH (default: the scene's, else 640x480)")
     p.add_argument("--spp", type=int, default=64, help="samples per pixel (64)")
     p.add_argument("--seed", type=int, default=0, help="sampler seed (0)")
-    p.add_argument("--max-depth", type=int, default=16,
-                   help="Cirrus' --max-depth: scattering events (16)")
+    p.add_argument("--max-depth", type=int, default=1024,
+                   help="Cirrus' --max-depth: scattering events (1024, its unbiased default)")
     p.add_argument("--threads", type=int, default=2, help="render threads (2)")
     p.add_argument("--variant", default="scalar_rgb",
                    help="Mitsuba variant (scalar_rgb; llvm_ad_rgb needs Debian's libllvm19)")

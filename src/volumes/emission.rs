@@ -5,9 +5,10 @@
 //! kelvin. The emitted radiance is heatScale x B(T) / Y(B(1500 K)), where B
 //! is Planck's blackbody radiance in linear Rec.709 (CIE 1931 observer) and Y
 //! its luminance: so `heatScale` is the luminance, W/(m^2 sr), of gas at
-//! 1500 K, and hotter gas is brighter by Planck's law (2000 K about 10x,
-//! 1000 K about 25x dimmer), with the blackbody's colour. The RTE's source
-//! term is sigma_a x Le: a medium that only scatters (albedo 1) emits nothing.
+//! 1500 K, and hotter gas is brighter by Planck's law (2000 K about 60x,
+//! 2600 K about 1000x, 1000 K about 3000x dimmer), with the blackbody's
+//! colour. The RTE's source term is sigma_a x Le: a medium that only
+//! scatters (albedo 1) emits nothing.
 
 use glam::Vec3;
 
