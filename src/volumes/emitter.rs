@@ -6,10 +6,15 @@
 //! box). Everything here is in the density grid's index space; the medium
 //! places it in the world.
 //!
-//! Tried and measured worse: weighing each cell by its mean escape
-//! transmittance along the six axes as well (fire inside dense smoke mostly
-//! lights the smoke): 2.4x more variance on the boulder the canyon's fire
-//! lights, no gain on the flame or the fireball's ground.
+//! The power the light selection weighs the volume by is what escapes it:
+//! each cell's emission times its mean transmittance to the grid's edge
+//! along the six axes, marched through the cells' mean extinctions. Fire
+//! wrapped in dense smoke mostly lights the smoke; weighed by its emitted
+//! power it would take the samples of the sun and the sky and waste them on
+//! blocked shadow rays (measured: 12x the noise under the sun beside a shell
+//! of optical depth 87, tests/stability.rs). Within the volume, cells are
+//! still picked by emitted power: weighing them by escape as well measured
+//! 2.4x more variance on the boulder the canyon's fire lights.
 //!
 //! Unbiased whatever the estimate: a cell's weight never falls below
 //! [`FLOOR`] times a bound on its emission, so every cell that may emit
@@ -33,9 +38,11 @@ const FLOOR: f32 = 1e-3;
 /// [`EmissionCells::collision_floors`].
 const COLLISIONS_IN_BRIGHTEST_CELL: f32 = 4.0;
 
-/// The emission of one medium at an index-space point, as luminance.
+/// The medium at an index-space point, as luminance.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct SourceSample {
+    /// Extinction sigma_t (channel mean), per world unit.
+    pub sigma_t: f32,
     /// Luminance of the source term sigma_a Le, W/(m^3 sr) in scene units.
     pub source: f32,
     /// Luminance of the emitted radiance Le alone, W/(m^2 sr).
@@ -50,19 +57,20 @@ pub(crate) struct EmissionCells {
     cells: Vec<EmittingCell>,
     /// Over `cells`, by estimated power.
     distribution: Distribution1D,
-    /// Estimated luminance of the integral of sigma_a Le over the cells, per
-    /// unit of index-space volume (a world volume is |det| times it).
-    integral: f32,
+    /// Estimated luminance of the power that escapes the volume, over 4 pi,
+    /// per unit of index-space volume (a world volume is |det| times it).
+    escaping: f32,
     /// Per emitting cell (slot), the least majorant tracking needs there,
     /// per world unit (see [`Self::collision_floors`]).
     floors: Vec<(u32, f32)>,
 }
 
-/// One cell that may emit: its majorant-grid slot and its support box.
+/// One cell that may emit: its majorant-grid slot and the box it is
+/// sampled in (its support box, narrowed to where it may emit).
 #[derive(Clone, Copy, Debug)]
 struct EmittingCell {
     slot: u32,
-    /// Index-space min corner of the support box.
+    /// Index-space min corner of the box.
     lo: Vec3,
     /// Its edge lengths.
     extent: Vec3,
@@ -84,9 +92,15 @@ impl EmissionCells {
         let Some(slot) = majorant.occupied_slot_at(p) else {
             return 0.0;
         };
-        match self.cells.binary_search_by_key(&slot, |c| c.slot) {
-            Ok(i) => self.distribution.probability(i) / self.cells[i].extent.element_product(),
-            Err(_) => 0.0,
+        let Ok(i) = self.cells.binary_search_by_key(&slot, |c| c.slot) else {
+            return 0.0;
+        };
+        let cell = &self.cells[i];
+        let inside = p.cmpge(cell.lo).all() && p.cmplt(cell.lo + cell.extent).all();
+        if inside {
+            self.distribution.probability(i) / cell.extent.element_product()
+        } else {
+            0.0
         }
     }
 
@@ -114,10 +128,11 @@ impl EmissionCells {
         &self.floors
     }
 
-    /// Estimated luminance of the integral of sigma_a Le, per unit of
-    /// index-space volume: W/sr after scaling by the index-to-world volume.
-    pub(crate) fn integral(&self) -> f32 {
-        self.integral
+    /// Estimated luminance of the integral of sigma_a Le times its escape
+    /// transmittance, per unit of index-space volume: W/sr after scaling by
+    /// the index-to-world volume (see the module doc).
+    pub(crate) fn escaping(&self) -> f32 {
+        self.escaping
     }
 
     /// Weighs every occupied cell of `majorant` by `source` evaluated at the
@@ -138,6 +153,7 @@ impl EmissionCells {
             .par_iter()
             .map(|cell| CellSample::of(cell, &source))
             .collect();
+        let escape = escape_transmittances(majorant, &occupied, &sampled, axis_length);
         let global_max = sampled
             .iter()
             .map(|s| s.radiance_max)
@@ -149,24 +165,36 @@ impl EmissionCells {
         let mut cells = Vec::new();
         let mut weights = Vec::new();
         let mut floors = Vec::new();
-        for (cell, sample) in occupied.iter().zip(&sampled) {
+        let mut escaping = 0.0f64;
+        for ((cell, sample), escape) in occupied.iter().zip(&sampled).zip(escape) {
             let bound = if aligned {
                 sample.radiance_max
             } else {
                 global_max
             };
             let floor = FLOOR * cell.density_max * absorption * bound;
-            let extent = cell.hi - cell.lo;
-            let volume = extent.element_product();
-            if floor <= 0.0 || volume <= 0.0 {
+            // With aligned grids, emission is zero farther than one voxel
+            // from every point whose radiance is positive.
+            let (lo, hi) = match sample.hot {
+                Some((first, last)) if aligned => (
+                    cell.lo.max((first - IVec3::ONE).as_vec3()),
+                    cell.hi.min((last + IVec3::ONE).as_vec3()),
+                ),
+                _ => (cell.lo, cell.hi),
+            };
+            let extent = (hi - lo).max(Vec3::ZERO);
+            if floor <= 0.0 || extent.element_product() <= 0.0 {
                 continue;
             }
+            // The integral over the whole support box, by its points' mean.
+            let volume = (cell.hi - cell.lo).element_product();
             cells.push(EmittingCell {
                 slot: cell.slot,
-                lo: cell.lo,
+                lo,
                 extent,
             });
             weights.push(volume * sample.source_mean.max(floor));
+            escaping += f64::from(volume * sample.source_mean * escape);
             if sample.source_mean > 0.0 {
                 let edge_world = (extent * axis_length).element_sum() / 3.0;
                 let share = sample.source_mean / brightest;
@@ -176,11 +204,10 @@ impl EmissionCells {
         if cells.is_empty() {
             return None;
         }
-        let integral = weights.iter().map(|&w| f64::from(w)).sum::<f64>() as f32;
         Some(Self {
             distribution: Distribution1D::new(&weights),
             cells,
-            integral,
+            escaping: escaping as f32,
             floors,
         })
     }
@@ -191,8 +218,12 @@ impl EmissionCells {
 struct CellSample {
     /// Mean source luminance over the points.
     source_mean: f32,
+    /// Mean extinction over the points, per world unit.
+    sigma_t_mean: f32,
     /// Largest emitted radiance luminance at a point.
     radiance_max: f32,
+    /// The box of the points whose radiance is positive, if any.
+    hot: Option<(IVec3, IVec3)>,
 }
 
 impl CellSample {
@@ -200,12 +231,18 @@ impl CellSample {
     /// `cell`'s support box reads.
     fn of(cell: &OccupiedCell, source: &impl Fn(Vec3) -> SourceSample) -> Self {
         let (first, last) = (cell.lo.floor().as_ivec3(), cell.hi.ceil().as_ivec3());
-        let (mut sum, mut count, mut radiance_max) = (0.0f64, 0u32, 0.0f32);
+        let (mut sum, mut sigma_t, mut count, mut radiance_max) = (0.0f64, 0.0f64, 0u32, 0.0f32);
+        let mut hot: Option<(IVec3, IVec3)> = None;
         for x in first.x..=last.x {
             for y in first.y..=last.y {
                 for z in first.z..=last.z {
-                    let s = source(IVec3::new(x, y, z).as_vec3());
+                    let at = IVec3::new(x, y, z);
+                    let s = source(at.as_vec3());
+                    if s.radiance > 0.0 {
+                        hot = Some(hot.map_or((at, at), |(lo, hi)| (lo.min(at), hi.max(at))));
+                    }
                     sum += f64::from(s.source);
+                    sigma_t += f64::from(s.sigma_t);
                     count += 1;
                     radiance_max = radiance_max.max(s.radiance);
                 }
@@ -214,7 +251,114 @@ impl CellSample {
         let n = f64::from(count.max(1));
         Self {
             source_mean: (sum / n) as f32,
+            sigma_t_mean: (sigma_t / n) as f32,
             radiance_max,
+            hot,
         }
+    }
+}
+
+/// Per occupied cell, the mean over the six axis directions of exp(-optical
+/// depth) from its centre to the grid's edge, each cell crossed counting
+/// its mean extinction over its full edge (its own over half of it).
+fn escape_transmittances(
+    majorant: &MajorantGrid,
+    occupied: &[OccupiedCell],
+    sampled: &[CellSample],
+    axis_length: Vec3,
+) -> Vec<f32> {
+    let (dims, cell_size) = majorant.cell_layout();
+    let mut sigma_t = vec![0.0f32; dims.element_product().max(0) as usize];
+    for (cell, sample) in occupied.iter().zip(sampled) {
+        sigma_t[cell.slot as usize] = sample.sigma_t_mean;
+    }
+    let slot = |c: IVec3| ((c.x * dims.y + c.y) * dims.z + c.z) as usize;
+    let edge = cell_size * axis_length;
+    occupied
+        .par_iter()
+        .map(|cell| {
+            let n = cell.slot as i32;
+            let at = IVec3::new(n / (dims.y * dims.z), n / dims.z % dims.y, n % dims.z);
+            let own = 0.5 * sigma_t[cell.slot as usize];
+            let mut sum = 0.0;
+            for axis in 0..3 {
+                for step in [-1, 1] {
+                    let mut depth = own * edge[axis];
+                    let mut c = at;
+                    c[axis] += step;
+                    while c[axis] >= 0 && c[axis] < dims[axis] {
+                        depth += sigma_t[slot(c)] * edge[axis];
+                        c[axis] += step;
+                    }
+                    sum += (-depth).exp();
+                }
+            }
+            sum / 6.0
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Pcg32;
+    use crate::volumes::{GridTransform, MajorantKind, SparseGrid, Tile};
+    use glam::DAffine3;
+
+    /// Density 1 over the 16^3 voxels of eight constant blocks, emitting
+    /// (source 1) only at the index points inside [0, 7]^3.
+    fn cells() -> (MajorantGrid, EmissionCells) {
+        let tiles: Vec<Tile> = (0..8)
+            .map(|n| Tile {
+                origin: IVec3::new(n >> 2, (n >> 1) & 1, n & 1) * 8,
+                edge: 8,
+                value: 1.0,
+                active: true,
+            })
+            .collect();
+        let identity = GridTransform::new(DAffine3::IDENTITY).unwrap();
+        let grid = SparseGrid::build(0.0, &[], Vec::new(), &tiles, identity).unwrap();
+        let majorant = MajorantGrid::build(&grid, MajorantKind::Grid);
+        let source = |p: Vec3| {
+            let hot = f32::from(u8::from(p.max_element() <= 7.0 && p.min_element() >= 0.0));
+            SourceSample {
+                sigma_t: 1.0,
+                source: hot,
+                radiance: hot,
+            }
+        };
+        let cells = EmissionCells::build(&majorant, (1.0, Vec3::ONE), true, source).unwrap();
+        (majorant, cells)
+    }
+
+    /// Samples lie only in cells whose points emit, each with the density
+    /// `pdf` reports; the density integrates the emitting block's volume
+    /// (E[1 / pdf] over points in [0, 8)^3 is 512) within 4 sigma.
+    #[test]
+    fn samples_cover_the_emission_with_the_density_pdf_reports() {
+        let (majorant, cells) = cells();
+        let mut rng = Pcg32::new(5, 0);
+        let n = 20_000;
+        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let u = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let (p, pdf) = cells.sample(u);
+            assert!(
+                p.cmplt(Vec3::splat(8.0)).all(),
+                "{p} is in a cell that emits nothing"
+            );
+            let reported = cells.pdf(&majorant, p);
+            assert!((reported - pdf).abs() <= 1e-5 * pdf, "{reported} vs {pdf}");
+            let inside = p.cmpge(Vec3::ZERO).all();
+            let g = if inside { 1.0 / f64::from(pdf) } else { 0.0 };
+            sum += g;
+            sum2 += g * g;
+        }
+        let mean = sum / f64::from(n);
+        let sigma = ((sum2 / f64::from(n) - mean * mean) / f64::from(n)).sqrt();
+        assert!((mean - 512.0).abs() < 4.0 * sigma, "{mean} +- {sigma}");
+        // The floors raise the emitting cells' majorants only.
+        assert!(cells.collision_floors().iter().all(|&(_, f)| f > 0.0));
+        assert_eq!(cells.pdf(&majorant, Vec3::splat(12.0)), 0.0);
     }
 }

@@ -346,6 +346,12 @@ impl MajorantGrid {
         })
     }
 
+    /// Cells along each index axis (slots run x slowest, z fastest) and the
+    /// cell edge, in voxels.
+    pub(crate) fn cell_layout(&self) -> (IVec3, Vec3) {
+        (self.dims, self.cell_size)
+    }
+
     /// The slot of the cell holding index-space point `p` when `p` lies in
     /// that cell's support box (so the DDA yields a segment there); `None`
     /// outside the grid, in an empty cell or outside the support.

@@ -23,6 +23,7 @@ use glam::{Affine3A, DAffine3, Vec3};
 use smallvec::SmallVec;
 
 use super::emitter::{EmissionCells, SourceSample};
+use super::tracking::channel_mean;
 use super::{
     BlackbodyTable, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
     MajorantSegments, SparseGrid, VdbFile, VolumeError,
@@ -219,8 +220,9 @@ pub struct Emitter {
     pub world_min: Vec3,
     /// Its max corner.
     pub world_max: Vec3,
-    /// Luminance of the emitted power, W (4 pi x the integral of sigma_a Le
-    /// over the volume: gas emits the same in every direction), estimated.
+    /// Luminance of the power that leaves the volume, W: 4 pi (gas emits the
+    /// same in every direction) x the integral of sigma_a Le times an
+    /// estimate of its escape transmittance (`emitter.rs`).
     pub power: f32,
 }
 
@@ -235,7 +237,7 @@ impl Media {
                 medium: i,
                 world_min,
                 world_max,
-                power: 4.0 * PI * cells.integral() * m.voxel_volume,
+                power: 4.0 * PI * cells.escaping() * m.voxel_volume,
             })
         })
     }
@@ -601,6 +603,7 @@ impl Medium {
             let le: Vec3 = self.emission.iter().map(|e| e.radiance(p, blackbody)).sum();
             let density = self.density(p_index);
             SourceSample {
+                sigma_t: channel_mean(self.density_scale) * density,
                 source: luminance(self.absorption() * density * le),
                 radiance: luminance(le),
             }

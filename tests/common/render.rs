@@ -1,4 +1,5 @@
-//! `cirrus render` on the exported test scenes of `scenes/tests/`, as the
+//! `cirrus render` on the exported test scenes of `scenes/tests/` (or on a
+//! stage a test wrote into its scratch folder), as the
 //! statistical tests run it: box filter (a pixel is the plain average of
 //! its area), fixed seed, one worker thread (the test harness runs tests in
 //! parallel); the EXR read back as float RGB planes, and the render log
@@ -21,7 +22,9 @@ pub fn exported(name: &str) -> PathBuf {
 /// `furnace_diffuse` or `stability/furnace_forward`), resolution in pixels,
 /// samples per pixel, seed, and any further `cirrus render` flags.
 pub struct Render<'a> {
-    /// The scene, `scenes/tests/SCENE.usda`.
+    /// The scene, `scenes/tests/SCENE.usda` (exported first), or the
+    /// absolute path of a stage rendered as it is (one a test wrote into its
+    /// scratch folder next to the VDBs it generated).
     pub scene: &'a str,
     /// Width and height in pixels.
     pub res: (u32, u32),
@@ -56,9 +59,15 @@ impl Render<'_> {
     /// The output file in `dir`, named after every setting, with extension
     /// `ext`.
     fn output(&self, dir: &Path, ext: &str) -> PathBuf {
+        let scene = Path::new(self.scene);
+        let name = if scene.is_absolute() {
+            scene.file_stem().unwrap().to_string_lossy().into_owned()
+        } else {
+            self.scene.replace('/', "_")
+        };
         dir.join(format!(
             "{}-{}x{}-{}spp-seed{}-{}.{ext}",
-            self.scene.replace('/', "_"),
+            name,
             self.res.0,
             self.res.1,
             self.spp,
@@ -81,7 +90,11 @@ impl Render<'_> {
             self.spp.to_string(),
             self.seed.to_string(),
         );
-        let scene = exported(self.scene);
+        let scene = if Path::new(self.scene).is_absolute() {
+            PathBuf::from(self.scene)
+        } else {
+            exported(self.scene)
+        };
         let mut args: Vec<&OsStr> = vec!["render".as_ref(), scene.as_os_str()];
         args.extend(["-o".as_ref(), out.as_os_str()]);
         for arg in [
@@ -170,6 +183,9 @@ pub struct RenderLog {
     camera_rays: f64,
     /// Closest-hit rays traced, one per path segment.
     closest_hit_rays: f64,
+    /// Shadow rays traced: one per light sample that may carry light (a
+    /// point picked where a fire emits nothing is dropped before one).
+    shadow_rays: f64,
     /// Density lookups per camera ray, 0 when the log has no volume line.
     pub lookups_per_camera_ray: f64,
 }
@@ -200,6 +216,7 @@ impl RenderLog {
         Self {
             camera_rays: words[0],
             closest_hit_rays: words[1],
+            shadow_rays: words[2],
             lookups_per_camera_ray: lookups,
             text,
         }
@@ -208,5 +225,10 @@ impl RenderLog {
     /// Closest-hit rays per camera ray: path segments per sample.
     pub fn segments_per_path(&self) -> f64 {
         self.closest_hit_rays / self.camera_rays
+    }
+
+    /// Shadow rays per camera ray.
+    pub fn shadow_rays_per_path(&self) -> f64 {
+        self.shadow_rays / self.camera_rays
     }
 }
