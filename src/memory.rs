@@ -60,10 +60,16 @@ const BRICK_BYTES: u64 = 9 * 9 * 9 * 4;
 const NODE_BYTES: u64 = 16 * 16 * 16 * 4;
 /// Voxels per super-block edge.
 const SUPER_EDGE: u64 = 128;
-/// Bytes of one 8^3-voxel majorant cell, and the majorant grid's cap (its
-/// cells grow coarser beyond 2^24 cells).
-const MAJORANT_CELL_BYTES: u64 = 8;
-const MAJORANT_MAX_BYTES: u64 = MAJORANT_CELL_BYTES << 24;
+/// Bytes of one 8^3-voxel majorant cell (max and min, and its 6-byte support
+/// box), and the majorant grid's most cells (they grow coarser beyond).
+const MAJORANT_CELL_BYTES: u64 = 14;
+const MAJORANT_MAX_CELLS: u64 = 1 << 24;
+/// Bytes per majorant cell of an emitting volume's light: the cell's slot
+/// and sampling box (28), its weight and CDF entry (8) and collision floor (8);
+/// and per active voxel of its emission grid, about one unit cube's weight
+/// and CDF entry.
+const EMISSION_CELL_BYTES: u64 = 44;
+const EMISSION_BYTES_PER_VOXEL: u64 = 8;
 /// Per leaf while a grid is read: OpenVDB's tree (512 `f32` and masks, about
 /// 2.1 kB) and the bridge's flat copy of the values (2 kB).
 const READ_BYTES_PER_LEAF: u64 = 2112 + 2048;
@@ -195,13 +201,17 @@ fn geometry_bytes(scene: &Scene, mesh_bytes: u64) -> u64 {
 
 /// Volumes: every distinct grid `Media::build` reads (density fields, and
 /// temperature or emission fields of emitting volumes) once, from its active
-/// voxel count, plus the read temporaries of the largest.
+/// voxel count, plus the read temporaries of the largest. Each grid counts a
+/// majorant grid's cells over its bounds: a density grid's own, and for an
+/// emission grid the copy raised where the volume emits, beside which the
+/// emission light keeps [`EMISSION_CELL_BYTES`] per cell.
 fn volume_bytes(scene: &Scene) -> Result<u64, VolumeError> {
-    let mut fields: Vec<(&Path, &str, u32)> = Vec::new();
+    // (file, grid, index, emits)
+    let mut fields: Vec<(&Path, &str, u32, bool)> = Vec::new();
     for volume in &scene.manifest.volumes {
         for (name, field) in &volume.fields {
             if name == "density" || volume.emits_from(name) {
-                fields.push((&field.file, &field.grid, field.index));
+                fields.push((&field.file, &field.grid, field.index, name != "density"));
             }
         }
     }
@@ -209,7 +219,7 @@ fn volume_bytes(scene: &Scene) -> Result<u64, VolumeError> {
     fields.dedup();
     let mut files: Vec<(PathBuf, VdbFile)> = Vec::new();
     let (mut resident, mut largest_read) = (0u64, 0u64);
-    for (file, grid, index) in fields {
+    for (file, grid, index, emits) in fields {
         let vdb = match files.iter().position(|(p, _)| p == file) {
             Some(i) => &files[i].1,
             None => {
@@ -226,7 +236,13 @@ fn volume_bytes(scene: &Scene) -> Result<u64, VolumeError> {
                 .map(|d| d.div_ceil(edge) + 1)
                 .product::<u64>()
         };
-        let majorant = (blocks(8) * MAJORANT_CELL_BYTES).min(MAJORANT_MAX_BYTES);
+        let cell_bytes = MAJORANT_CELL_BYTES + if emits { EMISSION_CELL_BYTES } else { 0 };
+        let majorant = blocks(8).min(MAJORANT_MAX_CELLS) * cell_bytes
+            + if emits {
+                info.active_voxel_count * EMISSION_BYTES_PER_VOXEL
+            } else {
+                0
+            };
         let nodes = blocks(SUPER_EDGE).min(leaves) * NODE_BYTES + blocks(SUPER_EDGE) * 4;
         resident += leaves * BRICK_BYTES + nodes + majorant;
         largest_read = largest_read.max(leaves * READ_BYTES_PER_LEAF);

@@ -7,6 +7,7 @@
 //! |----------------------------------------------------|-------------------------------------------------------------------|
 //! | truncated / corrupted intermediate scene           | `scene::every_corruption_is_refused_naming_the_field`             |
 //! | VDB with NaN, Inf or negative densities            | `volumes::non_finite_and_negative_densities_are_read_as_zero_and_reported` |
+//! | fire: NaN/Inf/negative temperatures, negative heatScale or emissionScale, a vec3 emission grid, a cold fire | `fire::bad_fire_input_is_reported_by_name` |
 //! | VDB whose grid is not float (library level)        | `vdb::bad_inputs_give_clear_errors_naming_file_and_grid` (`VolumeError::NotFloat`) |
 //! | VDB whose density grid is not float (CLI)          | [`density_grid_that_is_not_float_fails_naming_file_and_grid`]     |
 //! | scene with zero lights                             | [`scene_without_lights_renders_under_the_default_dome_with_a_warning`] |

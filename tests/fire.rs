@@ -67,6 +67,17 @@ fn box_irradiance(x: f64, z: f64) -> f64 {
     sum * h * h * h
 }
 
+/// Asserts that `d`, a mean of paired differences, is within 4 sigma of 0.
+fn assert_zero_within_4_sigma(what: &str, d: common::Estimate) {
+    eprintln!("{what}: {:.5} +- {:.5}", d.mean, d.sigma);
+    assert!(
+        d.mean.abs() < 4.0 * d.sigma,
+        "{what}: {} +- {}",
+        d.mean,
+        d.sigma
+    );
+}
+
 /// An optically thin emitting box beside the camera's view of a Lambert
 /// plane (scenes/tests/volume_light_plane.usda): each pixel's radiance is
 /// albedo / pi x E x Le, E integrated numerically at the pixel centre,
@@ -154,16 +165,7 @@ fn default_depth_renders_a_dense_cloud_without_darkening_it() {
         }))
     };
     let unbounded = difference(&render(2, &["--max-depth", "100000"]));
-    eprintln!(
-        "default - unbounded: {:.5} +- {:.5}",
-        unbounded.mean, unbounded.sigma
-    );
-    assert!(
-        unbounded.mean.abs() < 4.0 * unbounded.sigma,
-        "default depth differs from unbounded: {} +- {}",
-        unbounded.mean,
-        unbounded.sigma
-    );
+    assert_zero_within_4_sigma("default - unbounded depth", unbounded);
     let capped = difference(&render(3, &["--max-depth", "16"]));
     eprintln!(
         "default - depth 16: {:.5} +- {:.5}",
@@ -232,16 +234,7 @@ fn light_sampling_on_and_off_render_the_same_explosion() {
     for c in 0..3 {
         let d = estimate((0..w * h).map(|i| f64::from(on.rgb[c][i]) - f64::from(off.rgb[c][i])));
         let mean = estimate(on.pixels(c, |_, _| true)).mean;
-        eprintln!(
-            "channel {c}: on - off {:.5} +- {:.5} (image mean {mean:.4})",
-            d.mean, d.sigma
-        );
-        assert!(
-            d.mean.abs() < 4.0 * d.sigma,
-            "channel {c}: on - off = {} +- {}",
-            d.mean,
-            d.sigma
-        );
+        assert_zero_within_4_sigma(&format!("channel {c} (mean {mean:.4}): on - off"), d);
         assert!(
             d.sigma < 0.02 * mean,
             "channel {c}: too noisy to tell: sigma {} vs mean {mean}",

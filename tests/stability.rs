@@ -900,6 +900,14 @@ fn emission_light_sampling_on_a_hot_spot_of_a_few_voxels() {
         "hot spot: {traced} shadow rays per camera ray: are samples wasted where nothing emits?"
     );
     assert_eq!(log_off.shadow_rays_per_path(), 0.0, "{}", log_off.text);
+    // The collision floors raise majorants, never lower them: no violation.
+    for log in [log_on, log_off] {
+        assert!(
+            !log.text.contains("exceeded their majorant"),
+            "{}",
+            log.text
+        );
+    }
     assert!(
         !log_on.text.contains("the scene has no lights"),
         "hot spot: a default dome was added:\n{}",

@@ -10,6 +10,7 @@ use anyhow::Result;
 use clap::Subcommand;
 use glam::Vec3;
 
+use super::bench_equal_time::EqualTimeBench;
 use crate::sampling::Pcg32;
 use crate::volumes::VdbFile;
 
@@ -234,19 +235,9 @@ pub fn run(bench: Bench) -> Result<()> {
             charts,
         } => {
             let scenes = scenes_or_default(scenes, super::bench_volumes::default_scenes);
-            let (reference_spp, times, repeats) = if quick {
-                (32, vec![0.1, 0.2], 1)
-            } else {
-                (reference_spp, times, repeats)
-            };
-            let bench = super::bench_equal_time::EqualTimeBench {
-                scenes,
-                resolution: res,
-                reference_spp,
-                times,
-                repeats,
-                out,
-            };
+            let quick = quick.then(|| (32, vec![0.1, 0.2], 1));
+            let bench =
+                EqualTimeBench::new(scenes, res, (reference_spp, times, repeats), quick, out);
             with_threads(threads, || {
                 super::bench_volumes::run(&bench, charts.as_deref())
             })
@@ -263,19 +254,9 @@ pub fn run(bench: Bench) -> Result<()> {
             charts,
         } => {
             let scenes = scenes_or_default(scenes, super::bench_fire::default_scenes);
-            let (reference_spp, times, repeats) = if quick {
-                (64, vec![0.2, 0.5], 1)
-            } else {
-                (reference_spp, times, repeats)
-            };
-            let bench = super::bench_equal_time::EqualTimeBench {
-                scenes,
-                resolution: res,
-                reference_spp,
-                times,
-                repeats,
-                out,
-            };
+            let quick = quick.then(|| (64, vec![0.2, 0.5], 1));
+            let bench =
+                EqualTimeBench::new(scenes, res, (reference_spp, times, repeats), quick, out);
             with_threads(threads, || {
                 super::bench_fire::run(&bench, charts.as_deref())
             })

@@ -39,6 +39,49 @@ pub struct EqualTimeBench {
     pub out: PathBuf,
 }
 
+impl EqualTimeBench {
+    /// From a benchmark's flags: its scenes, resolution, and (reference spp,
+    /// budgets in seconds, seeds), replaced by `quick`'s when given (the
+    /// `--quick` smoke check).
+    pub fn new(
+        scenes: Vec<PathBuf>,
+        resolution: UVec2,
+        settings: (u32, Vec<f64>, u32),
+        quick: Option<(u32, Vec<f64>, u32)>,
+        out: PathBuf,
+    ) -> Self {
+        let (reference_spp, times, repeats) = quick.unwrap_or(settings);
+        Self {
+            scenes,
+            resolution,
+            reference_spp,
+            times,
+            repeats,
+            out,
+        }
+    }
+
+    /// Creates the output folder (and `charts`), then prints the machine
+    /// line and the settings every render shares; `reference` names how
+    /// the reference is rendered.
+    pub(super) fn start(&self, charts: Option<&Path>, reference: &str) -> Result<()> {
+        for dir in std::iter::once(self.out.as_path()).chain(charts) {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
+        }
+        println!("{}\n", super::bench::machine_line());
+        println!(
+            "Threads: {}; {}x{} pixels; max depth {DEFAULT_MAX_DEPTH}; MIS + Sobol; box filter; {} seed(s) per method; reference: {reference}, {} spp. relMSE = mean (x - ref)^2 / (ref^2 + 0.01).\n",
+            rayon::current_num_threads(),
+            self.resolution.x,
+            self.resolution.y,
+            self.repeats.max(1),
+            self.reference_spp
+        );
+        Ok(())
+    }
+}
+
 /// Seed of every reference render, apart from the seeds of the measured ones
 /// (0, 1, 2, ...).
 pub(super) const REFERENCE_SEED: u64 = 1 << 20;

@@ -10,15 +10,15 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 
-use super::bench::{machine_line, median};
+use super::bench::median;
 use super::bench_equal_time::{
     base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
     median_errors, reference_key, scene_name, spp_per_second, write_scene_charts, EqualTimeBench,
     ErrorMetric, Rung,
 };
-use crate::integrator::{Budget, DEFAULT_MAX_DEPTH};
+use crate::integrator::Budget;
 use crate::render_state::{RenderState, StateOptions};
 
 /// One way of rendering one scene, measured.
@@ -48,18 +48,7 @@ impl Measurement {
 /// Runs the benchmark and prints its tables; `charts` is a folder that also
 /// receives each chart as `fire-<scene>-equal-time.svg`, when given.
 pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
-    for dir in std::iter::once(bench.out.as_path()).chain(charts) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    }
-    println!("{}\n", machine_line());
-    println!(
-        "Threads: {}; {}x{} pixels; max depth {DEFAULT_MAX_DEPTH}; MIS + Sobol; box filter; {} seed(s) per method; reference: light sampling on, {} spp. relMSE = mean (x - ref)^2 / (ref^2 + 0.01).\n",
-        rayon::current_num_threads(),
-        bench.resolution.x,
-        bench.resolution.y,
-        bench.repeats.max(1),
-        bench.reference_spp
-    );
+    bench.start(charts, "light sampling on")?;
     for path in &bench.scenes {
         let scene = super::load_scene(path, None)?;
         let name = scene_name(path);

@@ -2,8 +2,14 @@
 //! Hery 2013, "Practical Illumination from Flames", JCGT 2(2)): the
 //! majorant grid's occupied cells, each weighed by an estimate of the power
 //! it emits, the integral of sigma_a Le over its support box, and sampled
-//! in proportion (a cell by weight, then a point uniformly in its support
-//! box). Everything here is in the density grid's index space; the medium
+//! in proportion: a cell by weight, then, when the emission grids share the
+//! density grid's voxels, one of its unit cubes (between neighbouring index
+//! points) by the mean source at the cube's eight corners, then a point
+//! uniformly in the cube; otherwise a point uniformly in the cell's support
+//! box. Blackbody emission grows with the fourth-to-tenth power of
+//! temperature, so one 8^3 cell can hold a 1000x range of emission: sampled
+//! uniformly in the cell, a fire's hot core came out as fireflies on what it
+//! lit. Everything here is in the density grid's index space; the medium
 //! places it in the world.
 //!
 //! The power the light selection weighs the volume by is what escapes it:
@@ -65,15 +71,52 @@ pub(crate) struct EmissionCells {
     floors: Vec<(u32, f32)>,
 }
 
-/// One cell that may emit: its majorant-grid slot and the box it is
-/// sampled in (its support box, narrowed to where it may emit).
-#[derive(Clone, Copy, Debug)]
+/// One cell that may emit: its majorant-grid slot, its support box and,
+/// for aligned grids, the distribution over the box's unit cubes.
+#[derive(Clone, Debug)]
 struct EmittingCell {
     slot: u32,
-    /// Index-space min corner of the box.
+    /// Index-space min corner of the support box (integer for aligned grids).
     lo: Vec3,
     /// Its edge lengths.
     extent: Vec3,
+    /// Over the unit cubes of the box (x slowest, z fastest), by their
+    /// corners' mean source; `None`: uniform over the box.
+    cubes: Option<Distribution1D>,
+}
+
+impl EmittingCell {
+    /// A point of the cell from `u` in [0, 1)^3 and its density relative
+    /// to the cell's pick.
+    fn sample(&self, u: Vec3) -> (Vec3, f32) {
+        let Some(cubes) = &self.cubes else {
+            return (
+                self.lo + self.extent * u,
+                1.0 / self.extent.element_product(),
+            );
+        };
+        let pick = cubes.sample_discrete(u.x);
+        let d = self.extent.as_ivec3();
+        let k = pick.index as i32;
+        let cube = IVec3::new(k / (d.y * d.z), k / d.z % d.y, k % d.z);
+        let p = self.lo + cube.as_vec3() + Vec3::new(pick.remapped, u.y, u.z);
+        (p, pick.probability)
+    }
+
+    /// The density relative to the cell's pick with which [`Self::sample`]
+    /// returns `p`; 0 outside the box.
+    fn pdf(&self, p: Vec3) -> f32 {
+        let local = p - self.lo;
+        if !(local.cmpge(Vec3::ZERO).all() && local.cmplt(self.extent).all()) {
+            return 0.0;
+        }
+        let Some(cubes) = &self.cubes else {
+            return 1.0 / self.extent.element_product();
+        };
+        let d = self.extent.as_ivec3();
+        let cube = local.floor().as_ivec3().min(d - IVec3::ONE);
+        cubes.probability(((cube.x * d.y + cube.y) * d.z + cube.z) as usize)
+    }
 }
 
 impl EmissionCells {
@@ -81,9 +124,8 @@ impl EmissionCells {
     /// index-space volume density.
     pub(crate) fn sample(&self, u: Vec3) -> (Vec3, f32) {
         let pick = self.distribution.sample_discrete(u.x);
-        let cell = &self.cells[pick.index];
-        let p = cell.lo + cell.extent * Vec3::new(pick.remapped, u.y, u.z);
-        (p, pick.probability / cell.extent.element_product())
+        let (p, pdf) = self.cells[pick.index].sample(Vec3::new(pick.remapped, u.y, u.z));
+        (p, pick.probability * pdf)
     }
 
     /// The index-space volume density with which [`Self::sample`] returns
@@ -95,13 +137,7 @@ impl EmissionCells {
         let Ok(i) = self.cells.binary_search_by_key(&slot, |c| c.slot) else {
             return 0.0;
         };
-        let cell = &self.cells[i];
-        let inside = p.cmpge(cell.lo).all() && p.cmplt(cell.lo + cell.extent).all();
-        if inside {
-            self.distribution.probability(i) / cell.extent.element_product()
-        } else {
-            0.0
-        }
+        self.distribution.probability(i) * self.cells[i].pdf(p)
     }
 
     /// The index-space box around every emitting cell's support, as (min
@@ -173,27 +209,24 @@ impl EmissionCells {
                 global_max
             };
             let floor = FLOOR * cell.density_max * absorption * bound;
-            // With aligned grids, emission is zero farther than one voxel
-            // from every point whose radiance is positive.
-            let (lo, hi) = match sample.hot {
-                Some((first, last)) if aligned => (
-                    cell.lo.max((first - IVec3::ONE).as_vec3()),
-                    cell.hi.min((last + IVec3::ONE).as_vec3()),
-                ),
-                _ => (cell.lo, cell.hi),
+            let extent = cell.hi - cell.lo;
+            let volume = extent.element_product();
+            // Aligned: the cubes' weights, summing to the cell's integral.
+            let cubes = sample.cubes.as_ref().filter(|_| aligned);
+            let weight = match cubes {
+                Some(cubes) => cubes.iter().sum(),
+                None => volume * sample.source_mean.max(floor),
             };
-            let extent = (hi - lo).max(Vec3::ZERO);
-            if floor <= 0.0 || extent.element_product() <= 0.0 {
+            if floor <= 0.0 || volume <= 0.0 || weight <= 0.0 {
                 continue;
             }
-            // The integral over the whole support box, by its points' mean.
-            let volume = (cell.hi - cell.lo).element_product();
             cells.push(EmittingCell {
                 slot: cell.slot,
-                lo,
+                lo: cell.lo,
                 extent,
+                cubes: cubes.map(|c| Distribution1D::new(c)),
             });
-            weights.push(volume * sample.source_mean.max(floor));
+            weights.push(weight);
             escaping += f64::from(volume * sample.source_mean * escape);
             if sample.source_mean > 0.0 {
                 let edge_world = (extent * axis_length).element_sum() / 3.0;
@@ -214,7 +247,7 @@ impl EmissionCells {
 }
 
 /// What the points of one occupied cell hold.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 struct CellSample {
     /// Mean source luminance over the points.
     source_mean: f32,
@@ -222,8 +255,13 @@ struct CellSample {
     sigma_t_mean: f32,
     /// Largest emitted radiance luminance at a point.
     radiance_max: f32,
-    /// The box of the points whose radiance is positive, if any.
-    hot: Option<(IVec3, IVec3)>,
+    /// Per unit cube of the support box (x slowest, z fastest): the mean
+    /// source at its eight corners, or a floor of [`FLOOR`] x the largest
+    /// corner extinction x the largest corner radiance when that is larger;
+    /// 0 only where no corner has density or no corner emits (with aligned
+    /// grids, trilinear lookups in the cube read only its corners, so it
+    /// emits nothing). `None` for a box that is not whole voxels.
+    cubes: Option<Vec<f32>>,
 }
 
 impl CellSample {
@@ -231,31 +269,48 @@ impl CellSample {
     /// `cell`'s support box reads.
     fn of(cell: &OccupiedCell, source: &impl Fn(Vec3) -> SourceSample) -> Self {
         let (first, last) = (cell.lo.floor().as_ivec3(), cell.hi.ceil().as_ivec3());
-        let (mut sum, mut sigma_t, mut count, mut radiance_max) = (0.0f64, 0.0f64, 0u32, 0.0f32);
-        let mut hot: Option<(IVec3, IVec3)> = None;
+        let points = last - first + IVec3::ONE;
+        let mut lattice = Vec::with_capacity(points.element_product() as usize);
         for x in first.x..=last.x {
             for y in first.y..=last.y {
                 for z in first.z..=last.z {
-                    let at = IVec3::new(x, y, z);
-                    let s = source(at.as_vec3());
-                    if s.radiance > 0.0 {
-                        hot = Some(hot.map_or((at, at), |(lo, hi)| (lo.min(at), hi.max(at))));
-                    }
-                    sum += f64::from(s.source);
-                    sigma_t += f64::from(s.sigma_t);
-                    count += 1;
-                    radiance_max = radiance_max.max(s.radiance);
+                    lattice.push(source(IVec3::new(x, y, z).as_vec3()));
                 }
             }
         }
-        let n = f64::from(count.max(1));
+        let n = lattice.len().max(1) as f64;
+        let whole = cell.lo == first.as_vec3() && cell.hi == last.as_vec3();
         Self {
-            source_mean: (sum / n) as f32,
-            sigma_t_mean: (sigma_t / n) as f32,
-            radiance_max,
-            hot,
+            source_mean: (lattice.iter().map(|s| f64::from(s.source)).sum::<f64>() / n) as f32,
+            sigma_t_mean: (lattice.iter().map(|s| f64::from(s.sigma_t)).sum::<f64>() / n) as f32,
+            radiance_max: lattice.iter().map(|s| s.radiance).fold(0.0, f32::max),
+            cubes: whole.then(|| cube_weights(&lattice, points)),
         }
     }
+}
+
+/// The weight of every unit cube of a lattice of `points` samples (see
+/// [`CellSample::cubes`]).
+fn cube_weights(lattice: &[SourceSample], points: IVec3) -> Vec<f32> {
+    let at = |p: IVec3| &lattice[((p.x * points.y + p.y) * points.z + p.z) as usize];
+    let cubes = points - IVec3::ONE;
+    let mut weights = Vec::with_capacity(cubes.element_product().max(0) as usize);
+    for x in 0..cubes.x {
+        for y in 0..cubes.y {
+            for z in 0..cubes.z {
+                let corners =
+                    (0..8).map(|c| at(IVec3::new(x + (c >> 2), y + ((c >> 1) & 1), z + (c & 1))));
+                let (mut sum, mut sigma_t, mut radiance) = (0.0f32, 0.0f32, 0.0f32);
+                for s in corners {
+                    sum += s.source;
+                    sigma_t = sigma_t.max(s.sigma_t);
+                    radiance = radiance.max(s.radiance);
+                }
+                weights.push((sum / 8.0).max(FLOOR * sigma_t * radiance));
+            }
+        }
+    }
+    weights
 }
 
 /// Per occupied cell, the mean over the six axis directions of exp(-optical
