@@ -105,8 +105,8 @@ def smooth_max(a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
 def candidates(n: int, keep) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The index points i = -n/2 .. n/2 - 1 (voxel size 2/n) where keep(x, y, z) holds:
     their flat indices into an n^3 array and their world positions. Value (i, j, k) is
-    evaluated exactly where OpenVDB puts it, at (i, j, k) x voxel size (CONVENTIONS.md,
-    voxel centres). One x slab at a time, to bound the memory."""
+    evaluated exactly where OpenVDB puts it, at (i, j, k) x voxel size (docs/conventions.md,
+    "Voxel centres"). One x slab at a time, to bound the memory."""
     axis = (np.arange(n) - n // 2) * (2.0 / n)
     y, z = np.meshgrid(axis, axis, indexing="ij")
     where = []

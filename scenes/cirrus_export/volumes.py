@@ -1,7 +1,7 @@
 """UsdVol.Volume prims with OpenVDBAsset fields, and their constant shading primvars.
 
-Shading follows /work/shared/CONVENTIONS.md: constant primvars on the Volume prim,
-each unauthored one replaced by its default and reported once per volume.
+Shading follows docs/conventions.md, "Shading primvars": constant primvars on the
+Volume prim, each unauthored one replaced by its default and reported once per volume.
 """
 
 import numpy as np
@@ -12,7 +12,8 @@ from .prototypes import prototype_path
 from .report import Report
 from .vdb_header import grid_bounds
 
-# Manifest key, primvar name, default (CONVENTIONS.md: densityScale 1, albedo 1, anisotropy 0, no emission).
+# Manifest key, primvar name, default (docs/conventions.md, "Shading primvars": densityScale 1,
+# albedo 1, anisotropy 0, no emission).
 # USD field relationship name -> manifest field key; "heat" is the openusd assets' name.
 FIELD_KEYS = {"density": "density", "temperature": "temperature", "heat": "temperature",
               "emission": "emission"}

@@ -58,7 +58,8 @@ def affine4(transform12):
 
 
 def emission(light):
-    """UsdLux emission of a light record: color x intensity x 2^exposure (CONVENTIONS.md).
+    """UsdLux emission of a light record: color x intensity x 2^exposure
+    (docs/conventions.md, "Lights").
 
     colorTemperature is not applied here: callers warn when it is set.
     """

@@ -14,7 +14,7 @@ same render runs first, untimed, to sync the scene and build the BVH, which
 persistent data keeps (it ignores a changed sample count, so the warm-up cannot
 be cheaper), so S excludes scene load as for the other renderers.
 
-What each part becomes (UsdLux units per /work/shared/CONVENTIONS.md; every
+What each part becomes (UsdLux units per docs/conventions.md, "Lights"; every
 factor below was measured with Cycles 3.4.1 on a white Lambert plane
 (2026-11-24): sun 3 W/m^2 -> 0.95493 = 3/pi; point 10 W at 2 units ->
 0.063324 = 10/(4 pi^2 4); 10 W square area light of 0.01 unit^2 at 2 units ->
@@ -92,7 +92,7 @@ from cirrus_scene import (GREY, CirrusScene, affine4, conformed_aperture,  # noq
 from cycles_texture import UV_LAYER, TextureNodes, Unrepresentable  # noqa: E402
 
 #: Shift of the grid, in voxels along each index axis, that puts VDB value
-#: v(i,j,k) at the integer index point (i,j,k) in Cycles (CONVENTIONS.md "Voxel
+#: v(i,j,k) at the integer index point (i,j,k) in Cycles (docs/conventions.md, "Voxel
 #: centres"). Cycles 3.4 puts it at the voxel's cell centre, (i,j,k) + 0.5, half
 #: a voxel off: on scenes/peers/volume_voxels.usda (64x64, 64 spp, 2026-11-24)
 #: a shift of 0 reads 4.0% dark with a 4x4 relMSE of 4.3e-2 against Cirrus,

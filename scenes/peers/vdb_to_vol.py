@@ -6,7 +6,7 @@ pyopenvdb is only importable by the system Python, so the converter
 (to_mitsuba.py, in the project .venv) shells out to this script.
 
 Placement, so that Mitsuba's `gridvolume` reproduces OpenVDB's BoxSampler
-(CONVENTIONS.md, "Voxel centres"):
+(docs/conventions.md, "Voxel centres"):
 - OpenVDB puts value v(i,j,k) at the integer index point (i,j,k) and falls
   trilinearly to the background (0) over one voxel past the stored data.
 - Mitsuba's `gridvolume` (src/volumes/grid.cpp, a dr::Texture3f) puts texel n

@@ -1,5 +1,5 @@
 //! USD cameras (`UsdGeomCamera`): perspective (pinhole or thin lens) and
-//! orthographic, as CONVENTIONS.md "Camera and image" defines them.
+//! orthographic, as docs/conventions.md, "Camera and image", defines them.
 //!
 //! - Frame: the camera looks down its -Z with +Y up and +X to the image's
 //!   right; film positions are in pixels from the image's top-left corner,
@@ -99,10 +99,11 @@ pub enum CameraError {
 }
 
 /// The near clipping plane is honoured only when it exceeds this fraction of
-/// the far plane. CONVENTIONS.md: rays start at the eye unless the near plane
-/// "exceeds tiny values". Near planes exist for rasteriser depth precision,
-/// which keeps near/far small (USD's fallback clipping range 1..1e6 is 1e-6);
-/// a near plane at a larger share of the range is a deliberate cut.
+/// the far plane (docs/conventions.md, "Camera and image"): rays start at the
+/// eye unless the near plane is a noticeable share of the range. Near planes
+/// exist for rasteriser depth precision, which keeps near/far small (USD's
+/// fallback clipping range 1..1e6 is 1e-6); a near plane at a larger share of
+/// the range is a deliberate cut.
 pub const NEAR_PLANE_MIN_FRACTION: f32 = 1e-3;
 
 impl Camera {

@@ -1,7 +1,8 @@
 //! `DistantLight`: light from infinitely far away, arriving from a cone of
 //! angular diameter `inputs:angle` around the light's world +Z (it travels
 //! along -Z). With `normalize` the emission is the irradiance on a surface
-//! facing the light; without, the radiance of the disk (CONVENTIONS.md).
+//! facing the light; without, the radiance of the disk (docs/conventions.md,
+//! "Lights").
 
 use std::f64::consts::PI;
 

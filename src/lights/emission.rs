@@ -1,6 +1,6 @@
 //! What a UsdLux light emits before its shape is taken into account:
 //! `color x intensity x 2^exposure x blackbody(colorTemperature)`
-//! (CONVENTIONS.md, "Lights").
+//! (docs/conventions.md, "Lights").
 
 use glam::Vec3;
 
@@ -10,7 +10,7 @@ use crate::scene::Light as LightRecord;
 
 /// The radiance of an area light of world-space `area` (square scene units):
 /// its [`emission`], divided by the area when `normalize` is on
-/// (CONVENTIONS.md, "Lights"). `shape` names the type in the error that a
+/// (docs/conventions.md, "Lights"). `shape` names the type in the error that a
 /// zero area under `normalize` is.
 pub(crate) fn area_radiance(
     record: &LightRecord,

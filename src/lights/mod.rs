@@ -2,7 +2,7 @@
 //! finding them along rays, and picking one per sample.
 //!
 //! Every UsdLux type the exporter writes is a [`Light`] variant in its own
-//! file, each following CONVENTIONS.md "Lights (UsdLux, literally)":
+//! file, each following docs/conventions.md, "Lights":
 //! - `distant.rs`: a uniform cone of angular diameter `angle` (a delta
 //!   direction at angle 0), irradiance or disk radiance by `normalize`;
 //! - `sphere.rs`: sampled by subtended solid angle (pbrt-v4 `Sphere::Sample`);

@@ -1,5 +1,5 @@
 //! The PNG preview beside every EXR: the only tone-mapped output (the EXR
-//! stays linear scene-referred radiance, CONVENTIONS.md "Output").
+//! stays linear scene-referred radiance, docs/conventions.md, "Output").
 
 use std::path::Path;
 

@@ -393,7 +393,7 @@ pub struct Light {
     /// `inputs:exposure` (default 0), stops: emission scales by 2^exposure.
     pub exposure: f32,
     /// `inputs:normalize` (default false): divide by area (or, for distant
-    /// lights, give irradiance); see CONVENTIONS.md.
+    /// lights, give irradiance); see docs/conventions.md, "Lights".
     pub normalize: bool,
     /// `inputs:colorTemperature` in kelvin when `enableColorTemperature` is
     /// true; `null` otherwise.
@@ -498,7 +498,7 @@ pub enum Projection {
     Orthographic,
 }
 
-/// A `UsdVolVolume` and its shading (see CONVENTIONS.md, Volumes).
+/// A `UsdVolVolume` and its shading (see docs/conventions.md, "Volumes").
 #[derive(Clone, Debug, Deserialize)]
 pub struct Volume {
     /// Prim path.

@@ -15,9 +15,10 @@
 //!   apron costs 42% more brick memory and removes the slow cross-block path
 //!   from 33% of lookups; `cirrus bench vdb` measures both sides.
 //!
-//! Values follow OpenVDB's `BoxSampler` convention (CONVENTIONS.md): value
-//! v(i,j,k) sits at the integer index point (i,j,k); between points the value
-//! is trilinear; anything not stored is the background.
+//! Values follow OpenVDB's `BoxSampler` convention (docs/conventions.md,
+//! "Voxel centres"): value v(i,j,k) sits at the integer index point (i,j,k);
+//! between points the value is trilinear; anything not stored is the
+//! background.
 
 use glam::{DAffine3, DVec3, IVec3, Vec3};
 use rayon::prelude::*;

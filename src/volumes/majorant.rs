@@ -6,10 +6,10 @@
 //! Cells follow the VDB's own blocks: one cell per 8^3 leaf block (index-space
 //! box `[8c, 8c + 8)`), so a cell's bounds come straight from one apron brick,
 //! constant tile or empty block. A trilinear lookup inside the box reads the
-//! voxels `8c ..= 8c + 8` on each axis (CONVENTIONS.md: values sit at integer
-//! index points), so each cell stores the max and min over that 9^3 footprint:
-//! a conservative bound for every interpolated value, the background included
-//! wherever the footprint leaves the stored data.
+//! voxels `8c ..= 8c + 8` on each axis (docs/conventions.md, "Voxel centres":
+//! values sit at integer index points), so each cell stores the max and min
+//! over that 9^3 footprint: a conservative bound for every interpolated value,
+//! the background included wherever the footprint leaves the stored data.
 //!
 //! Each cell also keeps the box, in eighths of its edge, outside which its
 //! interpolated density is zero (a voxel value is felt within one voxel of

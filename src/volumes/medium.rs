@@ -1,8 +1,8 @@
 //! The scene's volumes as participating media, in world space: each placed
 //! Volume (instance x prototype volume part) is a density grid seen through
 //! its world-from-index map, with its majorant grid and its shading
-//! (CONVENTIONS.md, "Volumes"). Grids and majorant grids are read once per
-//! (file, grid name, index) and shared by every placement, so instanced
+//! (docs/conventions.md, "Volumes"). Grids and majorant grids are read once
+//! per (file, grid name, index) and shared by every placement, so instanced
 //! volumes cost one grid.
 //!
 //! Extinction is RGB: sigma_t = densityScale x density per world unit, with

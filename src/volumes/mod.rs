@@ -4,7 +4,8 @@
 //! float grid the scene needs is copied once into a [`SparseGrid`], which the
 //! renderer samples (nearest or trilinear, index or world space) without
 //! crossing the FFI. Sampling follows OpenVDB's `BoxSampler` exactly; see
-//! `CONVENTIONS.md` for where voxel values sit and how density is scaled.
+//! docs/conventions.md, "Voxel centres" and "Extinction and scattering", for
+//! where voxel values sit and how density is scaled.
 //!
 //! Rendering: [`Media`] places every Volume in the world; a [`MajorantGrid`]
 //! per grid bounds its trilinear density per 8^3-voxel cell and is walked by
