@@ -350,3 +350,71 @@ fn a_million_point_instances_export_and_check() {
     let (ok, text) = check(&input, &out);
     assert!(ok, "{text}");
 }
+
+/// What Cirrus cannot render yet is never dropped silently: a mesh whose
+/// subdivisionScheme asks for a smooth surface (catmullClark when
+/// unauthored, as USD defines it) is named in one warning saying it renders
+/// as its cage, a mesh with `none` is not, and Points, BasisCurves and a
+/// SkelRoot (rendered in its bind pose) are each warned about by path.
+#[test]
+fn unsupported_geometry_is_warned_about_by_name() {
+    let dir = scratch("export_unsupported");
+    let usda = dir.join("unsupported.usda");
+    let quad = r#"int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]"#;
+    std::fs::write(
+        &usda,
+        format!(
+            r#"#usda 1.0
+def Xform "World"
+{{
+    def Mesh "Smooth"
+    {{
+        {quad}
+    }}
+    def Mesh "Flat"
+    {{
+        {quad}
+        uniform token subdivisionScheme = "none"
+    }}
+    def Points "Sparks"
+    {{
+        point3f[] points = [(0, 2, 0)]
+        float[] widths = [0.1]
+    }}
+    def BasisCurves "Hair"
+    {{
+        uniform token type = "linear"
+        int[] curveVertexCounts = [2]
+        point3f[] points = [(0, 0, 0), (0, 1, 0)]
+    }}
+    def SkelRoot "Character"
+    {{
+    }}
+}}
+"#
+        ),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let result = export(&usda, &out, "");
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let warnings = manifest(&out)["warnings"].to_string();
+    assert!(
+        warnings.contains("1 meshes (/World/Smooth) have a subdivisionScheme other than none"),
+        "{warnings}"
+    );
+    assert!(!warnings.contains("/World/Flat"), "{warnings}");
+    for what in [
+        "Points /World/Sparks is not rendered",
+        "BasisCurves /World/Hair is not rendered",
+        "SkelRoot /World/Character: UsdSkel skinning is not applied",
+    ] {
+        assert!(warnings.contains(what), "no '{what}' in {warnings}");
+    }
+}

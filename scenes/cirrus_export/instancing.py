@@ -18,6 +18,9 @@ from .xforms import compose, local_transform, to_3x4
 
 PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Volume"}
 SKIPPED_PURPOSES = {UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy}
+# Renderable prim types Cirrus does not render yet: each is warned about by name.
+UNRENDERED_TYPES = {"Points", "BasisCurves", "NurbsCurves", "HermiteCurves", "NurbsPatch",
+                    "TetMesh"}
 
 
 @dataclass
@@ -132,6 +135,12 @@ class Walker:
             return
         if prim.GetTypeName() in PART_TYPES:
             sink.part(prim, matrix)
+        elif prim.GetTypeName() in UNRENDERED_TYPES:
+            self._report.warn(f"{prim.GetTypeName()} {prim.GetPath()} is not rendered: "
+                              f"{prim.GetTypeName()} prims are not supported yet")
+        elif prim.GetTypeName() == "SkelRoot":
+            self._report.warn(f"SkelRoot {prim.GetPath()}: UsdSkel skinning is not applied; its meshes "
+                              "are rendered in their bind pose")
         for child in prim.GetFilteredChildren(PREDICATE):
             self._walk(child, matrix, sink)
 

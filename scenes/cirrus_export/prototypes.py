@@ -35,6 +35,8 @@ class MeshTable:
                  time: Usd.TimeCode, source: str) -> None:
         self.records: list[dict] = []
         self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
+        # Meshes whose subdivisionScheme is not none: rendered as their cages.
+        self.cages: list[str] = []
         self._by_path: dict[tuple, int | None] = {}
         self._writer, self._materials, self._report = writer, materials, report
         self._time, self._source = time, source
@@ -50,6 +52,14 @@ class MeshTable:
         if key not in self._by_path:
             self._by_path[key] = self._add(prim, key[0], materials)
         return self._by_path[key]
+
+    def warn_cages(self) -> None:
+        """One warning for every mesh read whose subdivisionScheme asks for a smooth surface."""
+        if self.cages:
+            shown = ", ".join(self.cages[:3]) + (f" and {len(self.cages) - 3} more" if len(self.cages) > 3 else "")
+            self._report.warn(f"{self._source}: {len(self.cages)} meshes ({shown}) have a subdivisionScheme "
+                              "other than none (catmullClark when unauthored, as USD defines it): rendered "
+                              "as their control cages, faceted; subdivision surfaces are not supported yet")
 
     def _subsets(self, prim: Usd.Prim) -> list[UsdGeom.Subset]:
         """The prim's face GeomSubsets of the materialBind family."""
@@ -78,6 +88,9 @@ class MeshTable:
         if geometry is None or len(geometry.triangles) == 0:
             self._report.warn(f"{self._source}: {prim.GetTypeName()} {prim.GetPath()} has no triangles; skipped")
             return None
+        if prim.IsA(UsdGeom.Mesh) and \
+                UsdGeom.Mesh(prim).GetSubdivisionSchemeAttr().Get() != UsdGeom.Tokens.none:
+            self.cages.append(str(prim.GetPath()))
         self.records.append(self._record(prim, key, geometry, materials))
         self.boxes.append((geometry.points.min(axis=0), geometry.points.max(axis=0)))
         return len(self.records) - 1
