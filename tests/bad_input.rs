@@ -26,9 +26,6 @@ use std::process::{Command, Output};
 
 use exr::prelude::{read_all_flat_layers_from_file, FlatSamples};
 
-/// Debian's Python, which has pyopenvdb.
-const SYSTEM_PYTHON: &str = "/usr/bin/python3";
-
 /// `scenes/tests/NAME.usda`.
 fn test_scene(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -126,7 +123,7 @@ fn density_grid_that_is_not_float_fails_naming_file_and_grid() {
     for kind in ["vec3s", "bool"] {
         let vdb = dir.join(format!("density_{kind}.vdb"));
         common::run_python(
-            Path::new(SYSTEM_PYTHON),
+            Path::new(common::SYSTEM_PYTHON),
             &common::python_script("bad_vdb_grid.py"),
             &[&vdb.to_string_lossy(), kind],
         );

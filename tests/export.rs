@@ -35,6 +35,16 @@ fn export_ok(rel: &str, frame: &str, dir: &Path) -> PathBuf {
     out
 }
 
+/// Exports the stage at `input` to `out`, which must succeed.
+fn export_file_ok(input: &Path, out: &Path) {
+    let result = export(input, out, "");
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+}
+
 /// The manifest of an exported scene.
 fn manifest(out: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(out.join("scene.json")).unwrap()).unwrap()
@@ -338,12 +348,7 @@ fn a_million_point_instances_export_and_check() {
     let input = dir.join("million.usda");
     write_big_point_instancer(&input, 1_000_000);
     let out = dir.join("out");
-    let result = export(&input, &out, "");
-    assert!(
-        result.status.success(),
-        "{}",
-        String::from_utf8_lossy(&result.stderr)
-    );
+    export_file_ok(&input, &out);
     let m = manifest(&out);
     assert_eq!(m["instances"]["count"], 1_000_000);
     assert_eq!(m["meshes"].as_array().unwrap().len(), 2);
@@ -398,12 +403,7 @@ def Xform "World"
     )
     .unwrap();
     let out = dir.join("out");
-    let result = export(&usda, &out, "");
-    assert!(
-        result.status.success(),
-        "{}",
-        String::from_utf8_lossy(&result.stderr)
-    );
+    export_file_ok(&usda, &out);
     let warnings = manifest(&out)["warnings"].to_string();
     assert!(
         warnings.contains("1 meshes (/World/Smooth) have a subdivisionScheme other than none"),

@@ -190,7 +190,7 @@ fn light_sampling_on_and_off_render_the_same_explosion() {
     let dir = common::scratch("fire_explosion");
     let vdb = dir.join("explosion.vdb");
     common::run_python(
-        std::path::Path::new("/usr/bin/python3"),
+        std::path::Path::new(common::SYSTEM_PYTHON),
         &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/make_explosion.py"),
         &[&vdb.to_string_lossy(), "--res", "48"],
     );
@@ -250,7 +250,7 @@ fn render_fire_box(name: &str, mode: &str, field: &str, primvars: &str) -> std::
     let dir = common::scratch(&format!("fire_bad_{name}"));
     let vdb = dir.join("fire.vdb");
     common::run_python(
-        std::path::Path::new("/usr/bin/python3"),
+        std::path::Path::new(common::SYSTEM_PYTHON),
         &common::python_script("make_fire_box.py"),
         &[&vdb.to_string_lossy(), mode],
     );
@@ -293,12 +293,7 @@ def Xform "World"
         ),
     )
     .unwrap();
-    std::process::Command::new(env!("CARGO_BIN_EXE_cirrus"))
-        .args(["render".as_ref(), usda.as_os_str(), "-o".as_ref()])
-        .arg(dir.join("out.exr"))
-        .args(["--res", "8x8", "--spp", "4", "--aovs", "beauty", "--force"])
-        .output()
-        .unwrap()
+    common::render_tiny(&usda, &dir)
 }
 
 /// Bad fire input (issue 19), each end to end: NaN, infinite and negative

@@ -771,7 +771,7 @@ fn tiny_and_huge_scene_scales_render_the_same_picture() {
 fn fire_stages(test: &str, stages: &[&str], vdb: &str, mode: &str) -> Vec<String> {
     let dir = common::scratch(test);
     common::run_python(
-        std::path::Path::new("/usr/bin/python3"),
+        std::path::Path::new(common::SYSTEM_PYTHON),
         &common::python_script("make_emission_stability.py"),
         &[&dir.join(vdb).to_string_lossy(), mode],
     );

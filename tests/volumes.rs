@@ -482,19 +482,11 @@ def Xform "World"
         ),
     )
     .unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cirrus"))
-        .args(["render".as_ref(), usda.as_os_str(), "-o".as_ref()])
-        .arg(dir.join("out.exr"))
-        .args(["--res", "8x8", "--spp", "4", "--aovs", "beauty"])
-        .output()
-        .unwrap();
+    let out = common::render_tiny(&usda, dir);
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(out.status.success(), "{stderr}");
     stderr
 }
-
-/// Debian's Python, which has pyopenvdb.
-const SYSTEM_PYTHON: &str = "/usr/bin/python3";
 
 /// A density grid whose background is not 0 renders as 0 outside its data
 /// (the majorant grid and the media's bounds cover the stored data only),
@@ -504,7 +496,7 @@ fn non_zero_background_is_reported() {
     let dir = common::scratch("volumes_background");
     let vdb = dir.join("box.vdb");
     common::run_python(
-        Path::new(SYSTEM_PYTHON),
+        Path::new(common::SYSTEM_PYTHON),
         &common::python_script("make_volume_box.py"),
         &[&vdb.to_string_lossy(), "4", "0.25", "0.5"],
     );
@@ -540,7 +532,11 @@ vdb.write(sys.argv[1], grids=[g])
 "#,
     )
     .unwrap();
-    common::run_python(Path::new(SYSTEM_PYTHON), &script, &[&vdb.to_string_lossy()]);
+    common::run_python(
+        Path::new(common::SYSTEM_PYTHON),
+        &script,
+        &[&vdb.to_string_lossy()],
+    );
     let stderr = render_volume(&dir, &vdb);
     assert!(
         stderr.contains("has 2 NaN or infinite values and a smallest value of -5"),

@@ -169,16 +169,19 @@ pub fn radiance(
             }
             // Volume emission found by tracking against light sampling of
             // emitting volumes from this ray's origin (the measure is in
-            // `lights/volume.rs`).
-            let volume_lights = (lights.has_volume_lights() && !bounce.specular)
-                .then(|| lights.volume_lights_from(origin));
+            // `lights/volume.rs`); their pick probabilities are looked up at
+            // the first collision that emits, not for every ray in media.
+            let weigh_volume_lights = lights.has_volume_lights() && !bounce.specular;
+            let mut volume_lights = None;
             let null_scattering = settings.volume_estimator == VolumeEstimator::NullScatteringMis;
             let weigh_emission = |t: f32, sigma_maj: f32, null_ratio: f32| {
-                volume_lights.as_ref().map_or(1.0, |from| {
-                    let light_pdf = from.pdf(&state.media, origin + direction * t, sigma_maj);
-                    let null_ratio = if null_scattering { null_ratio } else { 1.0 };
-                    emission_weight(bounce, light_pdf, null_ratio)
-                })
+                if !weigh_volume_lights {
+                    return 1.0;
+                }
+                let from = volume_lights.get_or_insert_with(|| lights.volume_lights_from(origin));
+                let light_pdf = from.pdf(&state.media, origin + direction * t, sigma_maj);
+                let null_ratio = if null_scattering { null_ratio } else { 1.0 };
+                emission_weight(bounce, light_pdf, null_ratio)
             };
             let flight = free_flight(
                 &along,

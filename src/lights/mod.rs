@@ -17,7 +17,8 @@
 //!   emission found by tracking and by light sampling combine by MIS.
 //!
 //! One light is picked per sample (`select.rs`): infinite against bounded
-//! lights by power, infinite lights among themselves by power, bounded lights
+//! lights by what each can deliver at the shading point, infinite lights
+//! among themselves by power, bounded lights
 //! by a light BVH (`bvh.rs`, pbrt-v4's `BVHLightSampler`) that weighs power by
 //! distance and orientation from the shading point. Every pdf that leaves
 //! this module is per steradian and includes that selection probability.
@@ -350,9 +351,10 @@ impl Lights {
                 lights.push(Light::Mesh(mesh));
             }
         }
+        let emitters: Vec<_> = media.emitters().collect();
         let mut volumes = Vec::new();
-        for emitter in media.emitters().filter(|_| volume_lights) {
-            let light = VolumeLight::new(&emitter);
+        for emitter in emitters.iter().filter(|_| volume_lights) {
+            let light = VolumeLight::new(emitter);
             log::debug!(
                 "emitting volume {} as a light: power {:.4} W (luminance), box {} .. {}",
                 emitter.medium,
@@ -367,9 +369,7 @@ impl Lights {
         }
         // Fire counts as a light here whether or not it is light-sampled,
         // so `--volume-light-sampling off` renders the same image.
-        if lights.len() == volumes.len()
-            && scene.manifest.lights.is_empty()
-            && media.emitters().next().is_none()
+        if lights.len() == volumes.len() && scene.manifest.lights.is_empty() && emitters.is_empty()
         {
             log::warn!(
                 "the scene has no lights: lighting it with a white dome of radiance 1 \

@@ -29,8 +29,8 @@ const SPLIT: f32 = 4096.0;
 pub(crate) struct VolumeLight {
     /// The medium, as [`Media`] numbers them.
     medium: usize,
-    /// Luminance of the emitted power, W.
-    power: f32,
+    /// Its emitting box, and the luminance of the power that leaves it
+    /// (W) as `phi`.
     bounds: LightBounds,
 }
 
@@ -71,16 +71,15 @@ impl VolumeLight {
         self.bounds
     }
 
-    /// Luminance of the emitted power, W.
+    /// Luminance of the power that leaves the volume, W.
     pub fn power(&self) -> f32 {
-        self.power
+        self.bounds.phi
     }
 
     /// The light of one emitting medium.
     pub fn new(emitter: &Emitter) -> Self {
         Self {
             medium: emitter.medium,
-            power: emitter.power,
             bounds: LightBounds::omni(emitter.world_min, emitter.world_max, emitter.power),
         }
     }

@@ -327,22 +327,19 @@ fn escape_transmittances(
     for (cell, sample) in occupied.iter().zip(sampled) {
         sigma_t[cell.slot as usize] = sample.sigma_t_mean;
     }
-    let slot = |c: IVec3| ((c.x * dims.y + c.y) * dims.z + c.z) as usize;
     let edge = cell_size * axis_length;
     occupied
         .par_iter()
         .map(|cell| {
-            let n = cell.slot as i32;
-            let at = IVec3::new(n / (dims.y * dims.z), n / dims.z % dims.y, n % dims.z);
             let own = 0.5 * sigma_t[cell.slot as usize];
             let mut sum = 0.0;
             for axis in 0..3 {
                 for step in [-1, 1] {
                     let mut depth = own * edge[axis];
-                    let mut c = at;
+                    let mut c = cell.cell;
                     c[axis] += step;
                     while c[axis] >= 0 && c[axis] < dims[axis] {
-                        depth += sigma_t[slot(c)] * edge[axis];
+                        depth += sigma_t[majorant.cell_slot(c)] * edge[axis];
                         c[axis] += step;
                     }
                     sum += (-depth).exp();

@@ -62,6 +62,8 @@ pub struct MajorantSegment {
 pub(crate) struct OccupiedCell {
     /// Its slot in the grid's cell array.
     pub slot: u32,
+    /// Its coordinates in the grid (see [`MajorantGrid::cell_layout`]).
+    pub cell: IVec3,
     /// Index-space box of its support, min corner.
     pub lo: Vec3,
     /// Index-space box of its support, max corner.
@@ -302,8 +304,9 @@ impl MajorantGrid {
         (plane - o) / d
     }
 
+    /// The slot of the cell at coordinates `c` (inside the grid).
     #[inline]
-    fn cell_slot(&self, c: IVec3) -> usize {
+    pub(crate) fn cell_slot(&self, c: IVec3) -> usize {
         ((c.x * self.dims.y + c.y) * self.dims.z + c.z) as usize
     }
 
@@ -339,6 +342,7 @@ impl MajorantGrid {
             let (lo, hi) = self.support_box(cell, self.supports[slot]);
             Some(OccupiedCell {
                 slot: slot as u32,
+                cell,
                 lo,
                 hi,
                 density_max: range.max,

@@ -91,10 +91,13 @@ impl Medium {
         if sigma_a == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        self.emission
-            .iter()
-            .map(|e| sigma_a * e.radiance(p, blackbody))
-            .sum()
+        sigma_a * self.emitted(p, blackbody)
+    }
+
+    /// The emitted radiance Le at world point `p`, W/(m^2 sr) per RGB
+    /// channel: the sum over its emission sources.
+    fn emitted(&self, p: Vec3, blackbody: Option<&BlackbodyTable>) -> Vec3 {
+        self.emission.iter().map(|e| e.radiance(p, blackbody)).sum()
     }
 
     /// sigma_a per world unit per unit density, per RGB channel:
@@ -362,9 +365,7 @@ impl<'a> MediaRay<'a> {
             if !m.emission.is_empty() {
                 let p = self.origin + self.direction * t;
                 let sigma_a = (Vec3::ONE - m.albedo).max(Vec3::ZERO) * sigma;
-                for e in &m.emission {
-                    point.emission += sigma_a * e.radiance(p, self.blackbody);
-                }
+                point.emission += sigma_a * m.emitted(p, self.blackbody);
             }
         }
         point
@@ -600,7 +601,7 @@ impl Medium {
         });
         let source = |p_index: Vec3| {
             let p = self.world_from_index.transform_point3(p_index);
-            let le: Vec3 = self.emission.iter().map(|e| e.radiance(p, blackbody)).sum();
+            let le = self.emitted(p, blackbody);
             let density = self.density(p_index);
             SourceSample {
                 sigma_t: channel_mean(self.density_scale) * density,

@@ -7,6 +7,20 @@ pub mod render;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+/// Debian's Python, which has pyopenvdb (the venv's does not).
+pub const SYSTEM_PYTHON: &str = "/usr/bin/python3";
+
+/// `cirrus render` of the stage `usda` into `dir/out.exr` at 8x8 and 4 spp,
+/// beauty only, replacing any earlier output: the command's output.
+pub fn render_tiny(usda: &Path, dir: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .args(["render".as_ref(), usda.as_os_str(), "-o".as_ref()])
+        .arg(dir.join("out.exr"))
+        .args(["--res", "8x8", "--spp", "4", "--aovs", "beauty", "--force"])
+        .output()
+        .unwrap()
+}
+
 /// A file under `../shared/assets`, checked to exist.
 pub fn asset(rel: &str) -> PathBuf {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
