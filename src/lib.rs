@@ -6,7 +6,6 @@
 //! mounted privately by `volumes::vdb` and `output::exr`.
 
 pub mod camera;
-pub mod cli;
 pub mod color;
 pub mod geometry;
 pub mod integrator;

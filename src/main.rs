@@ -1,5 +1,8 @@
-//! The `cirrus` binary: parses the command line and maps errors to exit codes.
+//! The `cirrus` binary: the command line (`cli/`), which parses flags and maps
+//! errors to exit codes, over the `cirrus` library.
+
+mod cli;
 
 fn main() -> std::process::ExitCode {
-    cirrus::cli::run()
+    cli::run()
 }

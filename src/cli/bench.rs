@@ -11,8 +11,8 @@ use clap::Subcommand;
 use glam::Vec3;
 
 use super::bench_equal_time::EqualTimeBench;
-use crate::sampling::Pcg32;
-use crate::volumes::VdbFile;
+use cirrus::sampling::Pcg32;
+use cirrus::volumes::VdbFile;
 
 #[derive(Subcommand, Debug)]
 pub enum Bench {
@@ -272,7 +272,7 @@ pub(super) fn scenes_or_default(
     default_scenes: fn(&Path) -> Vec<PathBuf>,
 ) -> Vec<PathBuf> {
     if scenes.is_empty() {
-        default_scenes(&crate::scene::repo_root())
+        default_scenes(&cirrus::scene::repo_root())
     } else {
         scenes
     }

@@ -11,12 +11,12 @@ use glam::UVec2;
 
 use super::bench::{machine_line, median};
 use super::film_output::{write_film, AovFiles, ExrHeader};
-use crate::integrator::{self, Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
-use crate::output::aov::AovSet;
-use crate::output::filter::FilterKind;
-use crate::output::Compression;
-use crate::render_state::{RenderState, StateOptions};
-use crate::sampling::SamplerKind;
+use cirrus::integrator::{self, Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
+use cirrus::output::aov::AovSet;
+use cirrus::output::filter::FilterKind;
+use cirrus::output::Compression;
+use cirrus::render_state::{RenderState, StateOptions};
+use cirrus::sampling::SamplerKind;
 
 /// What to measure.
 pub struct AovsBench {

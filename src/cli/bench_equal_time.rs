@@ -12,16 +12,16 @@ use anyhow::{Context, Result};
 use glam::UVec2;
 
 use super::bench::median;
-use crate::integrator::{
+use cirrus::integrator::{
     self, Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
     DEFAULT_MAX_DEPTH,
 };
-use crate::output::aov::AovSet;
-use crate::output::filter::FilterKind;
-use crate::output::read_image;
-use crate::render_state::RenderState;
-use crate::sampling::SamplerKind;
-use crate::scene::Scene;
+use cirrus::output::aov::AovSet;
+use cirrus::output::filter::FilterKind;
+use cirrus::output::read_image;
+use cirrus::render_state::RenderState;
+use cirrus::sampling::SamplerKind;
+use cirrus::scene::Scene;
 
 /// What an equal-time benchmark measures (`bench render`, `bench volumes`).
 pub struct EqualTimeBench {
@@ -186,13 +186,10 @@ pub(super) fn scene_name(path: &Path) -> String {
 /// read back (a stale smoke reference, from before its ground lost its
 /// specular lobe, once made every method look stuck at relMSE 0.13).
 pub(super) fn reference_key(scene: &Scene, name: &str) -> Result<String> {
-    let manifest = scene.dir.join("scene.json");
-    let json =
-        std::fs::read(&manifest).with_context(|| format!("cannot read {}", manifest.display()))?;
-    let mut crc = crc32fast::Hasher::new();
-    crc.update(&json);
-    crc.update(scene.blob_bytes());
-    Ok(format!("{name}-{:08x}", crc.finalize()))
+    let crc = scene
+        .content_crc()
+        .with_context(|| format!("cannot read the scene in {}", scene.dir.display()))?;
+    Ok(format!("{name}-{crc:08x}"))
 }
 
 /// The reference of the scene whose [`reference_key`] is `key`:
@@ -240,7 +237,7 @@ fn reference(state: &RenderState, settings: &RenderSettings, path: &Path) -> Res
 /// The RGB pixels of the EXR at `path` when it exists, holds 3 channels and
 /// has this `resolution`; None otherwise.
 pub(super) fn read_rgb(path: &Path, resolution: UVec2) -> Option<Vec<f32>> {
-    let image = read_image(path, crate::scene::ColorSpace::Raw).ok()?;
+    let image = read_image(path, cirrus::scene::ColorSpace::Raw).ok()?;
     (image.channels == 3 && UVec2::new(image.width, image.height) == resolution)
         .then_some(image.pixels)
 }
@@ -397,7 +394,7 @@ pub(super) fn write_chart(
 ) -> Result<()> {
     let svg = svg_chart(title, x_axis, metric, curves)
         .map_err(|e| anyhow::anyhow!("cannot draw chart {}: {e}", path.display()))?;
-    crate::output::atomic::write_file(path, svg.as_bytes())
+    cirrus::output::atomic::write_file(path, svg.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
@@ -491,8 +488,8 @@ mod tests {
     use std::time::Duration;
 
     use super::*;
-    use crate::integrator::RayCounts;
-    use crate::volumes::TrackingStats;
+    use cirrus::integrator::RayCounts;
+    use cirrus::volumes::TrackingStats;
 
     fn rung(seconds: f64, error: f64) -> Rung {
         Rung {

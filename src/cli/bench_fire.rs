@@ -18,8 +18,8 @@ use super::bench_equal_time::{
     median_errors, reference_key, scene_name, spp_per_second, write_scene_charts, EqualTimeBench,
     ErrorMetric, Rung,
 };
-use crate::integrator::Budget;
-use crate::render_state::{RenderState, StateOptions};
+use cirrus::integrator::Budget;
+use cirrus::render_state::{RenderState, StateOptions};
 
 /// One way of rendering one scene, measured.
 struct Measurement {

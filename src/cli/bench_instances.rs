@@ -16,8 +16,8 @@ use std::time::Instant;
 use anyhow::{bail, ensure, Context, Result};
 
 use super::bench::{machine_line, median};
-use crate::geometry::Geometry;
-use crate::scene::Scene;
+use cirrus::geometry::Geometry;
+use cirrus::scene::Scene;
 
 /// Issue 3's target for load plus TLAS build at 1M instances, in seconds.
 const TARGET_SECONDS: f64 = 3.0;
@@ -133,7 +133,7 @@ fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Re
     generate(&stage, instances, triangles)?;
     let scene_dir = dir.join(format!("stress_{instances}"));
     let start = Instant::now();
-    crate::scene::export(&stage, &scene_dir, None)?;
+    cirrus::scene::export(&stage, &scene_dir, None)?;
     let export_s = start.elapsed().as_secs_f64();
 
     let [after_load, after_build, peak] = memory_in_child(&scene_dir)?;
@@ -177,7 +177,7 @@ fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
 /// Runs `scenes/make_instancing_stress.py` under the `.venv` of the checkout
 /// named by `$CIRRUS_HOME` (else the one this binary was built from).
 fn generate(stage: &Path, instances: usize, triangles: usize) -> Result<()> {
-    let root = crate::scene::repo_root();
+    let root = cirrus::scene::repo_root();
     let script = root.join("scenes/make_instancing_stress.py");
     let out = Command::new(root.join(".venv/bin/python"))
         .arg(&script)

@@ -16,11 +16,11 @@ use super::bench_equal_time::{
     median_errors, reference_key, render, scene_name, spp_per_second, write_chart, EqualTimeBench,
     ErrorMetric, Rung, TIME_AXIS,
 };
-use crate::integrator::{
+use cirrus::integrator::{
     Budget, PathSettings, RenderSettings, RenderStats, Strategy, DEFAULT_MAX_DEPTH,
 };
-use crate::render_state::{RenderState, StateOptions};
-use crate::sampling::SamplerKind;
+use cirrus::render_state::{RenderState, StateOptions};
+use cirrus::sampling::SamplerKind;
 
 /// The estimator and sampler pairs compared at equal time.
 const METHODS: [(Strategy, SamplerKind); 6] = [

@@ -21,10 +21,10 @@ use super::bench_equal_time::{
     median_errors, reference_key, scene_name, spp_per_second, write_scene_charts, EqualTimeBench,
     ErrorMetric, Rung,
 };
-use crate::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
-use crate::render_state::{RenderState, StateOptions};
-use crate::scene::Scene;
-use crate::volumes::{MajorantKind, TrackingStats, VdbFile};
+use cirrus::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
+use cirrus::render_state::{RenderState, StateOptions};
+use cirrus::scene::Scene;
+use cirrus::volumes::{MajorantKind, TrackingStats, VdbFile};
 
 /// The targets: global / grid density lookups per camera ray at
 /// least this, ...

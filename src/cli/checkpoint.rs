@@ -15,12 +15,12 @@ use serde::{Deserialize, Serialize};
 use super::film_output::AovFiles;
 use super::film_output::ExrHeader;
 use super::split::PartInfo;
-use crate::integrator::{Budget, FilmState, RenderProgress, RenderSettings};
-use crate::output::aov::AovSet;
-use crate::output::film::Film;
-use crate::output::film_state::{read_film_state, write_film_state};
-use crate::render_state::StateOptions;
-use crate::scene::{Scene, MANIFEST_FILE};
+use cirrus::integrator::{Budget, FilmState, RenderProgress, RenderSettings};
+use cirrus::output::aov::AovSet;
+use cirrus::output::film::Film;
+use cirrus::output::film_state::{read_film_state, write_film_state};
+use cirrus::render_state::StateOptions;
+use cirrus::scene::{Scene, MANIFEST_FILE};
 
 /// The files a render of `-o OUT.exr` writes.
 pub(super) struct OutputFiles {
@@ -175,16 +175,12 @@ impl Fingerprint {
     }
 }
 
-/// CRC-32 of `scene.json` and `scene.bin` together, as hex (the blob from
-/// memory: it was read once at load).
+/// [`Scene::content_crc`] as hex.
 fn scene_hash(scene: &Scene) -> Result<String> {
-    let path = scene.dir.join(MANIFEST_FILE);
-    let manifest =
-        std::fs::read(&path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut crc = crc32fast::Hasher::new();
-    crc.update(&manifest);
-    crc.update(scene.blob_bytes());
-    Ok(format!("{:08x}", crc.finalize()))
+    let crc = scene
+        .content_crc()
+        .with_context(|| format!("cannot read {}", scene.dir.join(MANIFEST_FILE).display()))?;
+    Ok(format!("{crc:08x}"))
 }
 
 /// The VDB and texture files the scene reads: their count and a CRC-32 of

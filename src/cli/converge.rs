@@ -37,10 +37,10 @@ use super::bench_equal_time::{
     base_settings, cached_reference, error_at_time, read_rgb, reference_key, reference_path,
     render, scene_name, write_chart, ChartAxis, ErrorMetric, REFERENCE_SEED, TIME_AXIS,
 };
-use crate::integrator::{Budget, RenderSettings, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH};
-use crate::render_state::{RenderState, StateOptions};
-use crate::sampling::SamplerKind;
-use crate::volumes::MajorantKind;
+use cirrus::integrator::{Budget, RenderSettings, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH};
+use cirrus::render_state::{RenderState, StateOptions};
+use cirrus::sampling::SamplerKind;
+use cirrus::volumes::MajorantKind;
 
 /// `cirrus converge` arguments.
 #[derive(clap::Args, Debug)]
@@ -148,7 +148,7 @@ impl Method {
 
     /// Whether the method differs from `default` on this scene: volume
     /// methods need volumes, and `no-equiangular` also a light that
-    /// equiangular sampling targets ([`crate::lights::Lights::has_equiangular_target`]).
+    /// equiangular sampling targets ([`cirrus::lights::Lights::has_equiangular_target`]).
     fn applies_to(self, state: &RenderState) -> bool {
         let volumes = !state.media.is_empty();
         match self {
@@ -560,7 +560,7 @@ impl Study<'_> {
 /// folder of the scene.json given).
 fn exported_folder(path: &Path) -> Result<PathBuf> {
     if super::is_usd(path) {
-        Ok(crate::scene::export_cached(path, None)?.dir)
+        Ok(cirrus::scene::export_cached(path, None)?.dir)
     } else if path.is_dir() {
         Ok(path.to_owned())
     } else {
@@ -626,7 +626,7 @@ fn converge_peer(
 
 /// scenes/peers/render_peer.py in the project's `.venv`.
 fn render_peer_command() -> std::process::Command {
-    let root = crate::scene::repo_root();
+    let root = cirrus::scene::repo_root();
     let mut command = std::process::Command::new(root.join(".venv/bin/python"));
     command.arg(root.join("scenes/peers/render_peer.py"));
     command
@@ -748,7 +748,7 @@ fn write_csvs(out: &Path, rows: &[Row], summaries: &[Summary]) -> Result<()> {
     ];
     for (file, text) in files {
         let path = out.join(file);
-        crate::output::atomic::write_file(&path, text.as_bytes())
+        cirrus::output::atomic::write_file(&path, text.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
         println!("Wrote {}", path.display());
     }
@@ -935,7 +935,7 @@ fn write_equal_time(out: &Path, machine: &str, rows: &[EqualTime]) -> Result<()>
         ));
     }
     let path = out.join("equal_time.md");
-    crate::output::atomic::write_file(&path, text.as_bytes())
+    cirrus::output::atomic::write_file(&path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;
     println!("{text}\nWrote {}", path.display());
     Ok(())

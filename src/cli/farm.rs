@@ -166,7 +166,7 @@ fn submit(args: SubmitArgs) -> Result<()> {
     for &frame in &frames {
         let scene = dir.join("scenes").join(label(frame));
         if super::is_usd(&args.scene) {
-            crate::scene::export(&args.scene, &scene, frame.map(|f| f as f64))?;
+            cirrus::scene::export(&args.scene, &scene, frame.map(|f| f as f64))?;
         } else if frame.is_some() {
             bail!(
                 "--frames needs a USD scene; {} is exported",
@@ -251,7 +251,7 @@ exit "$code"
     let parts_path = dir.join("parts.sbatch");
     let merge_path = dir.join("merge.sbatch");
     for (path, text) in [(&parts_path, &parts_script), (&merge_path, &merge_script)] {
-        crate::output::atomic::write_file(path, text.as_bytes())
+        cirrus::output::atomic::write_file(path, text.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
     let tasks = frames.len() as u32 * n;

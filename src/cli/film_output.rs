@@ -9,13 +9,13 @@ use anyhow::Result;
 use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
-use crate::integrator::{RenderSettings, RenderStats};
-use crate::output::aov::{Aov, AovSet};
-use crate::output::cryptomatte::CryptoLayer;
-use crate::output::film::{Film, Layer};
-use crate::output::{write_exr, Channel, Compression, ExrImage, PixelType};
-use crate::render_state::RenderState;
-use crate::scene::Scene;
+use cirrus::integrator::{RenderSettings, RenderStats};
+use cirrus::output::aov::{Aov, AovSet};
+use cirrus::output::cryptomatte::CryptoLayer;
+use cirrus::output::film::{Film, Layer};
+use cirrus::output::{write_exr, Channel, Compression, ExrImage, PixelType};
+use cirrus::render_state::RenderState;
+use cirrus::scene::Scene;
 
 /// How AOVs are split over files (`--aov-files`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]

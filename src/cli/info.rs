@@ -7,8 +7,8 @@ use std::path::Path;
 
 use anyhow::Result;
 
-use crate::scene::{self, Scene};
-use crate::volumes::{GridInfo, VdbFile};
+use cirrus::scene::{self, Scene};
+use cirrus::volumes::{GridInfo, VdbFile};
 
 pub fn run(file: &Path) -> Result<()> {
     let is_scene = file.is_dir() || file.file_name().is_some_and(|n| n == scene::MANIFEST_FILE);

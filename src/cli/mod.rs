@@ -23,7 +23,7 @@ use std::process::ExitCode;
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
-use crate::scene::Scene;
+use cirrus::scene::Scene;
 
 /// Cirrus: a production path tracer for USD scenes and OpenVDB volumes.
 #[derive(Parser, Debug)]
@@ -123,7 +123,7 @@ fn is_usd(path: &Path) -> bool {
 /// from an exported folder or its scene.json.
 fn load_scene(path: &Path, frame: Option<f64>) -> Result<Scene> {
     if is_usd(path) {
-        let export = crate::scene::export_cached(path, frame)?;
+        let export = cirrus::scene::export_cached(path, frame)?;
         let scene = Scene::load(&export.dir)?;
         if export.reused {
             // The exporter printed these when it ran; a user must see them every time.
@@ -146,7 +146,7 @@ fn load_scene(path: &Path, frame: Option<f64>) -> Result<Scene> {
 /// `cirrus export`: runs the exporter, then loads the result so a scene that
 /// the renderer would refuse is reported now rather than at render time.
 fn export(input: &Path, output: &Path, frame: Option<f64>) -> Result<()> {
-    crate::scene::export(input, output, frame)?;
+    cirrus::scene::export(input, output, frame)?;
     let scene = Scene::load(output)?;
     let m = &scene.manifest;
     println!(

@@ -15,18 +15,18 @@ use indicatif::{ProgressBar, ProgressStyle};
 use super::checkpoint::{self, Fingerprint, Interrupted, OutputFiles, RenderIdentity, StopSignal};
 use super::film_output::{write_film, AovFiles, ExrHeader};
 use super::split::{self, PartArgs, PartInfo};
-use crate::integrator::{
+use cirrus::integrator::{
     self, Budget, Checkpointing, FilmState, PathSettings, RenderControl, RenderSettings,
     RenderStats, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH,
 };
-use crate::memory;
-use crate::output::aov::AovSet;
-use crate::output::film::Film;
-use crate::output::filter::FilterKind;
-use crate::output::{write_preview, Compression};
-use crate::render_state::{self, RenderState, StateOptions};
-use crate::sampling::SamplerKind;
-use crate::volumes::MajorantKind;
+use cirrus::memory;
+use cirrus::output::aov::AovSet;
+use cirrus::output::film::Film;
+use cirrus::output::filter::FilterKind;
+use cirrus::output::{write_preview, Compression};
+use cirrus::render_state::{self, RenderState, StateOptions};
+use cirrus::sampling::SamplerKind;
+use cirrus::volumes::MajorantKind;
 
 /// Samples per pixel when neither `--spp` nor `--time` is given.
 const DEFAULT_SPP: u32 = 64;

@@ -16,10 +16,10 @@ use serde::{Deserialize, Serialize};
 
 use super::checkpoint::{self, FilmStateHeader, OutputFiles};
 use super::film_output::{write_film, AovFiles};
-use crate::integrator::{RayCounts, RenderStats};
-use crate::output::film::{Film, Tile};
-use crate::output::{write_preview, Compression};
-use crate::volumes::TrackingStats;
+use cirrus::integrator::{RayCounts, RenderStats};
+use cirrus::output::film::{Film, Tile};
+use cirrus::output::{write_preview, Compression};
+use cirrus::volumes::TrackingStats;
 
 /// Which part of a frame `cirrus render` takes (all of it by default).
 #[derive(clap::Args, Debug, Default)]

@@ -119,7 +119,7 @@ fn exporter_sources() -> Vec<Vec<u8>> {
 
 /// The Cirrus checkout holding `.venv` and `scenes/`: `$CIRRUS_HOME`, else the
 /// source folder this binary was built from.
-pub(crate) fn repo_root() -> PathBuf {
+pub fn repo_root() -> PathBuf {
     std::env::var_os("CIRRUS_HOME")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))

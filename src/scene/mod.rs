@@ -20,7 +20,7 @@ mod load;
 
 use std::path::{Path, PathBuf};
 
-pub(crate) use export::repo_root;
+pub use export::repo_root;
 pub use export::{export, export_cached, CachedExport, ExportError};
 pub use format::{
     affine, Array, Bounds, Camera, Channel, ColorSpace, Element, Input, Instances, Light,
@@ -69,9 +69,14 @@ impl Scene {
         self.blob.view(array)
     }
 
-    /// All of `scene.bin` as loaded (for content fingerprints).
-    pub(crate) fn blob_bytes(&self) -> &[u8] {
-        self.blob.bytes()
+    /// CRC-32 of `scene.json` and `scene.bin` together: a fingerprint of the
+    /// exported contents (the blob from memory: it was read once at load).
+    pub fn content_crc(&self) -> std::io::Result<u32> {
+        let manifest = std::fs::read(self.dir.join(MANIFEST_FILE))?;
+        let mut crc = crc32fast::Hasher::new();
+        crc.update(&manifest);
+        crc.update(self.blob.bytes());
+        Ok(crc.finalize())
     }
 
     /// Bulk bytes by kind: meshes grow with unique geometry, instances by 60
