@@ -6,6 +6,7 @@
 //! mounted privately by `volumes::vdb` and `output::exr`.
 
 pub mod camera;
+pub mod choice;
 pub mod color;
 pub mod geometry;
 pub mod integrator;

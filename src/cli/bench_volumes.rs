@@ -13,9 +13,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
-use clap::ValueEnum;
+use cirrus::choice::Choice;
 
-use super::bench::{median, value_name};
+use super::bench::median;
 use super::bench_equal_time::{
     base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
     median_errors, reference_key, scene_name, spp_per_second, write_scene_charts, EqualTimeBench,
@@ -56,7 +56,7 @@ struct Measurement {
 impl Measurement {
     /// The estimator's name, marked when equiangular sampling is off.
     fn method(&self) -> String {
-        let name = value_name(self.estimator);
+        let name = self.estimator.to_string();
         if self.equiangular {
             name
         } else {
@@ -95,7 +95,7 @@ pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
         let reference = cached_reference(&grid, &bench.out, &key, bench.reference_spp)?;
         let mut measurements = Vec::new();
         for (majorant, state) in [(MajorantKind::Grid, &grid), (MajorantKind::Global, &global)] {
-            for &estimator in VolumeEstimator::value_variants() {
+            for &(estimator, _) in VolumeEstimator::NAMES {
                 let method = (estimator, true);
                 measurements.push(measure(state, bench, &reference, majorant, method));
             }
@@ -209,7 +209,7 @@ fn print_measurements(bench: &EqualTimeBench, measurements: &[Measurement]) {
     for m in measurements {
         println!(
             "| {} | {} | {:.1} | {:.1} | {:.1}% | {} |{}",
-            value_name(m.majorant),
+            m.majorant.to_string(),
             m.method(),
             m.spp,
             m.lookups_per_camera_ray(),
@@ -230,7 +230,7 @@ fn print_ratios(bench: &EqualTimeBench, measurements: &[Measurement]) {
         errors_header.replace(" relMSE", " relMSE global / grid"),
         100.0 * NULL_SHARE_TARGET
     );
-    for &estimator in VolumeEstimator::value_variants() {
+    for &(estimator, _) in VolumeEstimator::NAMES {
         let find = |majorant| {
             measurements
                 .iter()
@@ -249,7 +249,7 @@ fn print_ratios(bench: &EqualTimeBench, measurements: &[Measurement]) {
         let mark = |met: bool| if met { "met" } else { "MISSED" };
         println!(
             "| {} | {lookups:.2} |{} {:.1}% | lookups {}, relMSE {}, null {} |",
-            value_name(estimator),
+            estimator.to_string(),
             errors
                 .iter()
                 .map(|r| format!(" {r:.2} |"))
@@ -269,7 +269,7 @@ fn curves(measurements: &[Measurement]) -> Vec<(String, Vec<(f64, f64)>)> {
         .iter()
         .map(|m| {
             (
-                format!("{} + {}", value_name(m.majorant), m.method()),
+                format!("{} + {}", m.majorant.to_string(), m.method()),
                 m.curve.clone(),
             )
         })

@@ -126,10 +126,10 @@ impl Method {
     fn name(self) -> String {
         match self {
             Self::Default => "default".into(),
-            Self::Sampler(s) => format!("sampler-{}", value_name(s)),
-            Self::Strategy(s) => format!("strategy-{}", value_name(s)),
-            Self::Majorant(m) => format!("majorant-{}", value_name(m)),
-            Self::Estimator(e) => format!("estimator-{}", value_name(e)),
+            Self::Sampler(s) => format!("sampler-{s}"),
+            Self::Strategy(s) => format!("strategy-{s}"),
+            Self::Majorant(m) => format!("majorant-{m}"),
+            Self::Estimator(e) => format!("estimator-{e}"),
             Self::NoEquiangular => "no-equiangular".into(),
         }
     }
@@ -138,10 +138,10 @@ impl Method {
     fn flag(self) -> String {
         match self {
             Self::Default => String::new(),
-            Self::Sampler(s) => format!("--sampler {}", value_name(s)),
-            Self::Strategy(s) => format!("--strategy {}", value_name(s)),
-            Self::Majorant(m) => format!("--majorant {}", value_name(m)),
-            Self::Estimator(e) => format!("--volume-estimator {}", value_name(e)),
+            Self::Sampler(s) => format!("--sampler {s}"),
+            Self::Strategy(s) => format!("--strategy {s}"),
+            Self::Majorant(m) => format!("--majorant {m}"),
+            Self::Estimator(e) => format!("--volume-estimator {e}"),
             Self::NoEquiangular => "--no-equiangular".into(),
         }
     }

@@ -21,8 +21,10 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Result;
+use clap::builder::TypedValueParser as _;
 use clap::{Parser, Subcommand};
 
+use cirrus::choice::Choice;
 use cirrus::scene::Scene;
 
 /// Cirrus: a production path tracer for USD scenes and OpenVDB volumes.
@@ -106,6 +108,13 @@ pub fn run() -> ExitCode {
             }
         },
     }
+}
+
+/// A clap value parser offering `T`'s names (one table per enum, in the
+/// library: [`Choice`]), so the library's types carry no parser.
+fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Value = T> {
+    clap::builder::PossibleValuesParser::new(T::NAMES.iter().map(|&(_, name)| name))
+        .map(|name| T::from_name(&name).expect("only offered names reach here"))
 }
 
 /// USD file extensions: such inputs are exported (through the cache) first.

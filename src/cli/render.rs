@@ -55,10 +55,10 @@ pub struct RenderArgs {
     #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
     threads: Option<u16>,
     /// Sample sequence.
-    #[arg(long, value_enum, default_value_t = SamplerKind::Sobol)]
+    #[arg(long, value_parser = super::choice::<SamplerKind>(), default_value_t = SamplerKind::Sobol)]
     sampler: SamplerKind,
     /// Light transport estimator: MIS of light and BSDF sampling, or one alone.
-    #[arg(long, value_enum, default_value_t)]
+    #[arg(long, value_parser = super::choice::<Strategy>(), default_value_t)]
     strategy: Strategy,
     /// Most bounces per path. The default is a safety cap far beyond what
     /// Russian roulette lets through (unbiased in practice); a lower cap
@@ -69,14 +69,14 @@ pub struct RenderArgs {
     #[arg(long)]
     clamp: Option<f32>,
     /// Pixel filter.
-    #[arg(long, value_enum, default_value_t)]
+    #[arg(long, value_parser = super::choice::<FilterKind>(), default_value_t)]
     filter: FilterKind,
     /// Majorants of volume extinction: per 8^3-voxel cell (grid) or one per volume (global).
-    #[arg(long, value_enum, default_value_t = MajorantKind::Grid)]
+    #[arg(long, value_parser = super::choice::<MajorantKind>(), default_value_t = MajorantKind::Grid)]
     majorant: MajorantKind,
     /// Volume estimator: null-scattering MIS (default) or directional MIS
     /// with ratio, residual-ratio or track-length shadow transmittance.
-    #[arg(long, value_enum, default_value_t = VolumeEstimator::NullScatteringMis)]
+    #[arg(long, value_parser = super::choice::<VolumeEstimator>(), default_value_t = VolumeEstimator::NullScatteringMis)]
     volume_estimator: VolumeEstimator,
     /// Turn off equiangular sampling of sphere and point lights in media.
     #[arg(long)]
@@ -97,7 +97,7 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t)]
     aov_files: AovFiles,
     /// EXR compression.
-    #[arg(long, value_enum, default_value_t)]
+    #[arg(long, value_parser = super::choice::<Compression>(), default_value_t)]
     compression: Compression,
     /// USD time code to export (USD input only).
     #[arg(long)]

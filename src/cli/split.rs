@@ -147,7 +147,7 @@ pub struct MergeArgs {
     #[arg(long, value_enum, default_value_t)]
     aov_files: AovFiles,
     /// EXR compression.
-    #[arg(long, value_enum, default_value_t)]
+    #[arg(long, value_parser = super::choice::<Compression>(), default_value_t)]
     compression: Compression,
     /// Overwrite existing outputs.
     #[arg(long)]

@@ -30,7 +30,7 @@ use progress::{next_pass_end, TILE_SIZE};
 pub use progress::{Checkpointing, FilmState, RenderControl, RenderProgress};
 
 /// How light is found, for comparing the estimators (`--strategy`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Strategy {
     /// Light sampling and BSDF sampling combined by the power heuristic (the default).
     #[default]
@@ -42,6 +42,12 @@ pub enum Strategy {
     /// sampling counts only after the camera or a Dirac lobe.
     Nee,
 }
+
+crate::choice::choice!(Strategy {
+    Mis => "mis",
+    Bsdf => "bsdf",
+    Nee => "nee",
+});
 
 /// The default `--max-depth`: a safety cap far beyond what Russian roulette
 /// lets paths reach (survival at most 0.95 per bounce from the third: one
@@ -71,7 +77,7 @@ pub struct PathSettings {
 /// Every one samples free flights by delta tracking; they differ in how
 /// shadow rays estimate transmittance and how light and phase sampling are
 /// weighted against each other.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum VolumeEstimator {
     /// Null-scattering path MIS (Miller, Georgiev & Jarosz 2019; pbrt-v4's
     /// `VolPathIntegrator`): ratio tracking on shadow rays, and MIS weights
@@ -89,6 +95,13 @@ pub enum VolumeEstimator {
     /// al. 2018, §4.1), MIS on directions only.
     TrackLength,
 }
+
+crate::choice::choice!(VolumeEstimator {
+    NullScatteringMis => "null-scattering-mis",
+    Ratio => "ratio",
+    ResidualRatio => "residual-ratio",
+    TrackLength => "track-length",
+});
 
 impl VolumeEstimator {
     /// The shadow-ray transmittance estimator this uses.

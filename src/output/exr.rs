@@ -46,7 +46,7 @@ pub enum PixelType {
 
 /// OpenEXR compression. Zip is lossless and Nuke's usual default; Piz suits
 /// noisy images; Dwaa is lossy and small.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Compression {
     /// Uncompressed.
     None,
@@ -58,6 +58,13 @@ pub enum Compression {
     /// Lossy DCT (DreamWorks), smallest files.
     Dwaa,
 }
+
+crate::choice::choice!(Compression {
+    None => "none",
+    Zip => "zip",
+    Piz => "piz",
+    Dwaa => "dwaa",
+});
 
 impl Compression {
     fn oiio_name(self) -> &'static str {

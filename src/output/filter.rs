@@ -11,7 +11,7 @@ use glam::Vec2;
 use crate::sampling::Distribution1D;
 
 /// The pixel filter chosen on the command line.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum FilterKind {
     /// Box of one pixel: each sample lands uniformly inside its pixel.
     Box,
@@ -20,6 +20,11 @@ pub enum FilterKind {
     #[default]
     BlackmanHarris,
 }
+
+crate::choice::choice!(FilterKind {
+    Box => "box",
+    BlackmanHarris => "blackman-harris",
+});
 
 /// Radius of the Blackman-Harris filter, pixels.
 const BLACKMAN_HARRIS_RADIUS: f32 = 1.5;

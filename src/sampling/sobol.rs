@@ -23,13 +23,18 @@ use glam::{UVec2, Vec2};
 use super::Pcg32;
 
 /// Which sequence a [`Sampler`] draws.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SamplerKind {
     /// Owen-scrambled Sobol, decorrelated per pixel and per dimension.
     Sobol,
     /// Independent uniform random numbers (for comparison).
     Independent,
 }
+
+crate::choice::choice!(SamplerKind {
+    Sobol => "sobol",
+    Independent => "independent",
+});
 
 /// A sample generator for one pixel sample at a time; cheap to clone, one per
 /// thread. Call [`Sampler::start_pixel_sample`] before drawing.

@@ -74,7 +74,7 @@ pub(crate) struct OccupiedCell {
 
 /// How finely majorants follow the density: per 8^3 block, or one bound for
 /// the whole grid (the baseline, `--majorant global`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum MajorantKind {
     /// One cell per 8^3 voxels (OpenVDB leaf), empty cells skipped.
     #[default]
@@ -82,6 +82,11 @@ pub enum MajorantKind {
     /// A single cell over the grid's whole bounds.
     Global,
 }
+
+crate::choice::choice!(MajorantKind {
+    Grid => "grid",
+    Global => "global",
+});
 
 /// Max and min density over the trilinear footprint of one cell.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -64,7 +64,7 @@ impl TrackingStats {
 
 /// How [`transmittance`] estimates `T = exp(-∫ sigma_t dt)`; the
 /// `--volume-estimator` choice for shadow rays.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TransmittanceEstimator {
     /// Track-length estimation: delta tracking, 1 if the ray leaves the
     /// segments without a real collision, else 0 (Novák et al. 2018, §4.1;
@@ -79,6 +79,12 @@ pub enum TransmittanceEstimator {
     /// (Novák et al. 2014, §4).
     ResidualRatio,
 }
+
+crate::choice::choice!(TransmittanceEstimator {
+    TrackLength => "track-length",
+    Ratio => "ratio",
+    ResidualRatio => "residual-ratio",
+});
 
 /// Walks the tentative collisions of a Poisson process of rate `sigma_maj`
 /// over `segments`, front to back, calling `visit(t, sigma_maj, rng)` at
