@@ -209,7 +209,7 @@ fn print_measurements(bench: &EqualTimeBench, measurements: &[Measurement]) {
     for m in measurements {
         println!(
             "| {} | {} | {:.1} | {:.1} | {:.1}% | {} |{}",
-            m.majorant.to_string(),
+            m.majorant,
             m.method(),
             m.spp,
             m.lookups_per_camera_ray(),
@@ -249,7 +249,7 @@ fn print_ratios(bench: &EqualTimeBench, measurements: &[Measurement]) {
         let mark = |met: bool| if met { "met" } else { "MISSED" };
         println!(
             "| {} | {lookups:.2} |{} {:.1}% | lookups {}, relMSE {}, null {} |",
-            estimator.to_string(),
+            estimator,
             errors
                 .iter()
                 .map(|r| format!(" {r:.2} |"))
@@ -269,7 +269,7 @@ fn curves(measurements: &[Measurement]) -> Vec<(String, Vec<(f64, f64)>)> {
         .iter()
         .map(|m| {
             (
-                format!("{} + {}", m.majorant.to_string(), m.method()),
+                format!("{} + {}", m.majorant, m.method()),
                 m.curve.clone(),
             )
         })
