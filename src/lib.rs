@@ -8,7 +8,10 @@
 pub mod camera;
 pub mod choice;
 pub mod color;
+pub mod film;
 pub mod geometry;
+pub mod host;
+pub mod image;
 pub mod integrator;
 pub mod lights;
 pub mod materials;

@@ -63,6 +63,17 @@ pub struct RenderState {
     pub resolution: UVec2,
     /// The choices it was built with.
     pub options: StateOptions,
+    /// The prim paths of the ids the film stores.
+    pub id_names: IdNames,
+}
+
+/// The prim paths the film's Cryptomatte ids stand for.
+#[derive(Clone, Debug, Default)]
+pub struct IdNames {
+    /// Mesh prim paths, indexed like the meshes (CryptoObject).
+    pub objects: Vec<String>,
+    /// Material prim paths, indexed like the materials (CryptoMaterial).
+    pub materials: Vec<String>,
 }
 
 /// Why a scene cannot be rendered.
@@ -101,6 +112,11 @@ impl RenderState {
         let lights = Lights::build(scene, &materials, &media, options.volume_lights)?;
         let geometry = Geometry::build(scene);
         let camera = Camera::new(&scene.manifest.camera, resolution)?;
+        let m = &scene.manifest;
+        let id_names = IdNames {
+            objects: m.meshes.iter().map(|x| x.path.clone()).collect(),
+            materials: m.materials.iter().map(|x| x.path.clone()).collect(),
+        };
         Ok(Self {
             geometry,
             materials,
@@ -109,6 +125,7 @@ impl RenderState {
             media,
             resolution,
             options,
+            id_names,
         })
     }
 }

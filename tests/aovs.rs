@@ -21,7 +21,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use cirrus::output::cryptomatte::{layer_key, name_to_id};
+use cirrus::film::{layer_key, name_to_id};
 use exr::meta::attribute::AttributeValue;
 use exr::prelude::{read_all_flat_layers_from_file, FlatSamples};
 use glam::{Mat3, Vec3};

@@ -10,11 +10,10 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::Command;
 
-use cirrus::output::contact_sheet::write_contact_sheet;
-use cirrus::output::{
-    read_exr, read_image, write_exr, write_preview, Channel, ChannelFormat, Compression, ExrImage,
-    PixelType,
+use cirrus::image::{
+    read_exr, read_image, write_exr, Channel, ChannelFormat, Compression, ExrImage, PixelType,
 };
+use cirrus::output::{write_contact_sheet, write_preview};
 use cirrus::scene::ColorSpace;
 
 const WIDTH: u32 = 32;

@@ -6,9 +6,7 @@ mod common;
 
 use std::path::Path;
 
-use cirrus::output::{
-    read_image, write_exr, Channel, Compression, ExrImage, ImageError, PixelType,
-};
+use cirrus::image::{read_image, write_exr, Channel, Compression, ExrImage, ImageError, PixelType};
 use cirrus::scene::ColorSpace;
 use exr::prelude::{f16, read_all_flat_layers_from_file, FlatSamples};
 use serde_json::Value;

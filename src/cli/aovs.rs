@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 
-use cirrus::output::contact_sheet::{write_contact_sheet, ContactSheet};
-use cirrus::output::{read_exr, ChannelFormat, ExrChannels, StoredChannel};
+use cirrus::image::{read_exr, ChannelFormat, ExrChannels, StoredChannel};
+use cirrus::output::{write_contact_sheet, ContactSheet};
 
 /// `cirrus aovs` arguments.
 #[derive(clap::Args, Debug)]

@@ -10,11 +10,11 @@ use anyhow::Result;
 use glam::UVec2;
 
 use super::bench::{machine_line, median};
-use super::film_output::{write_film, AovFiles, ExrHeader};
+use cirrus::film::AovSet;
+use cirrus::film::FilterKind;
+use cirrus::image::Compression;
 use cirrus::integrator::{self, Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
-use cirrus::output::aov::AovSet;
-use cirrus::output::filter::FilterKind;
-use cirrus::output::Compression;
+use cirrus::output::{write_film, AovFiles, ExrHeader};
 use cirrus::render_state::{RenderState, StateOptions};
 use cirrus::sampling::SamplerKind;
 
@@ -70,7 +70,7 @@ pub fn run(bench: &AovsBench) -> Result<()> {
                     let exr = bench
                         .out
                         .join(format!("{name}-{}.exr", ["beauty", "default"][i]));
-                    let header = ExrHeader::new(&state, &settings, Some(&scene));
+                    let header = ExrHeader::new(&state, &settings);
                     let start = Instant::now();
                     write_film(
                         &exr,

@@ -12,13 +12,13 @@ use anyhow::{Context, Result};
 use glam::UVec2;
 
 use super::bench::median;
+use cirrus::film::AovSet;
+use cirrus::film::FilterKind;
+use cirrus::image::read_image;
 use cirrus::integrator::{
     self, Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
     DEFAULT_MAX_DEPTH,
 };
-use cirrus::output::aov::AovSet;
-use cirrus::output::filter::FilterKind;
-use cirrus::output::read_image;
 use cirrus::render_state::RenderState;
 use cirrus::sampling::SamplerKind;
 use cirrus::scene::Scene;
@@ -229,8 +229,8 @@ fn reference(state: &RenderState, settings: &RenderSettings, path: &Path) -> Res
         path.display(),
         stats.elapsed.as_secs_f64()
     );
-    let header = super::film_output::ExrHeader::new(state, settings, None);
-    super::film_output::write_beauty(path, state.resolution, &rgb, &header, &stats)?;
+    let header = cirrus::output::ExrHeader::new(state, settings);
+    cirrus::output::write_beauty(path, state.resolution, &rgb, &header, &stats)?;
     Ok(rgb)
 }
 
@@ -394,7 +394,7 @@ pub(super) fn write_chart(
 ) -> Result<()> {
     let svg = svg_chart(title, x_axis, metric, curves)
         .map_err(|e| anyhow::anyhow!("cannot draw chart {}: {e}", path.display()))?;
-    cirrus::output::atomic::write_file(path, svg.as_bytes())
+    cirrus::image::write_file(path, svg.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))
 }
 

@@ -267,12 +267,7 @@ fn print_ratios(bench: &EqualTimeBench, measurements: &[Measurement]) {
 fn curves(measurements: &[Measurement]) -> Vec<(String, Vec<(f64, f64)>)> {
     measurements
         .iter()
-        .map(|m| {
-            (
-                format!("{} + {}", m.majorant, m.method()),
-                m.curve.clone(),
-            )
-        })
+        .map(|m| (format!("{} + {}", m.majorant, m.method()), m.curve.clone()))
         .collect()
 }
 

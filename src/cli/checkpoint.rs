@@ -12,13 +12,12 @@ use anyhow::{bail, Context, Result};
 use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
-use super::film_output::AovFiles;
-use super::film_output::ExrHeader;
 use super::split::PartInfo;
+use cirrus::film::AovSet;
+use cirrus::film::Film;
+use cirrus::film::{read_film_state, write_film_state};
 use cirrus::integrator::{Budget, FilmState, RenderProgress, RenderSettings};
-use cirrus::output::aov::AovSet;
-use cirrus::output::film::Film;
-use cirrus::output::film_state::{read_film_state, write_film_state};
+use cirrus::output::{AovFiles, ExrHeader};
 use cirrus::render_state::StateOptions;
 use cirrus::scene::{Scene, MANIFEST_FILE};
 

@@ -748,7 +748,7 @@ fn write_csvs(out: &Path, rows: &[Row], summaries: &[Summary]) -> Result<()> {
     ];
     for (file, text) in files {
         let path = out.join(file);
-        cirrus::output::atomic::write_file(&path, text.as_bytes())
+        cirrus::image::write_file(&path, text.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
         println!("Wrote {}", path.display());
     }
@@ -935,7 +935,7 @@ fn write_equal_time(out: &Path, machine: &str, rows: &[EqualTime]) -> Result<()>
         ));
     }
     let path = out.join("equal_time.md");
-    cirrus::output::atomic::write_file(&path, text.as_bytes())
+    cirrus::image::write_file(&path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;
     println!("{text}\nWrote {}", path.display());
     Ok(())

@@ -251,7 +251,7 @@ exit "$code"
     let parts_path = dir.join("parts.sbatch");
     let merge_path = dir.join("merge.sbatch");
     for (path, text) in [(&parts_path, &parts_script), (&merge_path, &merge_script)] {
-        cirrus::output::atomic::write_file(path, text.as_bytes())
+        cirrus::image::write_file(path, text.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
     let tasks = frames.len() as u32 * n;

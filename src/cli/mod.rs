@@ -12,7 +12,6 @@ mod bench_volumes;
 mod checkpoint;
 mod converge;
 mod farm;
-mod film_output;
 mod info;
 mod render;
 mod split;

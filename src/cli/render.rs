@@ -13,17 +13,18 @@ use glam::UVec2;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::checkpoint::{self, Fingerprint, Interrupted, OutputFiles, RenderIdentity, StopSignal};
-use super::film_output::{write_film, AovFiles, ExrHeader};
 use super::split::{self, PartArgs, PartInfo};
+use cirrus::film::AovSet;
+use cirrus::film::Film;
+use cirrus::film::FilterKind;
+use cirrus::image::Compression;
 use cirrus::integrator::{
     self, Budget, Checkpointing, FilmState, PathSettings, RenderControl, RenderSettings,
     RenderStats, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH,
 };
 use cirrus::memory;
-use cirrus::output::aov::AovSet;
-use cirrus::output::film::Film;
-use cirrus::output::filter::FilterKind;
-use cirrus::output::{write_preview, Compression};
+use cirrus::output::write_preview;
+use cirrus::output::{write_film, AovFiles, ExrHeader};
 use cirrus::render_state::{self, RenderState, StateOptions};
 use cirrus::sampling::SamplerKind;
 use cirrus::volumes::MajorantKind;
@@ -94,7 +95,7 @@ pub struct RenderArgs {
     #[arg(long, default_value = "default")]
     aovs: AovSet,
     /// One multi-channel EXR, or one file per AOV (OUT.<aov>.exr).
-    #[arg(long, value_enum, default_value_t)]
+    #[arg(long, value_parser = super::choice::<AovFiles>(), default_value_t)]
     aov_files: AovFiles,
     /// EXR compression.
     #[arg(long, value_parser = super::choice::<Compression>(), default_value_t)]
@@ -200,7 +201,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let state = pool.install(|| RenderState::build(&scene, args.res, options))?;
     let identity = RenderIdentity {
         fingerprint: Fingerprint::new(&scene, state.resolution, &settings, options)?,
-        exr: ExrHeader::new(&state, &settings, Some(&scene)),
+        exr: ExrHeader::new(&state, &settings),
         part: PartInfo {
             samples: samples.clone(),
             frame_spp,
@@ -308,6 +309,7 @@ impl Partial<'_> {
                 self.stats,
                 self.compression,
             )
+            .map_err(anyhow::Error::from)
         });
         if let Err(e) = saved {
             return e.context("interrupted, and the checkpoint could not be saved");

@@ -15,10 +15,11 @@ use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
 use super::checkpoint::{self, FilmStateHeader, OutputFiles};
-use super::film_output::{write_film, AovFiles};
+use cirrus::film::{Film, Tile};
+use cirrus::image::Compression;
 use cirrus::integrator::{RayCounts, RenderStats};
-use cirrus::output::film::{Film, Tile};
-use cirrus::output::{write_preview, Compression};
+use cirrus::output::write_preview;
+use cirrus::output::{write_film, AovFiles};
 use cirrus::volumes::TrackingStats;
 
 /// Which part of a frame `cirrus render` takes (all of it by default).
@@ -144,7 +145,7 @@ pub struct MergeArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// One multi-channel EXR, or one file per AOV (OUT.<aov>.exr).
-    #[arg(long, value_enum, default_value_t)]
+    #[arg(long, value_parser = super::choice::<AovFiles>(), default_value_t)]
     aov_files: AovFiles,
     /// EXR compression.
     #[arg(long, value_parser = super::choice::<Compression>(), default_value_t)]

@@ -4,8 +4,8 @@
 
 use glam::Vec3;
 
+use crate::film::AovSample;
 use crate::materials::LobeValues;
-use crate::output::aov::AovSample;
 
 /// A first event in a volume takes all of what follows.
 pub(super) const VOLUME_EVENT: [Vec3; 4] = [Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ONE];

@@ -20,9 +20,9 @@ use std::time::{Duration, Instant};
 use glam::{UVec2, Vec2};
 use rayon::prelude::*;
 
-use crate::output::aov::AovSet;
-use crate::output::film::{Film, NonFiniteSamples, Tile, TileFilm};
-use crate::output::filter::{FilterKind, PixelFilter};
+use crate::film::AovSet;
+use crate::film::{Film, NonFiniteSamples, Tile, TileFilm};
+use crate::film::{FilterKind, PixelFilter};
 use crate::render_state::RenderState;
 use crate::sampling::{Pcg32, Sampler, SamplerKind};
 use crate::volumes::{TrackingStats, TransmittanceEstimator};

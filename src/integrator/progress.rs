@@ -12,7 +12,7 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 use super::{RayCounts, RenderSettings};
-use crate::output::film::Film;
+use crate::film::Film;
 use crate::volumes::TrackingStats;
 
 /// Tile edge in pixels: enough tiles for load balance on many cores, big

@@ -41,7 +41,7 @@ impl LightImage {
     /// texels become 0. `None` (with a warning naming the light) when the file
     /// cannot be read, so the light falls back to its constant emission.
     pub fn load(path: &Path, light: &str) -> Option<Self> {
-        let image = match crate::output::read_image(path, ColorSpace::Auto) {
+        let image = match crate::image::read_image(path, ColorSpace::Auto) {
             Ok(image) => image,
             Err(e) => {
                 log::warn!("light {light}: texture unusable ({e}); using constant emission");

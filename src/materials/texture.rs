@@ -18,7 +18,7 @@ use std::sync::Arc;
 
 use glam::{Mat2, Vec2, Vec3, Vec4};
 
-use crate::output::read_image;
+use crate::image::read_image;
 use crate::scene::{self, Channel, ColorSpace, StTransform, Wrap};
 
 /// One texture ready for lookups: its texels (or none when the file could
@@ -238,7 +238,7 @@ mod tests {
     use std::path::PathBuf;
 
     use super::*;
-    use crate::output::{write_exr, Channel as ExrChannel, Compression, ExrImage, PixelType};
+    use crate::image::{write_exr, Channel as ExrChannel, Compression, ExrImage, PixelType};
 
     const W: u32 = 4;
     const H: u32 = 2;

@@ -28,8 +28,8 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::exr::{srgb_to_linear, write_display_png, ExrChannels, ImageError, TextLabel};
 use super::preview::pbr_neutral;
+use crate::image::{srgb_to_linear, write_display_png, ExrChannels, ImageError, TextLabel};
 
 /// Most tiles per row.
 const COLUMNS: usize = 4;
@@ -348,8 +348,8 @@ fn cryptomatte_of<'a>(layer: &str, cryptomattes: &[&'a str]) -> Option<&'a str> 
 mod tests {
     use std::collections::BTreeMap;
 
-    use super::super::exr::{ChannelFormat, StoredChannel};
     use super::*;
+    use crate::image::{ChannelFormat, StoredChannel};
 
     /// A 2x1 image with these channels, all zero, and these string attributes.
     fn image(names: &[&str], strings: &[(&str, &str)]) -> ExrChannels {

@@ -1,391 +1,231 @@
-//! Image files through the OpenImageIO bridge (`ffi/oiio/`): multi-channel EXR
-//! writing (named half/float channels, compression, metadata), written
-//! atomically; reading of texture images into linear floats; reading an EXR's
-//! named channels and string metadata back; and labelled 8-bit PNGs for the
-//! contact sheet. This is the only module that talks to OpenImageIO.
+//! Writing a film as EXRs: the beauty and AOV layers in one file or one per
+//! AOV, with the header every render's EXR carries. The header is computed
+//! once from the render state and settings and kept in film-state files, so
+//! `cirrus merge` writes the same EXR as the render would, without the render
+//! state.
 
-#[path = "../../ffi/oiio/bridge.rs"]
-mod bridge;
+use std::path::Path;
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use glam::UVec2;
+use serde::{Deserialize, Serialize};
 
-use bridge::ffi;
+use crate::film::{Aov, AovSet, CryptoLayer, Film, Layer};
+use crate::image::{write_exr, Channel, Compression, ExrImage, ImageError, PixelType};
+use crate::integrator::{RenderSettings, RenderStats};
+use crate::render_state::RenderState;
 
-use crate::scene::ColorSpace;
-
-/// Why an image could not be written or read.
-#[derive(Debug, thiserror::Error)]
-pub enum ImageError {
-    /// Writing `path` (an EXR, or a PNG) failed; `message` is OpenImageIO's or the OS's reason.
-    #[error("{path}: cannot write image: {message}", path = path.display())]
-    Write {
-        /// The file asked for (not the temporary it is written under).
-        path: PathBuf,
-        /// Why.
-        message: String,
-    },
-    /// Reading `path` failed (missing, corrupt, not an image).
-    #[error("{path}: cannot read image: {message}", path = path.display())]
-    Read {
-        /// The image file.
-        path: PathBuf,
-        /// Why.
-        message: String,
-    },
-}
-
-/// How a channel is stored in the file (pixels are always handed over as f32).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PixelType {
-    /// 16-bit float: colour AOVs.
-    Half,
-    /// 32-bit float: depth, positions, normals, IDs.
-    Float,
-}
-
-/// OpenEXR compression. Zip is lossless and Nuke's usual default; Piz suits
-/// noisy images; Dwaa is lossy and small.
+/// How AOVs are split over files (`--aov-files`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Compression {
-    /// Uncompressed.
-    None,
-    /// Lossless zlib over 16 scanlines (the default).
+pub enum AovFiles {
+    /// One multi-channel EXR: beauty in the base layer, AOVs as layers.
     #[default]
-    Zip,
-    /// Lossless wavelet, good on noisy images.
-    Piz,
-    /// Lossy DCT (DreamWorks), smallest files.
-    Dwaa,
+    Single,
+    /// The beauty in OUT.exr and each AOV in OUT.<aov>.exr.
+    Separate,
 }
 
-crate::choice::choice!(Compression {
-    None => "none",
-    Zip => "zip",
-    Piz => "piz",
-    Dwaa => "dwaa",
+crate::choice::choice!(AovFiles {
+    Single => "single",
+    Separate => "separate",
 });
 
-impl Compression {
-    fn oiio_name(self) -> &'static str {
-        match self {
-            Compression::None => "none",
-            Compression::Zip => "zip",
-            Compression::Piz => "piz",
-            Compression::Dwaa => "dwaa",
+/// What every EXR of a render carries besides its pixels and run statistics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ExrHeader {
+    /// `software` and the settings as `cirrus/*` strings.
+    strings: Vec<(String, String)>,
+    /// `worldToCamera` and `worldToNDC` (Imath's row-vector layout, which is
+    /// glam's column-major array of the column-vector matrix).
+    matrices: Vec<(String, [f32; 16])>,
+    /// Names of the CryptoObject and CryptoMaterial ids (Mesh and Material
+    /// prim paths, indexed like the film's ids), when chosen.
+    crypto_names: [Option<Vec<String>>; 2],
+}
+
+impl ExrHeader {
+    /// The header of a render of `state` with `settings`, with the
+    /// Cryptomatte names of the chosen Cryptomatte AOVs.
+    pub fn new(state: &RenderState, settings: &RenderSettings) -> Self {
+        let attribute = |k: &str, v: String| (format!("cirrus/{k}"), v);
+        let p = &settings.path;
+        let strings = vec![
+            (
+                "software".to_string(),
+                format!("Cirrus {}", env!("CARGO_PKG_VERSION")),
+            ),
+            attribute("version", env!("CARGO_PKG_VERSION").into()),
+            attribute("seed", settings.seed.to_string()),
+            attribute("sampler", format!("{:?}", settings.sampler)),
+            attribute("strategy", format!("{:?}", p.strategy)),
+            attribute("max_depth", p.max_depth.to_string()),
+            attribute("volume_estimator", format!("{:?}", p.volume_estimator)),
+            attribute("equiangular", p.equiangular.to_string()),
+            attribute("majorant", format!("{:?}", state.options.majorant)),
+            attribute(
+                "volume_light_sampling",
+                state.options.volume_lights.to_string(),
+            ),
+            attribute("aovs", settings.aovs.to_string()),
+        ];
+        let camera = &state.camera;
+        let names = |aov: Aov, paths: Vec<String>| settings.aovs.contains(aov).then_some(paths);
+        let crypto_names = [
+            names(Aov::CryptoObject, state.id_names.objects.clone()),
+            names(Aov::CryptoMaterial, state.id_names.materials.clone()),
+        ];
+        Self {
+            strings,
+            matrices: vec![
+                (
+                    "worldToCamera".into(),
+                    camera.world_to_camera().to_cols_array(),
+                ),
+                ("worldToNDC".into(), camera.world_to_ndc().to_cols_array()),
+            ],
+            crypto_names,
         }
     }
-}
 
-/// One named channel, e.g. `R`, `diffuse.G`, `N.X`, `Z`.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Channel {
-    /// Full channel name, layer prefix included (`diffuse.R`).
-    pub name: String,
-    /// Storage in the file.
-    pub pixel_type: PixelType,
-}
-
-/// An EXR to write: `pixels` are interleaved f32, channel-fastest, row 0 at the top.
-#[derive(Clone, Debug)]
-pub struct ExrImage<'a> {
-    /// Pixels per row.
-    pub width: u32,
-    /// Rows.
-    pub height: u32,
-    /// Channel names and storage, in the order of `pixels`' interleaving.
-    pub channels: Vec<Channel>,
-    /// `width * height * channels.len()` values.
-    pub pixels: &'a [f32],
-    /// File compression.
-    pub compression: Compression,
-    /// Header attributes of string type (e.g. `software`).
-    pub strings: Vec<(String, String)>,
-    /// Header attributes of 4x4 float matrix type (e.g. `worldToCamera`), row-major.
-    pub matrices: Vec<(String, [f32; 16])>,
-}
-
-/// A decoded image: linear values, interleaved, row 0 at the top.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Image {
-    /// Pixels per row.
-    pub width: u32,
-    /// Rows.
-    pub height: u32,
-    /// Values per pixel.
-    pub channels: u32,
-    /// `width * height * channels` linear values.
-    pub pixels: Vec<f32>,
-}
-
-/// Writes `image` to `path` through OpenImageIO. The file appears atomically:
-/// it is written under a temporary name in the same folder, then renamed, so a
-/// failure never leaves a truncated file under `path`.
-pub fn write_exr(path: &Path, image: &ExrImage) -> Result<(), ImageError> {
-    let fail = |message: String| ImageError::Write {
-        path: path.to_path_buf(),
-        message,
-    };
-    let expected = image.width as usize * image.height as usize * image.channels.len();
-    if image.pixels.len() != expected || expected == 0 {
-        return Err(fail(format!(
-            "{} pixel values for {}x{} pixels with {} channels",
-            image.pixels.len(),
-            image.width,
-            image.height,
-            image.channels.len()
-        )));
-    }
-    write_atomically(path, |temp| {
-        ffi::write_exr(&ffi::ExrRequest {
-            path: temp,
-            width: image.width,
-            height: image.height,
-            channel_names: image.channels.iter().map(|c| c.name.clone()).collect(),
-            channel_half: image
-                .channels
-                .iter()
-                .map(|c| c.pixel_type == PixelType::Half)
-                .collect(),
-            compression: image.compression.oiio_name(),
-            strings: image
-                .strings
-                .iter()
-                .map(|(name, value)| ffi::StringAttribute {
-                    name: name.clone(),
-                    value: value.clone(),
-                })
-                .collect(),
-            matrices: image
-                .matrices
-                .iter()
-                .map(|(name, values)| ffi::MatrixAttribute {
-                    name: name.clone(),
-                    values: *values,
-                })
-                .collect(),
-            pixels: image.pixels,
-        })
-    })
-}
-
-/// Reads an image (png, jpg, tga, exr, ...) into linear f32. `color_space`
-/// is `UsdUVTexture`'s `sourceColorSpace`: `Auto` decodes colour channels with
-/// the sRGB transfer function when the file says it is sRGB (or is 8-bit and
-/// untagged), `Srgb` always decodes them, `Raw` never does (normal maps,
-/// roughness). Alpha is never decoded. An image that would take more than
-/// half the memory available is refused before its pixels are allocated.
-pub fn read_image(path: &Path, color_space: ColorSpace) -> Result<Image, ImageError> {
-    if let Err(e) = std::fs::metadata(path) {
-        return Err(ImageError::Read {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        });
-    }
-    // Half of what is left: the scene's other textures and data need room too.
-    let max_bytes = crate::memory::available_bytes().map_or(u64::MAX, |b| b / 2);
-    let data =
-        ffi::read_image(&path.to_string_lossy(), max_bytes).map_err(|e| ImageError::Read {
-            path: path.to_path_buf(),
-            message: e.what().to_owned(),
-        })?;
-    let mut pixels = data.pixels;
-    let decode = match color_space {
-        ColorSpace::Auto => data.is_srgb,
-        ColorSpace::Srgb => true,
-        ColorSpace::Raw => false,
-    };
-    if decode {
-        let nc = data.channels as usize;
-        for pixel in pixels.chunks_exact_mut(nc) {
-            for (c, v) in pixel.iter_mut().enumerate() {
-                if c as i32 != data.alpha_channel {
-                    *v = srgb_to_linear(*v);
-                }
-            }
-        }
-    }
-    Ok(Image {
-        width: data.width,
-        height: data.height,
-        channels: data.channels,
-        pixels,
-    })
-}
-
-/// How a channel is stored in an EXR that was read: OpenEXR's three pixel types.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ChannelFormat {
-    /// 16-bit float.
-    Half,
-    /// 32-bit float.
-    Float,
-    /// 32-bit unsigned integer (e.g. another renderer's object IDs).
-    Uint,
-}
-
-/// One channel of an EXR that was read.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct StoredChannel {
-    /// Full channel name, layer prefix included (`diffuse.R`, `CryptoObject00.A`).
-    pub name: String,
-    /// Storage in the file.
-    pub format: ChannelFormat,
-}
-
-/// An EXR's channels as read back by [`read_exr`], for tools and tests that
-/// need channel names and metadata (`cirrus aovs`, Cryptomatte checks).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ExrChannels {
-    /// Pixels per row (of the data window).
-    pub width: u32,
-    /// Rows (of the data window).
-    pub height: u32,
-    /// Channels in the order OpenImageIO presents them. OpenEXR itself stores
-    /// channels sorted by name; OpenImageIO regroups them by layer, with
-    /// `R,G,B,A` first inside a layer, so this need not be the written order:
-    /// look channels up by name ([`ExrChannels::channel_index`]).
-    pub channels: Vec<StoredChannel>,
-    /// `width * height * channels.len()` values, interleaved channel-fastest,
-    /// row 0 at the top. Half and float values are exact; a uint is widened
-    /// by value (not normalised), exact up to 2^24.
-    pub pixels: Vec<f32>,
-    /// Every string attribute of the header by name (`cryptomatte/<key>/name`,
-    /// `cirrus/...`, `compression`, ...).
-    pub strings: BTreeMap<String, String>,
-}
-
-impl ExrChannels {
-    /// Index of the channel called `name` (full name, layer included).
-    pub fn channel_index(&self, name: &str) -> Option<usize> {
-        self.channels.iter().position(|c| c.name == name)
-    }
-
-    /// The values of channel `index`, one per pixel in row order.
-    pub fn channel_values(&self, index: usize) -> impl Iterator<Item = f32> + '_ {
-        self.pixels
-            .iter()
-            .skip(index)
-            .step_by(self.channels.len())
-            .copied()
+    /// The Cryptomatte layers of the chosen AOVs.
+    fn crypto_layers(&self, aovs: &AovSet) -> [Option<CryptoLayer>; 2] {
+        let layer = |aov: Aov, names: &Option<Vec<String>>| {
+            names
+                .as_ref()
+                .filter(|_| aovs.contains(aov))
+                .map(|n| CryptoLayer::new(aov.name(), n.clone()))
+        };
+        [
+            layer(Aov::CryptoObject, &self.crypto_names[0]),
+            layer(Aov::CryptoMaterial, &self.crypto_names[1]),
+        ]
     }
 }
 
-/// Reads every channel of the OpenEXR file at `path` (first part only, flat
-/// images only) with its name, stored type and string metadata. A file that
-/// is missing, unreadable, deep, or not an EXR is an [`ImageError::Read`]
-/// naming it.
-pub fn read_exr(path: &Path) -> Result<ExrChannels, ImageError> {
-    let fail = |message: String| ImageError::Read {
-        path: path.to_path_buf(),
-        message,
-    };
-    std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
-    let data = ffi::read_exr(&path.to_string_lossy()).map_err(|e| fail(e.what().to_owned()))?;
-    let channels = data
-        .channels
-        .into_iter()
-        .map(|c| StoredChannel {
-            name: c.name,
-            format: match c.format {
-                ffi::ChannelFormat::Half => ChannelFormat::Half,
-                ffi::ChannelFormat::Float => ChannelFormat::Float,
-                _ => ChannelFormat::Uint,
-            },
-        })
-        .collect();
-    Ok(ExrChannels {
-        width: data.width,
-        height: data.height,
-        channels,
-        pixels: data.pixels,
-        strings: data
-            .strings
-            .into_iter()
-            .map(|s| (s.name, s.value))
-            .collect(),
-    })
-}
-
-/// A line of text to draw on a PNG, top-left corner at (`x`, `y`) pixels.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub(super) struct TextLabel {
-    /// What to draw.
-    pub text: String,
-    /// Column of the text's left edge.
-    pub x: i32,
-    /// Row of the text's top edge.
-    pub y: i32,
-}
-
-/// Writes `rgb` (linear display-referred values in [0, 1], interleaved, row 0
-/// at the top) as an 8-bit PNG with the sRGB transfer function applied, and
-/// draws `labels` in white when OpenImageIO finds a font. Returns whether the
-/// labels were drawn. Atomic like [`write_exr`].
-pub(super) fn write_display_png(
-    path: &Path,
-    width: u32,
-    height: u32,
-    rgb: &[f32],
-    labels: &[TextLabel],
-) -> Result<bool, ImageError> {
-    let labels: Vec<ffi::TextLabel> = labels
-        .iter()
-        .map(|l| ffi::TextLabel {
-            text: l.text.clone(),
-            x: l.x,
-            y: l.y,
-        })
-        .collect();
-    let mut labelled = false;
-    write_atomically(path, |temp| {
-        labelled = ffi::write_display_png(&ffi::DisplayPngRequest {
-            path: temp,
-            width,
-            height,
-            pixels: rgb,
-            labels,
-        })?;
-        Ok(())
-    })?;
-    Ok(labelled)
-}
-
-/// Writes `path` through `write` (an OpenImageIO call given the temporary
-/// path) with [`super::atomic::replace_file`], reporting failures as
-/// [`ImageError::Write`] naming `path`.
-fn write_atomically(
-    path: &Path,
-    write: impl FnOnce(&str) -> Result<(), cxx::Exception>,
+/// Writes the film: the beauty layer and every chosen AOV, in one EXR or
+/// one per AOV (`OUT.<aov>.exr`), each with the header, the run's
+/// statistics and a Cryptomatte's own metadata.
+pub fn write_film(
+    output: &Path,
+    files: AovFiles,
+    film: &Film,
+    header: &ExrHeader,
+    stats: &RenderStats,
+    compression: Compression,
 ) -> Result<(), ImageError> {
-    super::atomic::replace_file(path, |temp| {
-        write(&temp.to_string_lossy()).map_err(|e| std::io::Error::other(e.what().to_owned()))
-    })
-    .map_err(|e| ImageError::Write {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })
-}
-
-/// The sRGB electro-optical transfer function (IEC 61966-2-1).
-pub(super) fn srgb_to_linear(v: f32) -> f32 {
-    if v <= 0.04045 {
-        v / 12.92
-    } else {
-        ((v + 0.055) / 1.055).powf(2.4)
+    let crypto = header.crypto_layers(film.aov_set());
+    let crypto_of = |aov| match aov {
+        Aov::CryptoObject => crypto[0].as_ref(),
+        Aov::CryptoMaterial => crypto[1].as_ref(),
+        _ => None,
+    };
+    let layers: Vec<(Aov, Layer)> = film
+        .aov_set()
+        .aovs()
+        .iter()
+        .map(|&aov| (aov, film.aov_layer(aov, crypto_of(aov))))
+        .collect();
+    let beauty = film.beauty_layer();
+    let write = |path: &Path, layers: &[&Layer], strings: Vec<(String, String)>| {
+        let image = Image {
+            size: film.window.size,
+            layers,
+            compression,
+        };
+        write_layers(path, &image, strings, header, stats)
+    };
+    match files {
+        AovFiles::Single => {
+            let mut all = vec![&beauty];
+            all.extend(layers.iter().map(|(_, l)| l));
+            let crypto_metadata = crypto.iter().flatten().flat_map(CryptoLayer::metadata);
+            write(output, &all, crypto_metadata.collect())
+        }
+        AovFiles::Separate => {
+            write(output, &[&beauty], Vec::new())?;
+            for (aov, layer) in &layers {
+                let path = output.with_extension(format!("{}.exr", aov.name()));
+                let metadata = crypto_of(*aov).map(CryptoLayer::metadata);
+                write(&path, &[layer], metadata.unwrap_or_default())?;
+            }
+            Ok(())
+        }
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+/// Writes a beauty-only EXR (float R, G, B) of `size` pixels with the
+/// header: the benchmarks' references.
+pub fn write_beauty(
+    path: &Path,
+    size: UVec2,
+    rgb: &[f32],
+    header: &ExrHeader,
+    stats: &RenderStats,
+) -> Result<(), ImageError> {
+    let layer = Layer {
+        channels: ["R", "G", "B"]
+            .map(|name| Channel {
+                name: name.into(),
+                pixel_type: PixelType::Float,
+            })
+            .to_vec(),
+        pixels: rgb.to_vec(),
+    };
+    let image = Image {
+        size,
+        layers: &[&layer],
+        compression: Compression::Zip,
+    };
+    write_layers(path, &image, Vec::new(), header, stats)
+}
 
-    #[test]
-    fn srgb_decoding_hits_the_standard_points() {
-        assert_eq!(srgb_to_linear(0.0), 0.0);
-        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-6);
-        // sRGB 0.5 is 21.4% linear.
-        assert!((srgb_to_linear(0.5) - 0.214_041_14).abs() < 1e-6);
-        assert!((srgb_to_linear(0.04) - 0.04 / 12.92).abs() < 1e-9);
+/// Layers of one size to interleave into one EXR.
+struct Image<'a> {
+    size: UVec2,
+    layers: &'a [&'a Layer],
+    compression: Compression,
+}
+
+/// Writes `image`'s layers interleaved, with `strings`, the header and the
+/// run's statistics (`cirrus/spp`, `cirrus/complete`, `cirrus/render_seconds`).
+fn write_layers(
+    path: &Path,
+    image: &Image,
+    mut strings: Vec<(String, String)>,
+    header: &ExrHeader,
+    stats: &RenderStats,
+) -> Result<(), ImageError> {
+    let pixel_count = image.size.x as usize * image.size.y as usize;
+    let channels: Vec<Channel> = image
+        .layers
+        .iter()
+        .flat_map(|l| l.channels.clone())
+        .collect();
+    let mut pixels = Vec::with_capacity(channels.len() * pixel_count);
+    for i in 0..pixel_count {
+        for layer in image.layers {
+            let n = layer.channels.len();
+            pixels.extend_from_slice(&layer.pixels[i * n..(i + 1) * n]);
+        }
     }
+    strings.extend(header.strings.iter().cloned());
+    strings.extend([
+        ("cirrus/spp".into(), stats.samples_per_pixel.to_string()),
+        ("cirrus/complete".into(), stats.complete.to_string()),
+        (
+            "cirrus/render_seconds".into(),
+            format!("{:.3}", stats.elapsed.as_secs_f64()),
+        ),
+    ]);
+    write_exr(
+        path,
+        &ExrImage {
+            width: image.size.x,
+            height: image.size.y,
+            channels,
+            pixels: &pixels,
+            compression: image.compression,
+            strings,
+            matrices: header.matrices.clone(),
+        },
+    )
 }

@@ -1,18 +1,12 @@
-//! Everything that leaves the renderer as a file: multi-channel EXRs written
-//! through OpenImageIO (`ffi/oiio/`), and image reading through the same bridge.
+//! What leaves the renderer for people and compositors: a film's layers as
+//! EXRs with the header every render carries, the tone-mapped PNG preview
+//! beside each EXR, and the contact sheet of an EXR's layers. Files are
+//! written through `image/`.
 
-pub mod aov;
-pub mod atomic;
-pub mod contact_sheet;
-pub mod cryptomatte;
+mod contact_sheet;
 mod exr;
-pub mod film;
-pub mod film_state;
-pub mod filter;
 mod preview;
 
-pub use exr::{
-    read_exr, read_image, write_exr, Channel, ChannelFormat, Compression, ExrChannels, ExrImage,
-    Image, ImageError, PixelType, StoredChannel,
-};
+pub use contact_sheet::{write_contact_sheet, ContactSheet, SheetTile};
+pub use exr::{write_beauty, write_film, AovFiles, ExrHeader};
 pub use preview::write_preview;

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::exr::{write_exr, Channel, Compression, ExrImage, ImageError, PixelType};
+use crate::image::{write_exr, Channel, Compression, ExrImage, ImageError, PixelType};
 
 /// Writes `rgb` (linear Rec.709, row-major from the top, interleaved) as an
 /// 8-bit sRGB PNG through OpenImageIO, tone-mapped with Khronos PBR Neutral

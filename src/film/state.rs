@@ -26,7 +26,7 @@ use thiserror::Error;
 
 use super::aov::AovSet;
 use super::cryptomatte::CryptoCoverage;
-use super::film::{Film, NonFiniteSamples, PixelSum, Tile};
+use super::sums::{Film, NonFiniteSamples, PixelSum, Tile};
 
 /// The first bytes of every film-state file.
 const MAGIC: &[u8; 8] = b"CIRRUSFS";
@@ -99,7 +99,7 @@ pub fn write_film_state<H: Serialize>(
         path: path.to_path_buf(),
         message: e.to_string(),
     })?;
-    super::atomic::replace_file(path, |temp| {
+    crate::image::replace_file(path, |temp| {
         let mut out = CrcWriter {
             inner: BufWriter::new(std::fs::File::create(temp)?),
             crc: crc32fast::Hasher::new(),
@@ -283,9 +283,9 @@ impl<W: Write> Write for CrcWriter<W> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::aov::{Aov, AovSample, CameraHit};
-    use crate::output::cryptomatte::CryptoLayer;
-    use crate::output::film::TileFilm;
+    use crate::film::CryptoLayer;
+    use crate::film::TileFilm;
+    use crate::film::{Aov, AovSample, CameraHit};
     use glam::Vec3;
 
     /// A small cropped film with every AOV, a few samples per pixel and one NaN.

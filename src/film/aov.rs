@@ -18,7 +18,7 @@ use std::str::FromStr;
 
 use glam::Vec3;
 
-use super::PixelType;
+use crate::image::PixelType;
 
 /// One AOV.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]

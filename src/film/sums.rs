@@ -6,7 +6,7 @@ use glam::{UVec2, Vec3};
 
 use super::aov::{Aov, AovSample, AovSet};
 use super::cryptomatte::{CryptoCoverage, CryptoLayer, CHANNELS};
-use super::{Channel, PixelType};
+use crate::image::{Channel, PixelType};
 
 /// One pixel's running sums of finite radiance samples, W/(m^2 sr).
 #[derive(Clone, Copy, Debug, Default)]

@@ -1,0 +1,19 @@
+//! The film: what the integrator's samples become before they are files.
+//! Per-pixel sums of radiance and of the chosen AOVs, filled tile by tile and
+//! merged in a fixed order (`sums.rs`); the pixel filter that places camera
+//! samples (`filter.rs`); the AOVs and what one path sample adds to each
+//! (`aov.rs`); Cryptomatte ids and coverage ranks (`cryptomatte.rs`); and the
+//! film-state file, a film's exact sums with a caller's header, that
+//! checkpoints and farm parts are saved in (`state.rs`).
+
+mod aov;
+mod cryptomatte;
+mod filter;
+mod state;
+mod sums;
+
+pub use aov::{Aov, AovSample, AovSet, CameraHit};
+pub use cryptomatte::{layer_key, name_to_id, CryptoCoverage, CryptoLayer};
+pub use filter::{FilterKind, PixelFilter};
+pub use state::{read_film_state, write_film_state, FilmStateError, FILM_STATE_VERSION};
+pub use sums::{Film, Layer, NonFiniteSamples, PixelSum, Tile, TileFilm};
