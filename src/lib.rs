@@ -8,6 +8,7 @@
 pub mod camera;
 pub mod choice;
 pub mod color;
+pub mod farm;
 pub mod film;
 pub mod geometry;
 pub mod host;

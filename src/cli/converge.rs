@@ -559,7 +559,7 @@ impl Study<'_> {
 /// cache (the one `load_scene` rendered), else the folder given (or the
 /// folder of the scene.json given).
 fn exported_folder(path: &Path) -> Result<PathBuf> {
-    if super::is_usd(path) {
+    if cirrus::scene::is_usd(path) {
         Ok(cirrus::scene::export_cached(path, None)?.dir)
     } else if path.is_dir() {
         Ok(path.to_owned())

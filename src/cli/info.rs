@@ -12,7 +12,7 @@ use cirrus::volumes::{GridInfo, VdbFile};
 
 pub fn run(file: &Path) -> Result<()> {
     let is_scene = file.is_dir() || file.file_name().is_some_and(|n| n == scene::MANIFEST_FILE);
-    if is_scene || super::is_usd(file) {
+    if is_scene || cirrus::scene::is_usd(file) {
         print!("{}", scene_summary(&super::load_scene(file, None)?));
     } else {
         let vdb = VdbFile::open(file)?;

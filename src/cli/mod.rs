@@ -9,11 +9,11 @@ mod bench_fire;
 mod bench_instances;
 mod bench_render;
 mod bench_volumes;
-mod checkpoint;
 mod converge;
 mod farm;
 mod info;
 mod render;
+mod signal;
 mod split;
 
 use std::path::{Path, PathBuf};
@@ -96,7 +96,7 @@ pub fn run() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => match e.downcast_ref::<checkpoint::Interrupted>() {
+        Err(e) => match e.downcast_ref::<signal::Interrupted>() {
             Some(stop) => {
                 eprintln!("{stop}");
                 ExitCode::from((128 + stop.signal) as u8)
@@ -116,21 +116,11 @@ fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Val
         .map(|name| T::from_name(&name).expect("only offered names reach here"))
 }
 
-/// USD file extensions: such inputs are exported (through the cache) first.
-const USD_EXTENSIONS: &[&str] = &["usd", "usda", "usdc", "usdz"];
-
-/// Whether `path` names a USD file by its extension.
-fn is_usd(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| USD_EXTENSIONS.contains(&e))
-}
-
 /// A scene from a USD file (exported through the cache at `frame`; the
 /// export's warnings are printed again when the cache already held it) or
 /// from an exported folder or its scene.json.
 fn load_scene(path: &Path, frame: Option<f64>) -> Result<Scene> {
-    if is_usd(path) {
+    if cirrus::scene::is_usd(path) {
         let export = cirrus::scene::export_cached(path, frame)?;
         let scene = Scene::load(&export.dir)?;
         if export.reused {

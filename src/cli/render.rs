@@ -12,15 +12,19 @@ use anyhow::{bail, Context, Result};
 use glam::UVec2;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::checkpoint::{self, Fingerprint, Interrupted, OutputFiles, RenderIdentity, StopSignal};
-use super::split::{self, PartArgs, PartInfo};
+use super::signal::{Interrupted, StopSignal};
+use super::split::PartArgs;
+use cirrus::farm::{
+    is_film_output, resume, write_snapshot, FarmError, Fingerprint, OutputFiles, PartInfo,
+    RenderIdentity,
+};
 use cirrus::film::AovSet;
 use cirrus::film::Film;
 use cirrus::film::FilterKind;
 use cirrus::image::Compression;
 use cirrus::integrator::{
-    self, Budget, Checkpointing, FilmState, PathSettings, RenderControl, RenderSettings,
-    RenderStats, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH,
+    self, Budget, Checkpointing, PathSettings, RenderControl, RenderSettings, RenderStats,
+    Snapshot, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH,
 };
 use cirrus::memory;
 use cirrus::output::write_preview;
@@ -169,8 +173,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
         },
         aovs: args.aovs,
     };
-    let film_output = split::is_film_output(&args.output);
-    if args.part.is_part() && !film_output {
+    let film_output = is_film_output(&args.output);
+    let part = args.part.request();
+    if part.is_part() && !film_output {
         bail!("--tile, --crop and --sample-range render a part of a frame: write it with -o PART.film and join the parts with cirrus merge");
     }
     let frame_spp = match budget {
@@ -178,7 +183,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         Budget::Time(_) if film_output => bail!("a film state (-o *.film) needs --spp, not --time"),
         Budget::Time(_) => 0,
     };
-    let samples = args.part.samples(frame_spp)?;
+    let samples = part.samples(frame_spp)?;
     let files = OutputFiles::new(&args.output, args.aov_files, &settings.aovs);
     files.claim(args.force, args.resume)?;
     let signal = StopSignal::install().context("cannot install the SIGINT/SIGTERM handlers")?;
@@ -190,7 +195,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let scene = super::load_scene(&args.scene, args.frame)?;
     let resolution = render_state::resolution_for(&scene, args.res);
-    let window = args.part.window(resolution)?;
+    let window = part.window(resolution)?;
     let needs = pool.install(|| memory::estimate(&scene, window.size, &settings.aovs))?;
     memory::check(&needs, args.memory_limit)?;
     log::debug!("estimated peak memory: {needs}");
@@ -213,9 +218,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
         settings.budget = Budget::Samples(samples.end);
     }
     let film = Film::cropped(state.resolution, window, settings.aovs.clone());
-    let fresh = FilmState::new(film, samples.start);
+    let fresh = Snapshot::new(film, samples.start);
     let resumed = if args.resume {
-        let resumed = checkpoint::load(&files.checkpoint, &identity, &fresh, &settings)?;
+        let resumed = resume(&files.checkpoint, &identity, &fresh, &settings)?;
         log::info!(
             "resuming {} at {} spp",
             files.checkpoint.display(),
@@ -233,8 +238,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         window.size.y
     );
     let progress = Progress::new();
-    let save = |s: &FilmState| {
-        if let Err(e) = checkpoint::write(&files.checkpoint, &identity, s) {
+    let save = |s: &Snapshot| {
+        if let Err(e) = write_snapshot(&files.checkpoint, &identity, s) {
             log::warn!("checkpoint not saved: {e:#}");
         }
     };
@@ -258,7 +263,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         return Err(partial.save(&end, &signal));
     }
     if film_output {
-        checkpoint::write(&args.output, &identity, &end)?;
+        write_snapshot(&args.output, &identity, &end)?;
         files.finish()?;
         report(&[&args.output], &stats);
         return Ok(());
@@ -290,7 +295,7 @@ struct Partial<'a> {
 impl Partial<'_> {
     /// Saves the checkpoint and a partial EXR (when any sample was taken)
     /// and returns the [`Interrupted`] error saying how to resume.
-    fn save(&self, end: &FilmState, signal: &StopSignal) -> anyhow::Error {
+    fn save(&self, end: &Snapshot, signal: &StopSignal) -> anyhow::Error {
         let signal = signal.signal().unwrap_or(signal_hook::consts::SIGINT);
         if end.progress.is_empty() {
             return Interrupted {
@@ -300,7 +305,7 @@ impl Partial<'_> {
             .into();
         }
         let files = self.files;
-        let saved = checkpoint::write(&files.checkpoint, self.identity, end).and_then(|()| {
+        let saved = write_snapshot(&files.checkpoint, self.identity, end).and_then(|()| {
             write_film(
                 &files.partial,
                 AovFiles::Single,
@@ -309,10 +314,11 @@ impl Partial<'_> {
                 self.stats,
                 self.compression,
             )
-            .map_err(anyhow::Error::from)
+            .map_err(FarmError::from)
         });
         if let Err(e) = saved {
-            return e.context("interrupted, and the checkpoint could not be saved");
+            return anyhow::Error::from(e)
+                .context("interrupted, and the checkpoint could not be saved");
         }
         Interrupted {
             signal,

@@ -63,16 +63,17 @@ impl RenderProgress {
     }
 }
 
-/// A film and its progress: what a checkpoint holds.
+/// A render's film and progress at a pass boundary: what a checkpoint or a
+/// farm part saves, and what a resumed render continues from.
 #[derive(Clone, Debug)]
-pub struct FilmState {
+pub struct Snapshot {
     /// The sums so far.
     pub film: Film,
     /// How far each tile has got.
     pub progress: RenderProgress,
 }
 
-impl FilmState {
+impl Snapshot {
     /// A state with no samples yet, for the empty `film` (of the whole
     /// image or a window of it), whose samples start at `first_sample`.
     pub fn new(film: Film, first_sample: u32) -> Self {
@@ -93,7 +94,7 @@ impl FilmState {
     /// empty state) starts, with `settings`: same image size, window, first
     /// sample and AOVs, one entry per tile, each a pass boundary within the
     /// budget. The error says what differs.
-    pub fn check(&self, fresh: &FilmState, settings: &RenderSettings) -> Result<(), String> {
+    pub fn check(&self, fresh: &Snapshot, settings: &RenderSettings) -> Result<(), String> {
         let (film, expected) = (&self.film, &fresh.film);
         if (film.resolution, film.window) != (expected.resolution, expected.window) {
             return Err(format!(
@@ -154,7 +155,7 @@ pub struct Checkpointing<'a> {
     /// Wall-clock time between saves.
     pub every: Duration,
     /// Saves a consistent snapshot (called between tiles, with the film locked).
-    pub save: &'a (dyn Fn(&FilmState) + Sync),
+    pub save: &'a (dyn Fn(&Snapshot) + Sync),
 }
 
 /// The sample count at the end of the pass that starts at `done` (a pass

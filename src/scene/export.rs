@@ -117,6 +117,16 @@ fn exporter_sources() -> Vec<Vec<u8>> {
     files.iter().filter_map(|f| std::fs::read(f).ok()).collect()
 }
 
+/// USD file extensions: such inputs are exported (through the cache) first.
+const USD_EXTENSIONS: &[&str] = &["usd", "usda", "usdc", "usdz"];
+
+/// Whether `path` names a USD file by its extension.
+pub fn is_usd(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| USD_EXTENSIONS.contains(&e))
+}
+
 /// The Cirrus checkout holding `.venv` and `scenes/`: `$CIRRUS_HOME`, else the
 /// source folder this binary was built from.
 pub fn repo_root() -> PathBuf {

@@ -1,0 +1,178 @@
+//! `cirrus merge`: the parts of one frame (film-state files written by
+//! `cirrus render --tile/--crop/--sample-range -o PART.film`) checked to fit
+//! together and added into the frame's EXR.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use super::{read_snapshot, FarmError, OutputFiles, SnapshotHeader};
+use crate::film::{Film, Tile};
+use crate::image::Compression;
+use crate::integrator::{RayCounts, RenderStats};
+use crate::output::{write_film, write_preview, AovFiles};
+use crate::volumes::TrackingStats;
+
+/// One part read back.
+struct Part {
+    path: PathBuf,
+    header: SnapshotHeader,
+    film: Film,
+}
+
+/// What [`merge`] wrote.
+pub struct Merged {
+    /// How many parts were added.
+    pub parts: usize,
+    /// Their rendering time added up, seconds.
+    pub seconds: f64,
+    /// The PNG preview written beside the EXR.
+    pub preview: PathBuf,
+}
+
+/// `cirrus merge`: checks that the film-state files `paths` are parts of one
+/// frame (same scene and settings), finished, and cover every pixel's
+/// samples exactly once, listing every problem; then adds them and writes
+/// the frame to `output` (refusing to overwrite it unless `force`) with its
+/// PNG preview.
+pub fn merge(
+    paths: &[PathBuf],
+    output: &Path,
+    aov_files: AovFiles,
+    compression: Compression,
+    force: bool,
+) -> Result<Merged, FarmError> {
+    let mut parts = Vec::new();
+    for path in paths {
+        let (header, film) = read_snapshot(path)?;
+        parts.push(Part {
+            path: path.clone(),
+            header,
+            film,
+        });
+    }
+    let problems = problems(&parts);
+    if !problems.is_empty() {
+        return Err(FarmError::Refused(format!(
+            "cannot merge these {} parts:\n  {}",
+            parts.len(),
+            problems.join("\n  ")
+        )));
+    }
+    let first = &parts[0];
+    let files = OutputFiles::new(output, aov_files, first.film.aov_set());
+    files.refuse_existing(force)?;
+    let mut frame = Film::new(first.film.resolution, first.film.aov_set().clone());
+    let mut stats = RenderStats {
+        samples_per_pixel: first.header.identity.part.frame_spp,
+        elapsed: Duration::ZERO,
+        rays: RayCounts::default(),
+        non_finite: Default::default(),
+        tracking: TrackingStats::default(),
+        complete: true,
+    };
+    for part in &parts {
+        frame.add_part(&part.film);
+        let p = &part.header.progress;
+        stats.elapsed += Duration::from_secs_f64(p.seconds);
+        stats.rays.add(&p.rays);
+        stats.tracking.merge(&p.tracking);
+    }
+    stats.non_finite = frame.non_finite;
+    let header = &first.header.identity.exr;
+    write_film(output, aov_files, &frame, header, &stats, compression)?;
+    let r = frame.resolution;
+    let preview = output.with_extension("png");
+    write_preview(&preview, r.x, r.y, &frame.rgb())?;
+    Ok(Merged {
+        parts: parts.len(),
+        seconds: stats.elapsed.as_secs_f64(),
+        preview,
+    })
+}
+
+/// Everything that stops `parts` from making one frame, one line each.
+fn problems(parts: &[Part]) -> Vec<String> {
+    let mut problems = Vec::new();
+    let first = &parts[0];
+    let name = |p: &Part| p.path.display().to_string();
+    for part in &parts[1..] {
+        let (a, b) = (&first.header.identity, &part.header.identity);
+        problems.extend(
+            a.fingerprint
+                .differences(&b.fingerprint, [&name(first), &name(part)]),
+        );
+        if b.part.frame_spp != a.part.frame_spp || part.film.resolution != first.film.resolution {
+            problems.push(format!(
+                "{} is of another frame than {}",
+                name(part),
+                name(first)
+            ));
+        }
+    }
+    for part in parts {
+        let p = &part.header.progress;
+        if p.next_sample() != part.header.identity.part.samples.end {
+            problems.push(format!(
+                "{} is unfinished ({} of samples {:?}); resume it",
+                name(part),
+                p.samples_per_pixel(),
+                part.header.identity.part.samples
+            ));
+        }
+    }
+    for (i, a) in parts.iter().enumerate() {
+        for b in &parts[i + 1..] {
+            let (sa, sb) = (
+                &a.header.identity.part.samples,
+                &b.header.identity.part.samples,
+            );
+            if overlap(a.film.window, b.film.window) && sa.start < sb.end && sb.start < sa.end {
+                problems.push(format!(
+                    "{} and {} overlap (both take samples {}..{} of some pixels)",
+                    name(a),
+                    name(b),
+                    sa.start.max(sb.start),
+                    sa.end.min(sb.end)
+                ));
+            }
+        }
+    }
+    if problems.is_empty() {
+        problems.extend(missing(parts));
+    }
+    problems
+}
+
+/// Whether two windows share a pixel.
+fn overlap(a: Tile, b: Tile) -> bool {
+    let (a1, b1) = (a.origin + a.size, b.origin + b.size);
+    a.origin.x < b1.x && b.origin.x < a1.x && a.origin.y < b1.y && b.origin.y < a1.y
+}
+
+/// Pixels whose samples the (non-overlapping) parts do not all cover: the
+/// count and the first such pixel.
+fn missing(parts: &[Part]) -> Option<String> {
+    let first = &parts[0];
+    let r = first.film.resolution;
+    let spp = first.header.identity.part.frame_spp;
+    let mut covered = vec![0u32; r.x as usize * r.y as usize];
+    for part in parts {
+        let w = part.film.window;
+        let n = part.header.identity.part.samples.len() as u32;
+        for y in w.origin.y..w.origin.y + w.size.y {
+            let row = y as usize * r.x as usize;
+            for x in w.origin.x..w.origin.x + w.size.x {
+                covered[row + x as usize] += n;
+            }
+        }
+    }
+    let short: Vec<usize> = (0..covered.len()).filter(|&i| covered[i] < spp).collect();
+    let i = *short.first()?;
+    Some(format!(
+        "{} pixels lack samples; the first, ({}, {}), has {} of {spp}: a part is missing",
+        short.len(),
+        i % r.x as usize,
+        i / r.x as usize,
+        covered[i]
+    ))
+}

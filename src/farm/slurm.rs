@@ -1,0 +1,302 @@
+//! `cirrus farm submit`: a frame range split into parts as a Slurm job
+//! array, and a merge job array that runs when every part succeeded.
+//!
+//! Each frame is exported once at submit time into the job folder, so the
+//! nodes need only the `cirrus` binary. Task `K` of the parts array renders
+//! part `K % N` of frame `K / N` into `parts/FRAME.PART.film`, checkpointing
+//! every minute and resuming a checkpoint left by a pre-empted run; it
+//! records its exit code in `status/part-K`. The merge array (task `F` joins
+//! frame `F`) depends on the whole parts array (`afterok`) and is cancelled
+//! if a part fails; a failed part can be re-run alone with
+//! `sbatch --array=K parts.sbatch`, then its frame's merge with
+//! `sbatch --array=F merge.sbatch`.
+
+use std::ops::RangeInclusive;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use glam::UVec2;
+
+use super::FarmError;
+
+/// How a frame is split into parts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SplitBy {
+    /// Horizontal bands of rows (`--tile I/N`): merged bit-identical to a
+    /// whole render.
+    #[default]
+    Tiles,
+    /// Ranges of the sample sequence (`--sample-range`): every part sees the
+    /// whole image (good for progressive previews), merged within rounding.
+    Samples,
+}
+
+crate::choice::choice!(SplitBy {
+    Tiles => "tiles",
+    Samples => "samples",
+});
+
+/// A frame range to render on Slurm (`cirrus farm submit`).
+#[derive(Clone, Debug)]
+pub struct SlurmJob {
+    /// The USD file (or exported scene folder) to render.
+    pub scene: PathBuf,
+    /// The EXR of each frame; a run of `#` becomes the zero-padded frame
+    /// number (e.g. out/shot.####.exr).
+    pub output: PathBuf,
+    /// Frames (USD time codes), inclusive; `None`: the stage's default time.
+    pub frames: Option<RangeInclusive<i64>>,
+    /// Parts per frame (at least 1).
+    pub split: u32,
+    /// How each frame is split.
+    pub split_by: SplitBy,
+    /// Samples per pixel of each frame.
+    pub spp: u32,
+    /// Image size (default: the stage's).
+    pub res: Option<UVec2>,
+    /// Further `cirrus render` flags given to every part.
+    pub render_args: String,
+    /// CPUs per part (the render uses as many threads).
+    pub cpus_per_task: u32,
+    /// Folder for the exported frames, job scripts, parts, logs and task
+    /// exit codes (default: farm-<output stem> beside the output).
+    pub job_dir: Option<PathBuf>,
+    /// Write the job scripts, submitting nothing.
+    pub dry_run: bool,
+}
+
+/// What [`submit`] wrote and submitted.
+#[derive(Clone, Debug)]
+pub struct Submitted {
+    /// The job folder.
+    pub dir: PathBuf,
+    /// Tasks of the parts array.
+    pub tasks: u32,
+    /// Frames, one merge task each.
+    pub frames: usize,
+    /// `parts.sbatch` and `merge.sbatch`.
+    pub scripts: [PathBuf; 2],
+    /// The parts and merge job ids; `None` for a dry run.
+    pub jobs: Option<[String; 2]>,
+}
+
+/// The output path of `frame`: runs of `#` replaced by the zero-padded number.
+fn frame_output(pattern: &Path, frame: Option<i64>) -> PathBuf {
+    let text = pattern.to_string_lossy();
+    let Some(frame) = frame else {
+        return pattern.to_path_buf();
+    };
+    let Some(start) = text.find('#') else {
+        return pattern.to_path_buf();
+    };
+    let width = text[start..].chars().take_while(|&c| c == '#').count();
+    let number = format!("{frame:0width$}");
+    PathBuf::from(format!(
+        "{}{number}{}",
+        &text[..start],
+        &text[start + width..]
+    ))
+}
+
+/// `s` quoted for bash.
+fn quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', r"'\''"))
+}
+
+fn quote_path(p: &Path) -> String {
+    quote(&p.to_string_lossy())
+}
+
+/// An absolute path (the scripts run elsewhere).
+fn absolute(p: &Path) -> Result<PathBuf, FarmError> {
+    std::path::absolute(p).map_err(|e| FarmError::io("resolve", p, e))
+}
+
+/// Exports every frame of `job` into its job folder, writes the two job
+/// scripts and, unless `job.dry_run`, submits them.
+pub fn submit(job: &SlurmJob) -> Result<Submitted, FarmError> {
+    let args = job;
+    if args.split_by == SplitBy::Samples && args.split > args.spp {
+        return Err(FarmError::Refused(format!(
+            "--split {} by samples needs at least that many --spp ({})",
+            args.split, args.spp
+        )));
+    }
+    let output = absolute(&args.output)?;
+    let stem = output
+        .file_stem()
+        .map_or("frame".into(), |s| s.to_string_lossy().replace('#', ""));
+    let dir = match &args.job_dir {
+        Some(d) => absolute(d)?,
+        None => output.with_file_name(format!("farm-{}", stem.trim_end_matches('.'))),
+    };
+    if dir
+        .to_string_lossy()
+        .contains(|c: char| c.is_whitespace() || c == '\'' || c == '"')
+    {
+        // `#SBATCH --output=` lines are not shell-quoted.
+        return Err(FarmError::Refused(format!(
+            "the job folder {} must not contain spaces or quotes (--job-dir)",
+            dir.display()
+        )));
+    }
+    for sub in ["scenes", "parts", "logs", "status"] {
+        let path = dir.join(sub);
+        std::fs::create_dir_all(&path).map_err(|e| FarmError::io("create", &path, e))?;
+    }
+    let frames: Vec<Option<i64>> = match &args.frames {
+        Some(r) => r.clone().map(Some).collect(),
+        None => vec![None],
+    };
+    let label = |f: Option<i64>| f.map_or("default".to_string(), |f| f.to_string());
+    for &frame in &frames {
+        let scene = dir.join("scenes").join(label(frame));
+        if crate::scene::is_usd(&args.scene) {
+            crate::scene::export(&args.scene, &scene, frame.map(|f| f as f64))?;
+        } else if frame.is_some() {
+            return Err(FarmError::Refused(format!(
+                "--frames needs a USD scene; {} is exported",
+                args.scene.display()
+            )));
+        } else {
+            let _ = std::fs::remove_file(&scene);
+            std::os::unix::fs::symlink(absolute(&args.scene)?, &scene)
+                .map_err(|e| FarmError::io("link", &scene, e))?;
+        }
+    }
+    let cirrus =
+        std::env::current_exe().map_err(|e| FarmError::io("find", "the cirrus binary", e))?;
+    let labels: Vec<String> = frames.iter().map(|&f| quote(&label(f))).collect();
+    let outputs: Vec<String> = frames
+        .iter()
+        .map(|&f| quote_path(&frame_output(&output, f)))
+        .collect();
+    let n = args.split;
+    let part_flag = match args.split_by {
+        SplitBy::Tiles => format!("--tile \"$part/{n}\""),
+        SplitBy::Samples => {
+            let spp = args.spp;
+            format!("--sample-range \"$((part * {spp} / {n}))..$(((part + 1) * {spp} / {n}))\"")
+        }
+    };
+    let res = args
+        .res
+        .map_or(String::new(), |r| format!(" --res {}x{}", r.x, r.y));
+    let parts_script = format!(
+        r#"#!/usr/bin/env bash
+#SBATCH --job-name=cirrus-parts
+#SBATCH --array=0-{last_part}
+#SBATCH --cpus-per-task={cpus}
+#SBATCH --output={raw_dir}/logs/part-%a.log
+# Task K renders part K % {n} of frame K / {n} (cirrus farm submit).
+set -uo pipefail
+frames=({labels})
+frame=${{frames[$((SLURM_ARRAY_TASK_ID / {n}))]}}
+part=$((SLURM_ARRAY_TASK_ID % {n}))
+film={dir}/parts/"$frame.$part.film"
+resume=()
+if [ -e "${{film%.film}}.checkpoint" ]; then resume=(--resume); fi
+{cirrus} render {dir}/scenes/"$frame" -o "$film" {part_flag} --spp {spp}{res} \
+  --threads "${{SLURM_CPUS_PER_TASK:-1}}" --checkpoint-every 60 --force "${{resume[@]}}" {extra}
+code=$?
+echo "$code" > {dir}/status/part-"$SLURM_ARRAY_TASK_ID"
+exit "$code"
+"#,
+        last_part = frames.len() as u32 * n - 1,
+        raw_dir = dir.display(),
+        cpus = args.cpus_per_task,
+        dir = quote_path(&dir),
+        labels = labels.join(" "),
+        cirrus = quote_path(&cirrus),
+        spp = args.spp,
+        extra = args.render_args,
+    );
+    let merge_script = format!(
+        r#"#!/usr/bin/env bash
+#SBATCH --job-name=cirrus-merge
+#SBATCH --array=0-{last_frame}
+#SBATCH --output={raw_dir}/logs/merge-%a.log
+# Task F joins the {n} parts of frame F (cirrus farm submit).
+set -uo pipefail
+frames=({labels})
+outputs=({outputs})
+frame=${{frames[$SLURM_ARRAY_TASK_ID]}}
+parts=()
+for ((part = 0; part < {n}; part++)); do parts+=({dir}/parts/"$frame.$part.film"); done
+{cirrus} merge "${{parts[@]}}" -o "${{outputs[$SLURM_ARRAY_TASK_ID]}}" --force
+code=$?
+echo "$code" > {dir}/status/merge-"$SLURM_ARRAY_TASK_ID"
+exit "$code"
+"#,
+        last_frame = frames.len() - 1,
+        raw_dir = dir.display(),
+        dir = quote_path(&dir),
+        labels = labels.join(" "),
+        outputs = outputs.join(" "),
+        cirrus = quote_path(&cirrus),
+    );
+    let parts_path = dir.join("parts.sbatch");
+    let merge_path = dir.join("merge.sbatch");
+    for (path, text) in [(&parts_path, &parts_script), (&merge_path, &merge_script)] {
+        crate::image::write_file(path, text.as_bytes())
+            .map_err(|e| FarmError::io("write", path, e))?;
+    }
+    let mut submitted = Submitted {
+        dir,
+        tasks: frames.len() as u32 * n,
+        frames: frames.len(),
+        scripts: [parts_path, merge_path],
+        jobs: None,
+    };
+    if args.dry_run {
+        return Ok(submitted);
+    }
+    let [parts_path, merge_path] = &submitted.scripts;
+    let parts_job = sbatch(&[], parts_path)?;
+    let merge_job = sbatch(
+        &[
+            format!("--dependency=afterok:{parts_job}"),
+            "--kill-on-invalid-dep=yes".into(),
+        ],
+        merge_path,
+    )?;
+    submitted.jobs = Some([parts_job, merge_job]);
+    Ok(submitted)
+}
+
+/// Submits `script` with `flags`; returns the job id.
+fn sbatch(flags: &[String], script: &Path) -> Result<String, FarmError> {
+    let out = Command::new("sbatch")
+        .arg("--parsable")
+        .args(flags)
+        .arg(script)
+        .output()
+        .map_err(|e| FarmError::io("run", "sbatch (is Slurm installed and SLURM_CONF set?)", e))?;
+    if !out.status.success() {
+        return Err(FarmError::Refused(format!(
+            "sbatch {} failed: {}",
+            script.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        )));
+    }
+    let id = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    // `--parsable` prints `ID` or `ID;CLUSTER`.
+    Ok(id.split(';').next().unwrap_or_default().to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_patterns_fill_and_quotes_escape() {
+        let p = Path::new("/o/shot.####.exr");
+        assert_eq!(frame_output(p, Some(7)), Path::new("/o/shot.0007.exr"));
+        assert_eq!(frame_output(p, None), p);
+        assert_eq!(
+            frame_output(Path::new("/o/a.exr"), Some(3)),
+            Path::new("/o/a.exr")
+        );
+        assert_eq!(quote("it's"), r"'it'\''s'");
+    }
+}
