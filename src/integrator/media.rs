@@ -5,7 +5,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::path::{visibility, PathCounts};
+use super::shadow::{visibility, PathCounts};
 use super::{PathSettings, Strategy};
 use crate::geometry::shadow_ray;
 use crate::render_state::RenderState;
@@ -220,17 +220,22 @@ pub(super) fn equiangular_sample(
         return None;
     }
     let shadow = shadow_ray(p, ls.wi, ls.distance);
-    let (tr_shadow, null_shadow) = visibility(state, settings, &shadow, light, rng, counts);
-    if tr_shadow == Vec3::ZERO {
+    let seen = visibility(state, settings, &shadow, light, rng, counts);
+    if seen.transmittance == Vec3::ZERO {
         return None;
     }
     let f = phase.eval(wo, ls.wi);
     let light_weight = if ls.delta || settings.strategy == Strategy::Nee {
         1.0
     } else {
-        power_heuristic(p_select * ls.pdf, f * null_shadow)
+        power_heuristic(p_select * ls.pdf, f * seen.null_ratio)
     };
     let p1 = null_prefix * sigma_s * p_select;
     let weight = light_weight * power_heuristic(p_pick * p_t, p1);
-    Some(point.sigma_s * f * ls.radiance * (tr * tr_shadow * weight / (p_pick * p_t * ls.pdf)))
+    Some(
+        point.sigma_s
+            * f
+            * ls.radiance
+            * (tr * seen.transmittance * weight / (p_pick * p_t * ls.pdf)),
+    )
 }

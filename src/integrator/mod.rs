@@ -12,6 +12,7 @@ mod gathered;
 mod media;
 mod path;
 mod progress;
+mod shadow;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
@@ -27,7 +28,7 @@ use crate::render_state::RenderState;
 use crate::sampling::{Pcg32, Sampler, SamplerKind};
 use crate::volumes::{TrackingStats, TransmittanceEstimator};
 use progress::{next_pass_end, TILE_SIZE};
-pub use progress::{Checkpointing, FilmState, RenderControl, RenderProgress};
+pub use progress::{Checkpointing, RenderControl, RenderProgress, Snapshot};
 
 /// How light is found, for comparing the estimators (`--strategy`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -195,7 +196,7 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(f64) + Sync),
 ) -> (Film, RenderStats) {
-    let start = FilmState::new(Film::new(state.resolution, settings.aovs.clone()), 0);
+    let start = Snapshot::new(Film::new(state.resolution, settings.aovs.clone()), 0);
     let control = RenderControl {
         progress,
         stop: &|| false,
@@ -205,7 +206,7 @@ pub fn render(
     (end.film, stats)
 }
 
-/// Continues a render from `start` (an empty [`FilmState`] or a
+/// Continues a render from `start` (an empty [`Snapshot`] or a
 /// checkpoint's) until the budget is spent or `control.stop` asks to stop,
 /// then returns the state reached. Every tile takes its samples in the same
 /// passes whether or not the render is stopped and resumed in between, so a
@@ -213,9 +214,9 @@ pub fn render(
 pub fn render_from(
     state: &RenderState,
     settings: &RenderSettings,
-    start: FilmState,
+    start: Snapshot,
     control: &RenderControl,
-) -> (FilmState, RenderStats) {
+) -> (Snapshot, RenderStats) {
     let tiles = start.film.tiles(TILE_SIZE);
     let filter = PixelFilter::new(settings.filter);
     let clock = Instant::now();
@@ -339,7 +340,7 @@ fn render_tile(
                     sampler: &mut sampler,
                     tracking: &mut rng,
                 };
-                let counts = path::PathCounts {
+                let counts = shadow::PathCounts {
                     rays: &mut *rays,
                     tracking: &mut *tracking,
                 };

@@ -25,7 +25,8 @@ use obvhs::ray::Ray;
 
 use super::gathered::{lobe_shares, Gathered, VOLUME_EVENT};
 use super::media::{equiangular_sample, free_flight, EquiangularRay, FlightEnd};
-use super::{PathSettings, RayCounts, Strategy, VolumeEstimator};
+use super::shadow::{visibility, PathCounts};
+use super::{PathSettings, Strategy, VolumeEstimator};
 use crate::film::{AovSample, CameraHit};
 use crate::geometry::{shadow_ray, SurfacePoint};
 use crate::lights::LightSample;
@@ -34,10 +35,7 @@ use crate::render_state::RenderState;
 use crate::sampling::warp::power_heuristic;
 use crate::sampling::{Pcg32, Sampler};
 use crate::scene::NO_MATERIAL;
-use crate::volumes::{
-    ratio_tracking_with_null_ratio, transmittance, HenyeyGreenstein, MajorantSegment, RaySegments,
-    TrackingStats,
-};
+use crate::volumes::{HenyeyGreenstein, MajorantSegment, RaySegments};
 
 /// Depth (bounces) from which Russian roulette may end a path.
 const ROULETTE_DEPTH: u32 = 3;
@@ -64,14 +62,6 @@ pub struct PathRandom<'a> {
     pub sampler: &'a mut Sampler,
     /// The generator for free-flight and transmittance tracking.
     pub tracking: &'a mut Pcg32,
-}
-
-/// Counters a path adds to.
-pub struct PathCounts<'a> {
-    /// Rays traced.
-    pub rays: &'a mut RayCounts,
-    /// Density lookups and collisions in media.
-    pub tracking: &'a mut TrackingStats,
 }
 
 /// Radiance arriving at the camera along a camera ray, W/(m^2 sr): one
@@ -402,19 +392,19 @@ fn next_event(
         return None;
     }
     let shadow = vertex.shadow_ray(&ls);
-    let (tr, null_ratio) = visibility(state, settings, &shadow, light, rng, counts);
-    if tr == Vec3::ZERO {
+    let seen = visibility(state, settings, &shadow, light, rng, counts);
+    if seen.transmittance == Vec3::ZERO {
         return None;
     }
     let weight = if ls.delta || settings.strategy == Strategy::Nee {
         1.0
     } else {
-        power_heuristic(ls.pdf, vertex.pdf(ls.wi) * null_ratio)
+        power_heuristic(ls.pdf, vertex.pdf(ls.wi) * seen.null_ratio)
     };
     Some(LightContribution {
         light,
         f,
-        li: ls.radiance * tr * (weight / ls.pdf),
+        li: ls.radiance * seen.transmittance * (weight / ls.pdf),
         wi: ls.wi,
     })
 }
@@ -431,49 +421,4 @@ fn roulette(throughput: &mut Vec3, depth: u32, u: f32) -> bool {
     }
     *throughput /= survival;
     true
-}
-
-/// The fraction of light that arrives along a shadow ray towards light
-/// `light`, per RGB channel: 0 when geometry or another area light blocks
-/// it, else the media's transmittance estimate (1 without media); and the factor that turns the vertex's directional sampling density into
-/// its density for the whole null-scattering path (ratio tracking's
-/// product of sigma_n / sigma_maj under null-scattering MIS, else 1).
-pub(super) fn visibility(
-    state: &RenderState,
-    settings: &PathSettings,
-    shadow: &Ray,
-    light: usize,
-    rng: &mut Pcg32,
-    counts: &mut PathCounts,
-) -> (Vec3, f32) {
-    counts.rays.shadow += 1;
-    let (origin, direction) = (Vec3::from(shadow.origin), Vec3::from(shadow.direction));
-    if state.geometry.occluded(shadow) || state.lights.blocks(origin, direction, shadow.tmax, light)
-    {
-        return (Vec3::ZERO, 1.0);
-    }
-    if state.media.is_empty() {
-        return (Vec3::ONE, 1.0);
-    }
-    let along = state.media.along(origin, direction, shadow.tmax);
-    if along.is_empty() {
-        return (Vec3::ONE, 1.0);
-    }
-    let segments = along.segments(shadow.tmin, shadow.tmax);
-    let sigma_t = |t| along.sigma_t(t);
-    match settings.volume_estimator {
-        VolumeEstimator::NullScatteringMis => {
-            ratio_tracking_with_null_ratio(segments, sigma_t, rng, counts.tracking)
-        }
-        estimator => {
-            let tr = transmittance(
-                estimator.transmittance(),
-                segments,
-                sigma_t,
-                rng,
-                counts.tracking,
-            );
-            (tr, 1.0)
-        }
-    }
 }
