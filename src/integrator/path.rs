@@ -74,44 +74,80 @@ pub fn radiance(
     mut ray: Ray,
     random: PathRandom,
     settings: &PathSettings,
-    mut counts: PathCounts,
+    counts: PathCounts,
 ) -> (Vec3, AovSample) {
-    let PathRandom {
-        sampler,
-        tracking: rng,
-    } = random;
-    let (geometry, materials, lights) = (&state.geometry, &state.materials, &state.lights);
-    let mut gathered = Gathered::default();
-    let mut throughput = Vec3::ONE;
-    let mut bounce = Bounce {
-        pdf: 1.0,
-        specular: true,
+    let mut path = Path {
+        state,
+        settings,
+        sampler: random.sampler,
+        rng: random.tracking,
+        counts,
+        gathered: Gathered::default(),
+        throughput: Vec3::ONE,
+        bounce: Bounce {
+            pdf: 1.0,
+            specular: true,
+        },
+        // Equiangular sampling of point-like lights from media, a third
+        // strategy beside distance sampling with NEE or phase sampling.
+        equiangular_on: settings.equiangular
+            && settings.volume_estimator == VolumeEstimator::NullScatteringMis
+            && settings.strategy != Strategy::Bsdf
+            && !state.media.is_empty()
+            && state.lights.has_equiangular_target(),
     };
-    // Weight of emission found by a BSDF- or phase-sampled ray whose
-    // light-sampling density at that point is `light_pdf`; `null_ratio`
-    // turns that into the light strategy's density of the null-scattering
-    // path relative to this one's (1 without media).
-    let emission_weight = |bounce: Bounce, light_pdf: f32, null_ratio: f32| {
-        if bounce.specular || light_pdf <= 0.0 {
-            return 1.0;
-        }
-        match settings.strategy {
-            Strategy::Mis => power_heuristic(bounce.pdf, light_pdf * null_ratio),
-            Strategy::Bsdf => 1.0,
-            Strategy::Nee => 0.0,
-        }
-    };
-    // Equiangular sampling of point-like lights from media, a third
-    // strategy beside distance sampling with NEE or phase sampling.
-    let equiangular_on = settings.equiangular
-        && settings.volume_estimator == VolumeEstimator::NullScatteringMis
-        && settings.strategy != Strategy::Bsdf
-        && !state.media.is_empty()
-        && lights.has_equiangular_target();
     // `depth` counts the scattering events before the current ray.
     for depth in 0.. {
-        counts.rays.closest += 1;
-        let hit = geometry.intersect(&ray);
+        match path.extend(&ray, depth) {
+            Some(next) => ray = next,
+            None => break,
+        }
+    }
+    path.gathered.finish(settings.clamp)
+}
+
+/// One path being traced: what it has gathered, its throughput and how its
+/// current ray was chosen.
+struct Path<'a, 'r> {
+    state: &'a RenderState,
+    settings: &'a PathSettings,
+    sampler: &'r mut Sampler,
+    rng: &'r mut Pcg32,
+    counts: PathCounts<'r>,
+    gathered: Gathered,
+    throughput: Vec3,
+    bounce: Bounce,
+    equiangular_on: bool,
+}
+
+/// Where a ray's free flight through media left the path.
+enum AfterMedia {
+    /// It reached the surface, light or sky the ray hits; `null_ratio` is
+    /// the light strategy's density of the flight's null collisions over
+    /// this one's (1 without null-scattering MIS).
+    Reached { null_ratio: f32 },
+    /// It scattered in the medium and continues along this ray.
+    Scattered(Ray),
+    /// It ended in the medium.
+    Ended,
+}
+
+impl Path<'_, '_> {
+    /// Weight of emission found by a BSDF- or phase-sampled ray whose
+    /// light-sampling density at that point is `light_pdf`; `null_ratio`
+    /// turns that into the light strategy's density of the null-scattering
+    /// path relative to this one's (1 without media).
+    fn emission_weight(&self, light_pdf: f32, null_ratio: f32) -> f32 {
+        emission_weight(self.settings.strategy, self.bounce, light_pdf, null_ratio)
+    }
+
+    /// Follows `ray` (after `depth` scattering events) to its next
+    /// scattering event, adding what it finds; the next ray, or `None`
+    /// when the path ends.
+    fn extend(&mut self, ray: &Ray, depth: u32) -> Option<Ray> {
+        let (geometry, lights) = (&self.state.geometry, &self.state.lights);
+        self.counts.rays.closest += 1;
+        let hit = geometry.intersect(ray);
         let (origin, direction) = (Vec3::from(ray.origin), Vec3::from(ray.direction));
         let t_surface = hit.map_or(ray.tmax, |h| h.t);
         let light_hit = lights.intersect(origin, direction, t_surface);
@@ -121,192 +157,260 @@ pub fn radiance(
         let mut camera_hit = None;
         if depth == 0 {
             camera_hit = hit.map(|h| geometry.surface_point(&h));
-            gathered.aovs.opaque = hit.is_some() || light_hit.is_some();
-            gathered.aovs.hit = hit.zip(camera_hit).map(|(h, sp)| CameraHit {
+            let aovs = &mut self.gathered.aovs;
+            aovs.opaque = hit.is_some() || light_hit.is_some();
+            aovs.hit = hit.zip(camera_hit).map(|(h, sp)| CameraHit {
                 normal: sp.ns,
                 position: sp.p,
-                depth: state.camera.depth(sp.p),
+                depth: self.state.camera.depth(sp.p),
                 object: geometry.scene_mesh(&h),
                 material: (sp.material != NO_MATERIAL).then_some(sp.material),
             });
         }
-        // The free flight through media up to the surface or light: it may
-        // end in absorption or a real scattering event on the way.
-        let mut null_ratio = 1.0;
-        let along = (!state.media.is_empty())
-            .then(|| state.media.along(origin, direction, t_end))
-            .filter(|along| !along.is_empty());
-        if let Some(along) = along {
-            // Free flights walk the majorant cells lazily; equiangular
-            // sampling needs the ray's whole span in media first.
-            let mut segments = along.segments(ray.tmin, t_end);
-            let mut equiangular = None;
-            if equiangular_on {
-                let listed: Vec<MajorantSegment> = segments.collect();
-                equiangular = EquiangularRay::new(origin, direction, &listed);
-                if let Some(eq) = &equiangular {
-                    let sample = (&along, listed.as_slice(), eq);
-                    if let Some(c) = equiangular_sample(state, settings, sample, rng, &mut counts) {
-                        let c = throughput * c;
-                        if depth == 0 {
-                            gathered.add_first(c, &VOLUME_EVENT);
-                        } else {
-                            gathered.add(c, depth + 1);
-                        }
-                    }
-                }
-                segments = RaySegments::Listed(listed.into_iter());
-            }
-            // Volume emission found by tracking against light sampling of
-            // emitting volumes from this ray's origin (the measure is in
-            // `lights/volume.rs`); their pick probabilities are looked up at
-            // the first collision that emits, not for every ray in media.
-            let weigh_volume_lights = lights.has_volume_lights() && !bounce.specular;
-            let mut volume_lights = None;
-            let null_scattering = settings.volume_estimator == VolumeEstimator::NullScatteringMis;
-            let weigh_emission = |t: f32, sigma_maj: f32, null_ratio: f32| {
-                if !weigh_volume_lights {
-                    return 1.0;
-                }
-                let from = volume_lights.get_or_insert_with(|| lights.volume_lights_from(origin));
-                let light_pdf = from.pdf(&state.media, origin + direction * t, sigma_maj);
-                let null_ratio = if null_scattering { null_ratio } else { 1.0 };
-                emission_weight(bounce, light_pdf, null_ratio)
-            };
-            let flight = free_flight(
-                &along,
-                segments,
-                throughput,
-                weigh_emission,
-                rng,
-                counts.tracking,
-            );
-            gathered.add(flight.emission, depth);
-            throughput = flight.throughput;
-            if settings.volume_estimator == VolumeEstimator::NullScatteringMis {
-                null_ratio = flight.null_ratio;
-            }
-            match flight.end {
-                FlightEnd::Left => {}
-                FlightEnd::Absorbed => {
-                    gathered.aovs.opaque |= depth == 0;
-                    break;
-                }
-                FlightEnd::Scattered { t, albedo, sigma_s } => {
-                    if depth == 0 {
-                        gathered.first_event(VOLUME_EVENT);
-                    }
-                    gathered.set_albedo(albedo);
-                    if depth >= settings.max_depth {
-                        break;
-                    }
-                    let phase = along.phase(t, rng.next_f32());
-                    let p = origin + direction * t;
-                    let wo = -direction;
-                    let u_light = (sampler.next_1d(), sampler.next_2d());
-                    if settings.strategy != Strategy::Bsdf {
-                        let vertex = Vertex::Medium { p, phase, wo };
-                        if let Some(light) =
-                            next_event(state, settings, &vertex, u_light, rng, &mut counts)
-                        {
-                            // Equiangular sampling could have made this path
-                            // too: its share of the NEE weight.
-                            let share = equiangular.as_ref().map_or(1.0, |eq| {
-                                let distance_path = (t, sigma_s, flight.null_ratio);
-                                eq.distance_share(state, light.light, distance_path)
-                            });
-                            gathered.add(throughput * light.f * light.li * share, depth + 1);
-                        }
-                    }
-                    let (_, u_phase, u_roulette) =
-                        (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
-                    let ps = phase.sample(wo, u_phase);
-                    bounce = Bounce {
-                        pdf: ps.pdf,
-                        specular: false,
-                    };
-                    if !roulette(&mut throughput, depth, u_roulette) {
-                        break;
-                    }
-                    ray = Ray::new(p.into(), ps.wi.into(), 0.0, f32::INFINITY);
-                    continue;
-                }
-            }
-        }
+        let null_ratio = match self.through_media(ray, depth, t_end) {
+            AfterMedia::Reached { null_ratio } => null_ratio,
+            AfterMedia::Scattered(next) => return Some(next),
+            AfterMedia::Ended => return None,
+        };
         if let Some(light) = light_hit {
-            let weight = emission_weight(bounce, light.pdf, null_ratio);
-            gathered.add(throughput * light.radiance * weight, depth);
-            break;
+            let weight = self.emission_weight(light.pdf, null_ratio);
+            self.gathered
+                .add(self.throughput * light.radiance * weight, depth);
+            return None;
         }
         let Some(hit) = hit else {
+            let (strategy, bounce, throughput) =
+                (self.settings.strategy, self.bounce, self.throughput);
+            let gathered = &mut self.gathered;
             lights.escaped(origin, direction, |le, pdf| {
                 gathered.add(
-                    throughput * le * emission_weight(bounce, pdf, null_ratio),
+                    throughput * le * emission_weight(strategy, bounce, pdf, null_ratio),
                     depth,
                 );
             });
-            break;
+            return None;
         };
         let sp = camera_hit.unwrap_or_else(|| geometry.surface_point(&hit));
+        self.at_surface(&sp, origin, -direction, null_ratio, depth)
+    }
+
+    /// The free flight along `ray` through media up to `t_end` (the surface
+    /// or light it reaches): volume emission on the way, equiangular
+    /// sampling of point-like lights, and a real scattering event with
+    /// next-event estimation and phase sampling when the flight ends in one.
+    fn through_media(&mut self, ray: &Ray, depth: u32, t_end: f32) -> AfterMedia {
+        let (state, settings) = (self.state, self.settings);
+        let lights = &state.lights;
+        let (origin, direction) = (Vec3::from(ray.origin), Vec3::from(ray.direction));
+        let along = (!state.media.is_empty())
+            .then(|| state.media.along(origin, direction, t_end))
+            .filter(|along| !along.is_empty());
+        let Some(along) = along else {
+            return AfterMedia::Reached { null_ratio: 1.0 };
+        };
+        // Free flights walk the majorant cells lazily; equiangular
+        // sampling needs the ray's whole span in media first.
+        let mut segments = along.segments(ray.tmin, t_end);
+        let mut equiangular = None;
+        if self.equiangular_on {
+            let listed: Vec<MajorantSegment> = segments.collect();
+            equiangular = EquiangularRay::new(origin, direction, &listed);
+            if let Some(eq) = &equiangular {
+                let sample = (&along, listed.as_slice(), eq);
+                if let Some(c) =
+                    equiangular_sample(state, settings, sample, self.rng, &mut self.counts)
+                {
+                    let c = self.throughput * c;
+                    if depth == 0 {
+                        self.gathered.add_first(c, &VOLUME_EVENT);
+                    } else {
+                        self.gathered.add(c, depth + 1);
+                    }
+                }
+            }
+            segments = RaySegments::Listed(listed.into_iter());
+        }
+        // Volume emission found by tracking against light sampling of
+        // emitting volumes from this ray's origin (the measure is in
+        // `lights/volume.rs`); their pick probabilities are looked up at
+        // the first collision that emits, not for every ray in media.
+        let bounce = self.bounce;
+        let weigh_volume_lights = lights.has_volume_lights() && !bounce.specular;
+        let mut volume_lights = None;
+        let null_scattering = settings.volume_estimator == VolumeEstimator::NullScatteringMis;
+        let weigh_emission = |t: f32, sigma_maj: f32, null_ratio: f32| {
+            if !weigh_volume_lights {
+                return 1.0;
+            }
+            let from = volume_lights.get_or_insert_with(|| lights.volume_lights_from(origin));
+            let light_pdf = from.pdf(&state.media, origin + direction * t, sigma_maj);
+            let null_ratio = if null_scattering { null_ratio } else { 1.0 };
+            emission_weight(settings.strategy, bounce, light_pdf, null_ratio)
+        };
+        let flight = free_flight(
+            &along,
+            segments,
+            self.throughput,
+            weigh_emission,
+            self.rng,
+            self.counts.tracking,
+        );
+        self.gathered.add(flight.emission, depth);
+        self.throughput = flight.throughput;
+        let (t, albedo, sigma_s) = match flight.end {
+            FlightEnd::Left => {
+                let null_ratio = if null_scattering {
+                    flight.null_ratio
+                } else {
+                    1.0
+                };
+                return AfterMedia::Reached { null_ratio };
+            }
+            FlightEnd::Absorbed => {
+                self.gathered.aovs.opaque |= depth == 0;
+                return AfterMedia::Ended;
+            }
+            FlightEnd::Scattered { t, albedo, sigma_s } => (t, albedo, sigma_s),
+        };
+        if depth == 0 {
+            self.gathered.first_event(VOLUME_EVENT);
+        }
+        self.gathered.set_albedo(albedo);
+        if depth >= settings.max_depth {
+            return AfterMedia::Ended;
+        }
+        let phase = along.phase(t, self.rng.next_f32());
+        let p = origin + direction * t;
         let wo = -direction;
+        let u_light = (self.sampler.next_1d(), self.sampler.next_2d());
+        if settings.strategy != Strategy::Bsdf {
+            let vertex = Vertex::Medium { p, phase, wo };
+            if let Some(light) = next_event(
+                state,
+                settings,
+                &vertex,
+                u_light,
+                self.rng,
+                &mut self.counts,
+            ) {
+                // Equiangular sampling could have made this path too: its
+                // share of the NEE weight.
+                let share = equiangular.as_ref().map_or(1.0, |eq| {
+                    let distance_path = (t, sigma_s, flight.null_ratio);
+                    eq.distance_share(state, light.light, distance_path)
+                });
+                self.gathered
+                    .add(self.throughput * light.f * light.li * share, depth + 1);
+            }
+        }
+        let (_, u_phase, u_roulette) = (
+            self.sampler.next_1d(),
+            self.sampler.next_2d(),
+            self.sampler.next_1d(),
+        );
+        let ps = phase.sample(wo, u_phase);
+        self.bounce = Bounce {
+            pdf: ps.pdf,
+            specular: false,
+        };
+        if !roulette(&mut self.throughput, depth, u_roulette) {
+            return AfterMedia::Ended;
+        }
+        AfterMedia::Scattered(Ray::new(p.into(), ps.wi.into(), 0.0, f32::INFINITY))
+    }
+
+    /// The surface point `sp` reached from `origin` (`wo` pointing back):
+    /// its emission, next-event estimation, and BSDF sampling of the next
+    /// ray (`None` when the path ends here).
+    fn at_surface(
+        &mut self,
+        sp: &SurfacePoint,
+        origin: Vec3,
+        wo: Vec3,
+        null_ratio: f32,
+        depth: u32,
+    ) -> Option<Ray> {
+        let (state, settings) = (self.state, self.settings);
+        let materials = &state.materials;
         if materials.is_emissive(sp.material) && (sp.double_sided || wo.dot(sp.ng) > 0.0) {
-            let weight = emission_weight(bounce, lights.mesh_pdf(&sp, origin), null_ratio);
-            gathered.add(
-                throughput * materials.emission(sp.material, sp.uv) * weight,
+            let weight = self.emission_weight(state.lights.mesh_pdf(sp, origin), null_ratio);
+            self.gathered.add(
+                self.throughput * materials.emission(sp.material, sp.uv) * weight,
                 depth,
             );
         }
         if depth >= settings.max_depth {
-            break;
+            return None;
         }
-        let bsdf = materials.bsdf(&sp, wo);
+        let bsdf = materials.bsdf(sp, wo);
         if !bsdf.is_delta() {
-            gathered.set_albedo(bsdf.albedo());
+            self.gathered.set_albedo(bsdf.albedo());
         }
         // Next-event estimation: one light sample.
-        let u_light = (sampler.next_1d(), sampler.next_2d());
+        let u_light = (self.sampler.next_1d(), self.sampler.next_2d());
         if settings.strategy != Strategy::Bsdf && !bsdf.is_delta() {
             let vertex = Vertex::Surface {
-                sp: &sp,
+                sp,
                 bsdf: &bsdf,
                 wo,
             };
-            if let Some(light) = next_event(state, settings, &vertex, u_light, rng, &mut counts) {
-                let contribution = throughput * light.f * light.li;
+            if let Some(light) = next_event(
+                state,
+                settings,
+                &vertex,
+                u_light,
+                self.rng,
+                &mut self.counts,
+            ) {
+                let contribution = self.throughput * light.f * light.li;
                 if depth == 0 {
                     // The first event: split the light by lobe.
                     let shares = lobe_shares(bsdf.eval_split(wo, light.wi));
-                    gathered.add_first(contribution, &shares);
+                    self.gathered.add_first(contribution, &shares);
                 } else {
-                    gathered.add(contribution, depth + 1);
+                    self.gathered.add(contribution, depth + 1);
                 }
             }
         }
         // BSDF sampling continues the path.
-        let (u_lobe, u_bsdf, u_roulette) =
-            (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
-        let Some(bs) = bsdf.sample(wo, u_lobe, u_bsdf) else {
-            break;
-        };
+        let (u_lobe, u_bsdf, u_roulette) = (
+            self.sampler.next_1d(),
+            self.sampler.next_2d(),
+            self.sampler.next_1d(),
+        );
+        let bs = bsdf.sample(wo, u_lobe, u_bsdf)?;
         if depth == 0 {
             let shares = if bs.delta {
                 [Vec3::ZERO, Vec3::ZERO, Vec3::ONE, Vec3::ZERO]
             } else {
                 lobe_shares(bsdf.eval_split(wo, bs.wi))
             };
-            gathered.first_event(shares);
+            self.gathered.first_event(shares);
         }
-        throughput *= bs.weight;
-        bounce = Bounce {
+        self.throughput *= bs.weight;
+        self.bounce = Bounce {
             pdf: bs.pdf,
             specular: bs.delta,
         };
-        if !roulette(&mut throughput, depth, u_roulette) {
-            break;
+        if !roulette(&mut self.throughput, depth, u_roulette) {
+            return None;
         }
-        ray = sp.spawn_ray(bs.wi);
+        Some(sp.spawn_ray(bs.wi))
     }
-    gathered.finish(settings.clamp)
+}
+
+/// The MIS weight, under `strategy`, of emission found by a ray sampled as
+/// `bounce` says, against light sampling with density `light_pdf` there
+/// times `null_ratio` (see [`Path::emission_weight`]).
+fn emission_weight(strategy: Strategy, bounce: Bounce, light_pdf: f32, null_ratio: f32) -> f32 {
+    if bounce.specular || light_pdf <= 0.0 {
+        return 1.0;
+    }
+    match strategy {
+        Strategy::Mis => power_heuristic(bounce.pdf, light_pdf * null_ratio),
+        Strategy::Bsdf => 1.0,
+        Strategy::Nee => 0.0,
+    }
 }
 
 /// A scattering vertex of a path, where next-event estimation samples a
