@@ -29,7 +29,7 @@ pub enum AovFiles {
 
 /// What every EXR of a render carries besides its pixels and run statistics.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub(super) struct ExrHeader {
+pub(crate) struct ExrHeader {
     /// `software` and the settings as `cirrus/*` strings.
     strings: Vec<(String, String)>,
     /// `worldToCamera` and `worldToNDC` (Imath's row-vector layout, which is
@@ -111,7 +111,7 @@ impl ExrHeader {
 /// Writes the film: the beauty layer and every chosen AOV, in one EXR or
 /// one per AOV (`OUT.<aov>.exr`), each with the header, the run's
 /// statistics and a Cryptomatte's own metadata.
-pub(super) fn write_film(
+pub(crate) fn write_film(
     output: &Path,
     files: AovFiles,
     film: &Film,
@@ -161,7 +161,7 @@ pub(super) fn write_film(
 
 /// Writes a beauty-only EXR (float R, G, B) of `size` pixels with the
 /// header: the benchmarks' references.
-pub(super) fn write_beauty(
+pub(crate) fn write_beauty(
     path: &Path,
     size: UVec2,
     rgb: &[f32],

@@ -12,8 +12,9 @@ mod bench_volumes;
 mod checkpoint;
 mod converge;
 mod farm;
-mod film_output;
+pub(crate) mod film_output;
 mod info;
+pub(crate) mod load;
 mod render;
 mod split;
 
@@ -24,6 +25,7 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 
 use cirrus::scene::Scene;
+use load::{is_usd, load_scene};
 
 /// Cirrus: a production path tracer for USD scenes and OpenVDB volumes.
 #[derive(Parser, Debug)]
@@ -105,41 +107,6 @@ pub fn run() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
-    }
-}
-
-/// USD file extensions: such inputs are exported (through the cache) first.
-const USD_EXTENSIONS: &[&str] = &["usd", "usda", "usdc", "usdz"];
-
-/// Whether `path` names a USD file by its extension.
-fn is_usd(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| USD_EXTENSIONS.contains(&e))
-}
-
-/// A scene from a USD file (exported through the cache at `frame`; the
-/// export's warnings are printed again when the cache already held it) or
-/// from an exported folder or its scene.json.
-fn load_scene(path: &Path, frame: Option<f64>) -> Result<Scene> {
-    if is_usd(path) {
-        let export = cirrus::scene::export_cached(path, frame)?;
-        let scene = Scene::load(&export.dir)?;
-        if export.reused {
-            // The exporter printed these when it ran; a user must see them every time.
-            for warning in &scene.manifest.warnings {
-                eprintln!("warning: {warning}");
-            }
-        }
-        Ok(scene)
-    } else {
-        if frame.is_some() {
-            anyhow::bail!(
-                "--frame applies to USD input only; {} is an exported scene",
-                path.display()
-            );
-        }
-        Ok(Scene::load(path)?)
     }
 }
 
