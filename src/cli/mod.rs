@@ -3,12 +3,6 @@
 
 mod aovs;
 mod bench;
-mod bench_aovs;
-mod bench_equal_time;
-mod bench_fire;
-mod bench_instances;
-mod bench_render;
-mod bench_volumes;
 mod checkpoint;
 mod converge;
 mod farm;
