@@ -66,7 +66,7 @@ pub enum Bench {
     /// equal-time MSE of BSDF-only, NEE-only and MIS with Sobol and
     /// independent samples against a high-spp reference (table + SVG chart).
     Render {
-        /// Scenes (USD or exported); docs/benchmarks.md's are the
+        /// Scenes (USD or exported); docs/benchmarks.md gives the
         /// StandardShaderBall and the intent-vfx layout from ../shared/assets.
         #[arg(required = true)]
         scenes: Vec<PathBuf>,

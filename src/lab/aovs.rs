@@ -1,5 +1,5 @@
-//! `cirrus bench aovs`: what the AOVs cost. Renders each scene at
-//! a fixed sample count with the beauty alone and with the default AOV set
+//! `cirrus bench aovs`: what the AOVs cost. Renders each scene at a fixed
+//! sample count with the beauty alone and with the default AOV set
 //! (alternating, several repeats), and writes each film as `render` does;
 //! prints median sampling and write times, the overhead ratio and file sizes.
 
