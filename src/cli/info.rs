@@ -13,7 +13,10 @@ use cirrus::volumes::{GridInfo, VdbFile};
 pub fn run(file: &Path) -> Result<()> {
     let is_scene = file.is_dir() || file.file_name().is_some_and(|n| n == scene::MANIFEST_FILE);
     if is_scene || cirrus::scene::is_usd(file) {
-        print!("{}", scene_summary(&super::load_scene(file, None)?));
+        print!(
+            "{}",
+            scene_summary(&cirrus::scene::Scene::open(file, None)?)
+        );
     } else {
         let vdb = VdbFile::open(file)?;
         print!("{}", grid_table(&vdb));

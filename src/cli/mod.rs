@@ -3,12 +3,6 @@
 
 mod aovs;
 mod bench;
-mod bench_aovs;
-mod bench_equal_time;
-mod bench_fire;
-mod bench_instances;
-mod bench_render;
-mod bench_volumes;
 mod converge;
 mod farm;
 mod info;
@@ -114,31 +108,6 @@ pub fn run() -> ExitCode {
 fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Value = T> {
     clap::builder::PossibleValuesParser::new(T::NAMES.iter().map(|&(_, name)| name))
         .map(|name| T::from_name(&name).expect("only offered names reach here"))
-}
-
-/// A scene from a USD file (exported through the cache at `frame`; the
-/// export's warnings are printed again when the cache already held it) or
-/// from an exported folder or its scene.json.
-fn load_scene(path: &Path, frame: Option<f64>) -> Result<Scene> {
-    if cirrus::scene::is_usd(path) {
-        let export = cirrus::scene::export_cached(path, frame)?;
-        let scene = Scene::load(&export.dir)?;
-        if export.reused {
-            // The exporter printed these when it ran; a user must see them every time.
-            for warning in &scene.manifest.warnings {
-                eprintln!("warning: {warning}");
-            }
-        }
-        Ok(scene)
-    } else {
-        if frame.is_some() {
-            anyhow::bail!(
-                "--frame applies to USD input only; {} is an exported scene",
-                path.display()
-            );
-        }
-        Ok(Scene::load(path)?)
-    }
 }
 
 /// `cirrus export`: runs the exporter, then loads the result so a scene that

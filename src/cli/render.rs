@@ -193,7 +193,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     let pool = pool.build().context("cannot start worker threads")?;
     let start = Instant::now();
-    let scene = super::load_scene(&args.scene, args.frame)?;
+    let scene = cirrus::scene::Scene::open(&args.scene, args.frame)?;
     let resolution = render_state::resolution_for(&scene, args.res);
     let window = part.window(resolution)?;
     let needs = pool.install(|| memory::estimate(&scene, window.size, &settings.aovs))?;

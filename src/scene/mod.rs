@@ -12,7 +12,8 @@
 //! structure-of-arrays form, viewed in place from `scene.bin`.
 //!
 //! [`export`] runs the Python exporter on a USD file, and [`export_cached`]
-//! keeps its result in a cache keyed by the input's path and modification time.
+//! keeps its result in a cache keyed by the input's path and modification time;
+//! [`Scene::open`] takes either a USD file or an exported scene.
 
 mod export;
 mod format;
@@ -39,6 +40,20 @@ pub struct Scene {
     blob: load::Blob,
 }
 
+/// Why [`Scene::open`] has no scene.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    /// The USD file could not be exported.
+    #[error(transparent)]
+    Export(#[from] ExportError),
+    /// The exported scene could not be read.
+    #[error(transparent)]
+    Load(#[from] SceneError),
+    /// A USD time code was asked of an exported scene.
+    #[error("--frame applies to USD input only; {} is an exported scene", .0.display())]
+    FrameOfExported(PathBuf),
+}
+
 /// Bytes of bulk data a scene holds, by what they describe.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ArrayBytes {
@@ -49,6 +64,27 @@ pub struct ArrayBytes {
 }
 
 impl Scene {
+    /// A scene from a USD file (exported through the cache at `frame`; the
+    /// export's warnings are printed to stderr again when the cache already
+    /// held it, so a user sees them every time) or from an exported folder
+    /// or its scene.json.
+    pub fn open(path: &Path, frame: Option<f64>) -> Result<Self, OpenError> {
+        if !is_usd(path) {
+            if frame.is_some() {
+                return Err(OpenError::FrameOfExported(path.to_path_buf()));
+            }
+            return Ok(Self::load(path)?);
+        }
+        let export = export_cached(path, frame)?;
+        let scene = Self::load(&export.dir)?;
+        if export.reused {
+            for warning in &scene.manifest.warnings {
+                eprintln!("warning: {warning}");
+            }
+        }
+        Ok(scene)
+    }
+
     /// Loads a scene from its folder or its `scene.json`, validating everything
     /// (see [`SceneError`] for what is refused).
     pub fn load(path: &Path) -> Result<Self, SceneError> {

@@ -1,4 +1,4 @@
-//! `cirrus bench render`: the rendering-core benchmark of issue 4. Per scene:
+//! `cirrus bench render`: the rendering-core benchmark. Per scene:
 //! camera-ray and full-path ray rates and samples per second, then the
 //! equal-time mean squared error of every estimator (BSDF-only, NEE-only,
 //! MIS) with every sampler (Sobol, independent) against a high-spp MIS +
@@ -6,16 +6,18 @@
 //! time. References are kept in the output folder, named by scene,
 //! resolution and spp: delete them after changing the renderer.
 
-use std::path::{Path, PathBuf};
-
 use anyhow::{Context, Result};
 
-use super::bench::{machine_line, median};
-use super::bench_equal_time::{
-    base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
-    median_errors, reference_key, render, scene_name, spp_per_second, write_chart, EqualTimeBench,
-    ErrorMetric, Rung, TIME_AXIS,
+use super::chart::{write_chart, TIME_AXIS};
+use super::equal_time::{
+    ladder, median_curve, median_errors, spp_per_second, EqualTimeBench, Rung,
 };
+use super::machine::{machine_line, with_threads};
+use super::markdown::{error_cells, print_error_header};
+use super::metrics::ErrorMetric;
+use super::reference::{base_settings, cached_reference, reference_key, render};
+use super::scenes::scene_name;
+use super::stats::median;
 use cirrus::integrator::{
     Budget, PathSettings, RenderSettings, RenderStats, Strategy, DEFAULT_MAX_DEPTH,
 };
@@ -32,8 +34,13 @@ const METHODS: [(Strategy, SamplerKind); 6] = [
     (Strategy::Mis, SamplerKind::Sobol),
 ];
 
-/// Runs the benchmark and prints its tables.
+/// Runs the benchmark on `bench.threads` workers and prints its tables.
 pub fn run(bench: &EqualTimeBench) -> Result<()> {
+    with_threads(bench.threads, || run_scenes(bench))
+}
+
+/// [`run`], on the worker pool.
+fn run_scenes(bench: &EqualTimeBench) -> Result<()> {
     std::fs::create_dir_all(&bench.out)
         .with_context(|| format!("cannot create {}", bench.out.display()))?;
     println!("{}\n", machine_line());
@@ -45,7 +52,7 @@ pub fn run(bench: &EqualTimeBench) -> Result<()> {
         bench.reference_spp
     );
     for path in &bench.scenes {
-        let scene = super::load_scene(path, None)?;
+        let scene = cirrus::scene::Scene::open(path, None)?;
         let state = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
         let name = scene_name(path);
         let key = reference_key(&scene, &name)?;
@@ -124,10 +131,10 @@ fn equal_time(
     name: &str,
     reference: &[f32],
 ) -> Result<()> {
-    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
+    let max_time = bench.max_time();
     let pixels = f64::from(state.resolution.x) * f64::from(state.resolution.y);
-    let (errors_header, errors_rule) = error_columns(ErrorMetric::Mse, &bench.times);
-    println!("| estimator | sampler | samples/s (M) |{errors_header}\n|---|---|---:|{errors_rule}");
+    let leading = ("| estimator | sampler | samples/s (M) |", "|---|---|---:|");
+    print_error_header(leading, ErrorMetric::Mse, &bench.times);
     let mut curves = Vec::new();
     let mut at_times = Vec::new();
     for (strategy, sampler) in METHODS {
@@ -165,13 +172,4 @@ fn equal_time(
     write_chart(&chart, name, &TIME_AXIS, ErrorMetric::Mse, &curves)?;
     println!("Chart: {}\n", chart.display());
     Ok(())
-}
-
-/// Default scenes of the benchmark, from the shared assets.
-pub fn default_scenes(repo: &Path) -> Vec<PathBuf> {
-    let assets = repo.join("../shared/assets/usd-wg");
-    vec![
-        assets.join("full_assets/StandardShaderBall/standard_shader_ball_scene.usda"),
-        assets.join("intent-vfx/scenes/teapotScene.usd"),
-    ]
 }

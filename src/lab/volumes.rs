@@ -4,29 +4,31 @@
 //! spp per seed; the table gives the spp reached at the largest time budget,
 //! density lookups per camera ray, the share of null collisions, majorant
 //! violations, and the equal-time relative MSE against a long reference
-//! (median over seeds), then the global / grid ratios the targets
-//! name: at least 3x fewer lookups and 2x lower relMSE with the grid, and
+//! (median over seeds), then the global / grid ratios against the targets:
+//! at least 3x fewer lookups and 2x lower relMSE with the grid, and
 //! under 50% null collisions. References are kept in the output folder,
 //! named by scene, resolution and spp: delete them after changing the
 //! renderer.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::Result;
 use cirrus::choice::Choice;
 
-use super::bench::median;
-use super::bench_equal_time::{
-    base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
-    median_errors, reference_key, scene_name, spp_per_second, write_scene_charts, EqualTimeBench,
-    ErrorMetric, Rung,
+use super::equal_time::{
+    ladder, median_curve, median_errors, spp_per_second, write_scene_charts, EqualTimeBench, Rung,
 };
+use super::markdown::{error_cells, error_columns, print_error_header};
+use super::metrics::ErrorMetric;
+use super::reference::{base_settings, cached_reference, reference_key};
+use super::scenes::scene_name;
+use super::stats::median;
 use cirrus::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
 use cirrus::render_state::{RenderState, StateOptions};
 use cirrus::scene::Scene;
 use cirrus::volumes::{MajorantKind, TrackingStats, VdbFile};
 
-/// The targets: global / grid density lookups per camera ray at
+/// The targets: global / grid density lookups per camera ray at
 /// least this, ...
 const LOOKUP_RATIO_TARGET: f64 = 3.0;
 /// ... global / grid equal-time relMSE at the largest budget at least this, ...
@@ -74,47 +76,56 @@ impl Measurement {
     }
 }
 
-/// Runs the benchmark and prints its tables; `charts` is a folder that also
-/// receives each chart as `volumes-<scene>-equal-time.svg` (the README's
-/// `docs/bench`), when given.
-pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
-    bench.start(charts, "null-scattering MIS, grid majorant")?;
-    for path in &bench.scenes {
-        let scene = super::load_scene(path, None)?;
-        let name = scene_name(path);
-        println!("### {name}\n");
-        print_extinction(&scene)?;
-        let grid = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
-        let global = RenderState::build(
-            &scene,
-            Some(bench.resolution),
-            StateOptions::global_majorant(),
-        )?;
-        let key = reference_key(&scene, &name)?;
-        drop(scene);
-        let reference = cached_reference(&grid, &bench.out, &key, bench.reference_spp)?;
-        let mut measurements = Vec::new();
-        for (majorant, state) in [(MajorantKind::Grid, &grid), (MajorantKind::Global, &global)] {
-            for &(estimator, _) in VolumeEstimator::NAMES {
-                let method = (estimator, true);
-                measurements.push(measure(state, bench, &reference, majorant, method));
-            }
+/// Default scenes, in `scenes/`: the teapot cloud and the smoke plume.
+const DEFAULT_SCENES: [&str; 2] = ["bench/teapot_cloud.usda", "bench/smoke.usda"];
+
+/// Runs the benchmark and prints its tables (on [`DEFAULT_SCENES`] when
+/// `bench.scenes` is empty); each chart also goes to `bench.charts` as
+/// `volumes-<scene>-equal-time.svg`, when given.
+pub fn run(bench: &EqualTimeBench) -> Result<()> {
+    bench.run(
+        "null-scattering MIS, grid majorant",
+        &DEFAULT_SCENES,
+        |path| measure_scene(bench, path),
+    )
+}
+
+/// One scene's tables and chart.
+fn measure_scene(bench: &EqualTimeBench, path: &Path) -> Result<()> {
+    let scene = cirrus::scene::Scene::open(path, None)?;
+    let name = scene_name(path);
+    println!("### {name}\n");
+    print_extinction(&scene)?;
+    let grid = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
+    let global = RenderState::build(
+        &scene,
+        Some(bench.resolution),
+        StateOptions::global_majorant(),
+    )?;
+    let key = reference_key(&scene, &name)?;
+    drop(scene);
+    let reference = cached_reference(&grid, &bench.out, &key, bench.reference_spp)?;
+    let mut measurements = Vec::new();
+    for (majorant, state) in [(MajorantKind::Grid, &grid), (MajorantKind::Global, &global)] {
+        for &(estimator, _) in VolumeEstimator::NAMES {
+            let method = (estimator, true);
+            measurements.push(measure(state, bench, &reference, majorant, method));
         }
-        // Where equiangular sampling has lights to target, what it buys.
-        if grid.lights.has_equiangular_target() {
-            let method = (VolumeEstimator::NullScatteringMis, false);
-            measurements.push(measure(
-                &grid,
-                bench,
-                &reference,
-                MajorantKind::Grid,
-                method,
-            ));
-        }
-        print_measurements(bench, &measurements);
-        print_ratios(bench, &measurements);
-        write_scene_charts(bench, charts, ("volumes", &name), &curves(&measurements))?;
     }
+    // Where equiangular sampling has lights to target, what it buys.
+    if grid.lights.has_equiangular_target() {
+        let method = (VolumeEstimator::NullScatteringMis, false);
+        measurements.push(measure(
+            &grid,
+            bench,
+            &reference,
+            MajorantKind::Grid,
+            method,
+        ));
+    }
+    print_measurements(bench, &measurements);
+    print_ratios(bench, &measurements);
+    write_scene_charts(bench, ("volumes", &name), &curves(&measurements))?;
     Ok(())
 }
 
@@ -144,7 +155,7 @@ fn measure(
     majorant: MajorantKind,
     (estimator, equiangular): (VolumeEstimator, bool),
 ) -> Measurement {
-    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
+    let max_time = bench.max_time();
     let ladders: Vec<Vec<Rung>> = (0..bench.repeats.max(1))
         .map(|seed| {
             let s = settings(
@@ -201,11 +212,12 @@ fn print_extinction(scene: &Scene) -> Result<()> {
 
 /// The per-method table.
 fn print_measurements(bench: &EqualTimeBench, measurements: &[Measurement]) {
-    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
-    let (errors_header, errors_rule) = error_columns(ErrorMetric::RelMse, &bench.times);
-    println!(
-        "| majorant | estimator | spp @ {max_time} s | lookups / camera ray | null / all collisions | violations |{errors_header}\n|---|---|---:|---:|---:|---:|{errors_rule}"
+    let max_time = bench.max_time();
+    let header = format!(
+        "| majorant | estimator | spp @ {max_time} s | lookups / camera ray | null / all collisions | violations |"
     );
+    let rule = "|---|---|---:|---:|---:|---:|";
+    print_error_header((&header, rule), ErrorMetric::RelMse, &bench.times);
     for m in measurements {
         println!(
             "| {} | {} | {:.1} | {:.1} | {:.1}% | {} |{}",
@@ -223,7 +235,7 @@ fn print_measurements(bench: &EqualTimeBench, measurements: &[Measurement]) {
 
 /// The global / grid ratios per estimator, and whether the targets hold.
 fn print_ratios(bench: &EqualTimeBench, measurements: &[Measurement]) {
-    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
+    let max_time = bench.max_time();
     let (errors_header, errors_rule) = error_columns(ErrorMetric::RelMse, &bench.times);
     println!(
         "| estimator | lookups, global / grid |{} null share (grid) | targets (>= {LOOKUP_RATIO_TARGET}x lookups, >= {ERROR_RATIO_TARGET}x relMSE @ {max_time} s, < {:.0}% null) |\n|---|---:|{errors_rule}---:|---|",
@@ -269,10 +281,4 @@ fn curves(measurements: &[Measurement]) -> Vec<(String, Vec<(f64, f64)>)> {
         .iter()
         .map(|m| (format!("{} + {}", m.majorant, m.method()), m.curve.clone()))
         .collect()
-}
-
-/// Default scenes of the benchmark: the teapot cloud and the smoke plume.
-pub fn default_scenes(repo: &Path) -> Vec<PathBuf> {
-    let scenes = repo.join("scenes/bench");
-    vec![scenes.join("teapot_cloud.usda"), scenes.join("smoke.usda")]
 }

@@ -1,4 +1,4 @@
-//! `cirrus bench instances`: the instancing ingest benchmark of issue 3. A
+//! `cirrus bench instances`: what instancing costs to ingest. A
 //! stage of N PointInstancer instances of one T-triangle sphere
 //! (`scenes/make_instancing_stress.py`) is exported, loaded and built into
 //! the two-level BVH; the same prototype with one instance is the baseline,
@@ -15,14 +15,25 @@ use std::time::Instant;
 
 use anyhow::{bail, ensure, Context, Result};
 
-use super::bench::{machine_line, median};
+use super::machine::machine_line;
+use super::stats::median;
 use cirrus::geometry::Geometry;
 use cirrus::scene::Scene;
 
-/// Issue 3's target for load plus TLAS build at 1M instances, in seconds.
+/// The target for load plus TLAS build at 1M instances, in seconds.
 const TARGET_SECONDS: f64 = 3.0;
-/// Issue 3's target for peak memory beyond the prototype, in bytes (250 MB).
+/// The target for peak memory beyond the prototype, in bytes (250 MB).
 const TARGET_BYTES: f64 = 250e6;
+
+/// What to measure.
+pub struct InstancesBench {
+    /// PointInstancer instances in the measured stage (at least one).
+    pub instances: usize,
+    /// Approximate triangles of the prototype sphere (at least 8).
+    pub triangles: usize,
+    /// Timed repeats of load and build (at least one); the table shows medians.
+    pub repeats: usize,
+}
 
 /// What one stage cost: medians of the timed repeats and one memory pass.
 struct Costs {
@@ -41,7 +52,10 @@ struct Costs {
 /// sphere of about `triangles` triangles, load and build timed `repeats`
 /// times each. Stages and exports go to a fresh folder under the system
 /// temporary folder, removed at the end.
-pub fn run(instances: usize, triangles: usize, repeats: usize) -> Result<()> {
+pub fn run(bench: &InstancesBench) -> Result<()> {
+    let instances = bench.instances.max(1);
+    let triangles = bench.triangles.max(8);
+    let repeats = bench.repeats.max(1);
     // The 1, 5 and 15 minute load averages: other jobs on the machine skew times.
     let load_average = || {
         let text = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();

@@ -1,15 +1,17 @@
-//! `cirrus bench aovs` (issue 6): what the AOVs cost. Renders each scene at
-//! a fixed sample count with the beauty alone and with the default AOV set
+//! `cirrus bench aovs`: what the AOVs cost. Renders each scene at a fixed
+//! sample count with the beauty alone and with the default AOV set
 //! (alternating, several repeats), and writes each film as `render` does;
 //! prints median sampling and write times, the overhead ratio and file sizes.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Result;
 use glam::UVec2;
 
-use super::bench::{machine_line, median};
+use super::machine::{machine_line, with_threads};
+use super::scenes::{scene_name, scenes_or_default};
+use super::stats::median;
 use cirrus::film::AovSet;
 use cirrus::film::FilterKind;
 use cirrus::image::Compression;
@@ -20,7 +22,7 @@ use cirrus::sampling::SamplerKind;
 
 /// What to measure.
 pub struct AovsBench {
-    /// Scenes (USD or exported).
+    /// Scenes (USD or exported); none: [`DEFAULT_SCENES`].
     pub scenes: Vec<PathBuf>,
     /// Image size.
     pub resolution: UVec2,
@@ -28,20 +30,22 @@ pub struct AovsBench {
     pub spp: u32,
     /// Renders per AOV set; the table shows medians.
     pub repeats: u32,
+    /// Worker threads.
+    pub threads: usize,
     /// Folder for the written EXRs.
     pub out: PathBuf,
 }
 
-/// The default scenes: the StandardShaderBall and the smoke plume.
-pub fn default_scenes(repo: &Path) -> Vec<PathBuf> {
-    vec![
-        repo.join("../shared/assets/usd-wg/full_assets/StandardShaderBall/standard_shader_ball_scene.usda"),
-        repo.join("scenes/bench/smoke.usda"),
-    ]
+/// Default scenes, in `scenes/`: the smoke plume.
+const DEFAULT_SCENES: [&str; 1] = ["bench/smoke.usda"];
+
+/// Runs the benchmark on `bench.threads` workers and prints its table.
+pub fn run(bench: &AovsBench) -> Result<()> {
+    with_threads(bench.threads, || run_scenes(bench))
 }
 
-/// Runs the benchmark and prints its table.
-pub fn run(bench: &AovsBench) -> Result<()> {
+/// [`run`], on the worker pool.
+fn run_scenes(bench: &AovsBench) -> Result<()> {
     println!("{}\n", machine_line());
     println!(
         "{}x{}, {} spp, {} repeats per set, zip compression; times are medians.\n",
@@ -50,13 +54,11 @@ pub fn run(bench: &AovsBench) -> Result<()> {
     println!("| scene | AOVs | channels | render s | vs beauty | write s | file MB |");
     println!("|---|---|---:|---:|---:|---:|---:|");
     std::fs::create_dir_all(&bench.out)?;
-    for path in &bench.scenes {
-        let scene = super::load_scene(path, None)?;
+    for path in &scenes_or_default(bench.scenes.clone(), &DEFAULT_SCENES) {
+        let scene = cirrus::scene::Scene::open(path, None)?;
         let state = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
         let sets = [AovSet::beauty_only(), AovSet::default()];
-        let name = path
-            .file_stem()
-            .map_or("scene".into(), |s| s.to_string_lossy());
+        let name = scene_name(path);
         let mut render_times = [Vec::new(), Vec::new()];
         let mut rows = Vec::new();
         for repeat in 0..bench.repeats.max(1) {

@@ -8,16 +8,18 @@
 //! unbiased), then the off / on ratio at each budget. References are kept
 //! in the output folder, keyed by the exported scene's contents.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::{bail, Result};
 
-use super::bench::median;
-use super::bench_equal_time::{
-    base_settings, cached_reference, error_cells, error_columns, ladder, median_curve,
-    median_errors, reference_key, scene_name, spp_per_second, write_scene_charts, EqualTimeBench,
-    ErrorMetric, Rung,
+use super::equal_time::{
+    ladder, median_curve, median_errors, spp_per_second, write_scene_charts, EqualTimeBench, Rung,
 };
+use super::markdown::{error_cells, print_error_header};
+use super::metrics::ErrorMetric;
+use super::reference::{base_settings, cached_reference, reference_key};
+use super::scenes::scene_name;
+use super::stats::median;
 use cirrus::integrator::Budget;
 use cirrus::render_state::{RenderState, StateOptions};
 
@@ -45,43 +47,52 @@ impl Measurement {
     }
 }
 
-/// Runs the benchmark and prints its tables; `charts` is a folder that also
-/// receives each chart as `fire-<scene>-equal-time.svg`, when given.
-pub fn run(bench: &EqualTimeBench, charts: Option<&Path>) -> Result<()> {
-    bench.start(charts, "light sampling on")?;
-    for path in &bench.scenes {
-        let scene = super::load_scene(path, None)?;
-        let name = scene_name(path);
-        let build = |volume_lights| {
-            let options = StateOptions {
-                volume_lights,
-                ..StateOptions::default()
-            };
-            RenderState::build(&scene, Some(bench.resolution), options)
+/// Default scenes, in `scenes/`: the flame column and the canyon's fire
+/// (docs/benchmarks.md says how to write the VDB and the canyon they read).
+const DEFAULT_SCENES: [&str; 2] = ["bench/fire_lit.usda", "bench/canyon_fire.usda"];
+
+/// Runs the benchmark and prints its tables (on [`DEFAULT_SCENES`] when
+/// `bench.scenes` is empty); each chart also goes to `bench.charts` as
+/// `fire-<scene>-equal-time.svg`, when given.
+pub fn run(bench: &EqualTimeBench) -> Result<()> {
+    bench.run("light sampling on", &DEFAULT_SCENES, |path| {
+        measure_scene(bench, path)
+    })
+}
+
+/// One scene's tables and chart.
+fn measure_scene(bench: &EqualTimeBench, path: &Path) -> Result<()> {
+    let scene = cirrus::scene::Scene::open(path, None)?;
+    let name = scene_name(path);
+    let build = |volume_lights| {
+        let options = StateOptions {
+            volume_lights,
+            ..StateOptions::default()
         };
-        let (on, off) = (build(true)?, build(false)?);
-        if !on.lights.has_volume_lights() {
-            bail!(
-                "{}: no volume emits light (is its VDB missing? see docs/benchmarks.md for the \
-                 commands that write it)",
-                path.display()
-            );
-        }
-        let key = reference_key(&scene, &name)?;
-        drop(scene);
-        println!("### {name}\n");
-        let reference = cached_reference(&on, &bench.out, &key, bench.reference_spp)?;
-        let measurements = [
-            measure(&on, true, bench, &reference),
-            measure(&off, false, bench, &reference),
-        ];
-        print_measurements(bench, &measurements);
-        let curves: Vec<(String, Vec<(f64, f64)>)> = measurements
-            .iter()
-            .map(|m| (m.name().to_string(), m.curve.clone()))
-            .collect();
-        write_scene_charts(bench, charts, ("fire", &name), &curves)?;
+        RenderState::build(&scene, Some(bench.resolution), options)
+    };
+    let (on, off) = (build(true)?, build(false)?);
+    if !on.lights.has_volume_lights() {
+        bail!(
+            "{}: no volume emits light (is its VDB missing? see docs/benchmarks.md for the \
+             commands that write it)",
+            path.display()
+        );
     }
+    let key = reference_key(&scene, &name)?;
+    drop(scene);
+    println!("### {name}\n");
+    let reference = cached_reference(&on, &bench.out, &key, bench.reference_spp)?;
+    let measurements = [
+        measure(&on, true, bench, &reference),
+        measure(&off, false, bench, &reference),
+    ];
+    print_measurements(bench, &measurements);
+    let curves: Vec<(String, Vec<(f64, f64)>)> = measurements
+        .iter()
+        .map(|m| (m.name().to_string(), m.curve.clone()))
+        .collect();
+    write_scene_charts(bench, ("fire", &name), &curves)?;
     Ok(())
 }
 
@@ -92,7 +103,7 @@ fn measure(
     bench: &EqualTimeBench,
     reference: &[f32],
 ) -> Measurement {
-    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
+    let max_time = bench.max_time();
     let ladders: Vec<Vec<Rung>> = (0..bench.repeats.max(1))
         .map(|seed| {
             let settings = base_settings(Budget::Samples(1), u64::from(seed));
@@ -117,10 +128,12 @@ fn measure(
 /// The per-method table, then the off / on relMSE ratios (with the cost of
 /// a sample, on / off).
 fn print_measurements(bench: &EqualTimeBench, measurements: &[Measurement; 2]) {
-    let max_time = bench.times.iter().copied().fold(0.0, f64::max);
-    let (errors_header, errors_rule) = error_columns(ErrorMetric::RelMse, &bench.times);
-    println!(
-        "| method | spp @ {max_time} s | ms per spp | lookups / camera ray |{errors_header}\n|---|---:|---:|---:|{errors_rule}"
+    let max_time = bench.max_time();
+    let header = format!("| method | spp @ {max_time} s | ms per spp | lookups / camera ray |");
+    print_error_header(
+        (&header, "|---|---:|---:|---:|"),
+        ErrorMetric::RelMse,
+        &bench.times,
     );
     for m in measurements {
         println!(
@@ -143,13 +156,4 @@ fn print_measurements(bench: &EqualTimeBench, measurements: &[Measurement; 2]) {
         "| relMSE off / on (ms per spp on / off) | | {:.2}x | |{ratios}\n",
         off.spp_per_second / on.spp_per_second
     );
-}
-
-/// Default scenes of the benchmark: the flame column and the canyon's fire.
-pub fn default_scenes(repo: &Path) -> Vec<PathBuf> {
-    let scenes = repo.join("scenes/bench");
-    vec![
-        scenes.join("fire_lit.usda"),
-        scenes.join("canyon_fire.usda"),
-    ]
 }

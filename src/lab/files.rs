@@ -1,0 +1,20 @@
+//! Files a study writes beside its printed tables: CSVs and text (Markdown,
+//! SVG), each written atomically, so a study stopped half way never leaves
+//! half a file.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+
+/// Writes `text` to `path` atomically.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    cirrus::image::write_file(path, text.as_bytes())
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Writes a CSV of `header` and one line per row to `path` and says so.
+pub fn write_csv(path: &Path, header: &str, lines: &[String]) -> Result<()> {
+    write_text(path, &format!("{header}\n{}\n", lines.join("\n")))?;
+    println!("Wrote {}", path.display());
+    Ok(())
+}
