@@ -2,6 +2,7 @@
 //! project's Python live, and scratch folders.
 #![allow(dead_code)] // each test binary uses its own subset
 
+pub mod aovs;
 pub mod render;
 
 use std::path::{Path, PathBuf};

@@ -10,6 +10,19 @@ use std::path::{Path, PathBuf};
 
 use exr::prelude::{read_all_flat_layers_from_file, FlatSamples};
 
+/// Every `--sampler`: the furnace runs through each with each strategy.
+pub const SAMPLERS: [&str; 2] = ["sobol", "independent"];
+
+/// Every `--strategy`: MIS, BSDF sampling only, light sampling only.
+pub const STRATEGIES: [&str; 3] = ["mis", "bsdf", "nee"];
+
+/// Deep enough that paths end by Russian roulette (unbiased), not by depth.
+pub const UNBOUNDED_DEPTH: &str = "1000";
+
+/// Relative f32 rounding of a pixel mean (sums of f32 samples), counted in
+/// the sigma of [`super::assert_within_4_sigma`].
+pub const PIXEL_ROUNDING: f64 = 1e-5;
+
 /// `scenes/tests/NAME.usda` exported once per test process (see
 /// [`super::exported_test_scene`]) into the scratch folder
 /// `CRATE_scenes/NAME`, CRATE being the test binary's name, so that two
