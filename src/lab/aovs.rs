@@ -12,13 +12,13 @@ use glam::UVec2;
 use super::machine::{machine_line, with_threads};
 use super::scenes::{scene_name, scenes_or_default};
 use super::stats::median;
-use cirrus::film::AovSet;
-use cirrus::film::FilterKind;
-use cirrus::image::Compression;
-use cirrus::integrator::{self, Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
-use cirrus::output::{write_film, AovFiles, ExrHeader};
-use cirrus::render_state::{RenderState, StateOptions};
-use cirrus::sampling::SamplerKind;
+use crate::film::AovSet;
+use crate::film::FilterKind;
+use crate::image::Compression;
+use crate::integrator::{self, Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
+use crate::output::{write_film, AovFiles, ExrHeader};
+use crate::render_state::{RenderState, StateOptions};
+use crate::sampling::SamplerKind;
 
 /// What to measure.
 pub struct AovsBench {
@@ -55,7 +55,7 @@ fn run_scenes(bench: &AovsBench) -> Result<()> {
     println!("|---|---|---:|---:|---:|---:|---:|");
     std::fs::create_dir_all(&bench.out)?;
     for path in &scenes_or_default(bench.scenes.clone(), &DEFAULT_SCENES) {
-        let scene = cirrus::scene::Scene::open(path, None)?;
+        let scene = crate::scene::Scene::open(path, None)?;
         let state = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
         let sets = [AovSet::beauty_only(), AovSet::default()];
         let name = scene_name(path);

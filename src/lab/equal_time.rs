@@ -14,8 +14,8 @@ use super::metrics::ErrorMetric;
 use super::reference::render;
 use super::scenes::scenes_or_default;
 use super::stats::median;
-use cirrus::integrator::{Budget, RenderSettings, RenderStats, DEFAULT_MAX_DEPTH};
-use cirrus::render_state::RenderState;
+use crate::integrator::{Budget, RenderSettings, RenderStats, DEFAULT_MAX_DEPTH};
+use crate::render_state::RenderState;
 
 /// What an equal-time benchmark measures (`bench render`, `bench volumes`,
 /// `bench fire`).
@@ -241,8 +241,8 @@ mod tests {
     use std::time::Duration;
 
     use super::*;
-    use cirrus::integrator::RayCounts;
-    use cirrus::volumes::TrackingStats;
+    use crate::integrator::RayCounts;
+    use crate::volumes::TrackingStats;
 
     fn rung(seconds: f64, error: f64) -> Rung {
         Rung {

@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 
 /// Writes `text` to `path` atomically.
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
-    cirrus::image::write_file(path, text.as_bytes())
+    crate::image::write_file(path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))
 }
 

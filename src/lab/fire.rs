@@ -20,8 +20,8 @@ use super::metrics::ErrorMetric;
 use super::reference::{base_settings, cached_reference, reference_key};
 use super::scenes::scene_name;
 use super::stats::median;
-use cirrus::integrator::Budget;
-use cirrus::render_state::{RenderState, StateOptions};
+use crate::integrator::Budget;
+use crate::render_state::{RenderState, StateOptions};
 
 /// One way of rendering one scene, measured.
 struct Measurement {
@@ -62,7 +62,7 @@ pub fn run(bench: &EqualTimeBench) -> Result<()> {
 
 /// One scene's tables and chart.
 fn measure_scene(bench: &EqualTimeBench, path: &Path) -> Result<()> {
-    let scene = cirrus::scene::Scene::open(path, None)?;
+    let scene = crate::scene::Scene::open(path, None)?;
     let name = scene_name(path);
     let build = |volume_lights| {
         let options = StateOptions {

@@ -17,8 +17,8 @@ use anyhow::{bail, ensure, Context, Result};
 
 use super::machine::machine_line;
 use super::stats::median;
-use cirrus::geometry::Geometry;
-use cirrus::scene::Scene;
+use crate::geometry::Geometry;
+use crate::scene::Scene;
 
 /// The target for load plus TLAS build at 1M instances, in seconds.
 const TARGET_SECONDS: f64 = 3.0;
@@ -147,7 +147,7 @@ fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Re
     generate(&stage, instances, triangles)?;
     let scene_dir = dir.join(format!("stress_{instances}"));
     let start = Instant::now();
-    cirrus::scene::export(&stage, &scene_dir, None)?;
+    crate::scene::export(&stage, &scene_dir, None)?;
     let export_s = start.elapsed().as_secs_f64();
 
     let [after_load, after_build, peak] = memory_in_child(&scene_dir)?;
@@ -191,7 +191,7 @@ fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
 /// Runs `scenes/make_instancing_stress.py` under the `.venv` of the checkout
 /// named by `$CIRRUS_HOME` (else the one this binary was built from).
 fn generate(stage: &Path, instances: usize, triangles: usize) -> Result<()> {
-    let root = cirrus::scene::repo_root();
+    let root = crate::scene::repo_root();
     let script = root.join("scenes/make_instancing_stress.py");
     let out = Command::new(root.join(".venv/bin/python"))
         .arg(&script)

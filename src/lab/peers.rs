@@ -15,8 +15,8 @@ use anyhow::{Context, Result};
 use glam::UVec2;
 
 use super::reference::{read_rgb, reference_path, REFERENCE_SEED};
-use cirrus::integrator::DEFAULT_MAX_DEPTH;
-use cirrus::scene::is_usd;
+use crate::integrator::DEFAULT_MAX_DEPTH;
+use crate::scene::is_usd;
 
 /// A peer renderer, by its name in scenes/peers/render_peer.py, the CSVs
 /// and the charts.
@@ -75,7 +75,7 @@ impl FromStr for Peer {
 
 /// scenes/peers/render_peer.py in the project's `.venv`.
 fn render_peer_command() -> std::process::Command {
-    let root = cirrus::scene::repo_root();
+    let root = crate::scene::repo_root();
     let mut command = std::process::Command::new(root.join(".venv/bin/python"));
     command.arg(root.join("scenes/peers/render_peer.py"));
     command
@@ -100,7 +100,7 @@ pub fn check_peer(peer: Peer) -> Result<()> {
 /// folder of the scene.json given).
 pub fn exported_folder(path: &Path) -> Result<PathBuf> {
     if is_usd(path) {
-        Ok(cirrus::scene::export_cached(path, None)?.dir)
+        Ok(crate::scene::export_cached(path, None)?.dir)
     } else if path.is_dir() {
         Ok(path.to_owned())
     } else {

@@ -7,17 +7,17 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use glam::UVec2;
 
-use cirrus::film::AovSet;
-use cirrus::film::FilterKind;
-use cirrus::image::read_image;
-use cirrus::integrator::{
+use crate::film::AovSet;
+use crate::film::FilterKind;
+use crate::image::read_image;
+use crate::integrator::{
     self, Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
     DEFAULT_MAX_DEPTH,
 };
-use cirrus::output::{write_beauty, ExrHeader};
-use cirrus::render_state::RenderState;
-use cirrus::sampling::SamplerKind;
-use cirrus::scene::Scene;
+use crate::output::{write_beauty, ExrHeader};
+use crate::render_state::RenderState;
+use crate::sampling::SamplerKind;
+use crate::scene::Scene;
 
 /// Seed of every reference render, apart from the seeds of the measured ones
 /// (0, 1, 2, ...).
@@ -103,7 +103,7 @@ fn reference(state: &RenderState, settings: &RenderSettings, path: &Path) -> Res
 /// The RGB pixels of the EXR at `path` when it exists, holds 3 channels and
 /// has this `resolution`; None otherwise.
 pub fn read_rgb(path: &Path, resolution: UVec2) -> Option<Vec<f32>> {
-    let image = read_image(path, cirrus::scene::ColorSpace::Raw).ok()?;
+    let image = read_image(path, crate::scene::ColorSpace::Raw).ok()?;
     (image.channels == 3 && UVec2::new(image.width, image.height) == resolution)
         .then_some(image.pixels)
 }

@@ -18,11 +18,11 @@ use super::metrics::ErrorMetric;
 use super::reference::{base_settings, cached_reference, reference_key, render};
 use super::scenes::scene_name;
 use super::stats::median;
-use cirrus::integrator::{
+use crate::integrator::{
     Budget, PathSettings, RenderSettings, RenderStats, Strategy, DEFAULT_MAX_DEPTH,
 };
-use cirrus::render_state::{RenderState, StateOptions};
-use cirrus::sampling::SamplerKind;
+use crate::render_state::{RenderState, StateOptions};
+use crate::sampling::SamplerKind;
 
 /// The estimator and sampler pairs compared at equal time.
 const METHODS: [(Strategy, SamplerKind); 6] = [
@@ -52,7 +52,7 @@ fn run_scenes(bench: &EqualTimeBench) -> Result<()> {
         bench.reference_spp
     );
     for path in &bench.scenes {
-        let scene = cirrus::scene::Scene::open(path, None)?;
+        let scene = crate::scene::Scene::open(path, None)?;
         let state = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
         let name = scene_name(path);
         let key = reference_key(&scene, &name)?;

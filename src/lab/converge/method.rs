@@ -2,11 +2,11 @@
 //! most one flag changed, by their names in `--methods`, the CSVs and the
 //! charts; the series of a study (a method or a peer); its budgets.
 
+use crate::integrator::{RenderSettings, Strategy, VolumeEstimator};
 use crate::lab::peers::Peer;
-use cirrus::integrator::{RenderSettings, Strategy, VolumeEstimator};
-use cirrus::render_state::RenderState;
-use cirrus::sampling::SamplerKind;
-use cirrus::volumes::MajorantKind;
+use crate::render_state::RenderState;
+use crate::sampling::SamplerKind;
+use crate::volumes::MajorantKind;
 
 /// A method of the study: the reference's settings ([`base_settings`](crate::lab::reference::base_settings),
 /// which are `cirrus render`'s defaults but a box filter) with at most one
@@ -68,7 +68,7 @@ impl Method {
 
     /// Whether the method differs from `default` on this scene: volume
     /// methods need volumes, and `no-equiangular` also a light that
-    /// equiangular sampling targets ([`cirrus::lights::Lights::has_equiangular_target`]).
+    /// equiangular sampling targets ([`crate::lights::Lights::has_equiangular_target`]).
     pub fn applies_to(self, state: &RenderState) -> bool {
         let volumes = !state.media.is_empty();
         match self {
@@ -148,8 +148,8 @@ pub fn budgets(spp_max: u32) -> Vec<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::integrator::Budget;
     use crate::lab::reference::base_settings;
-    use cirrus::integrator::Budget;
 
     #[test]
     fn method_names_parse_back_and_are_unique() {
