@@ -7,13 +7,13 @@ use std::path::Path;
 use anyhow::{Context, Result};
 
 /// Writes `text` to `path` atomically.
-pub fn write_text(path: &Path, text: &str) -> Result<()> {
+pub(crate) fn write_text(path: &Path, text: &str) -> Result<()> {
     crate::image::write_file(path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Writes a CSV of `header` and one line per row to `path` and says so.
-pub fn write_csv(path: &Path, header: &str, lines: &[String]) -> Result<()> {
+pub(crate) fn write_csv(path: &Path, header: &str, lines: &[String]) -> Result<()> {
     write_text(path, &format!("{header}\n{}\n", lines.join("\n")))?;
     println!("Wrote {}", path.display());
     Ok(())

@@ -4,7 +4,7 @@
 use anyhow::Result;
 
 /// "Machine: <cpu>, <cores> cores; <date>; commit <hash>" for benchmark headers.
-pub fn machine_line() -> String {
+pub(crate) fn machine_line() -> String {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|s| {
@@ -33,7 +33,7 @@ pub fn machine_line() -> String {
 }
 
 /// Runs `f` on a rayon pool of `threads` workers (at least one).
-pub fn with_threads(threads: usize, f: impl FnOnce() -> Result<()> + Send) -> Result<()> {
+pub(crate) fn with_threads(threads: usize, f: impl FnOnce() -> Result<()> + Send) -> Result<()> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.max(1))
         .build()?

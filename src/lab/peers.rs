@@ -82,7 +82,7 @@ fn render_peer_command() -> std::process::Command {
 }
 
 /// Fails, with render_peer.py's reason, when `peer` cannot run here.
-pub fn check_peer(peer: Peer) -> Result<()> {
+pub(crate) fn check_peer(peer: Peer) -> Result<()> {
     let out = render_peer_command()
         .args(["--available", peer.name()])
         .output()
@@ -98,7 +98,7 @@ pub fn check_peer(peer: Peer) -> Result<()> {
 /// The exported scene folder the peers convert: a USD file's export in the
 /// cache (the one `load_scene` rendered), else the folder given (or the
 /// folder of the scene.json given).
-pub fn exported_folder(path: &Path) -> Result<PathBuf> {
+pub(crate) fn exported_folder(path: &Path) -> Result<PathBuf> {
     if is_usd(path) {
         Ok(crate::scene::export_cached(path, None)?.dir)
     } else if path.is_dir() {
@@ -109,7 +109,7 @@ pub fn exported_folder(path: &Path) -> Result<PathBuf> {
 }
 
 /// One peer render: its RGB, its times and the converter's warnings.
-pub struct PeerRender {
+pub(crate) struct PeerRender {
     pub rgb: Vec<f32>,
     /// The timed render call, seconds (render_peer.py's `render_seconds`).
     pub seconds: f64,
@@ -121,7 +121,7 @@ pub struct PeerRender {
 
 /// What one peer render is asked for.
 #[derive(Clone, Copy)]
-pub struct PeerBudget {
+pub(crate) struct PeerBudget {
     pub spp: u32,
     pub seed: u64,
     /// Whether an untimed warm-up render comes first (timed renders; a
@@ -130,7 +130,7 @@ pub struct PeerBudget {
 }
 
 /// One peer on one exported scene, at an image size and a thread count.
-pub struct PeerRun<'a> {
+pub(crate) struct PeerRun<'a> {
     pub peer: Peer,
     /// The exported scene folder ([`exported_folder`]).
     pub folder: &'a Path,
@@ -143,7 +143,7 @@ impl PeerRun<'_> {
     /// at `spp`: kept in `out` as `<key>-<peer>-<w>x<h>-ref<spp>.exr`, like
     /// ours, and rendered (without warm-up, with our reference seed) when
     /// not there yet.
-    pub fn own_reference(&self, out: &Path, key: &str, spp: u32) -> Result<Vec<f32>> {
+    pub(crate) fn own_reference(&self, out: &Path, key: &str, spp: u32) -> Result<Vec<f32>> {
         let path = reference_path(out, &format!("{key}-{}", self.peer), self.resolution, spp);
         if let Some(rgb) = read_rgb(&path, self.resolution) {
             return Ok(rgb);
@@ -159,7 +159,7 @@ impl PeerRun<'_> {
     }
 
     /// Renders the scene into `output` at `budget`, with our max depth.
-    pub fn render(&self, output: &Path, budget: PeerBudget) -> Result<PeerRender> {
+    pub(crate) fn render(&self, output: &Path, budget: PeerBudget) -> Result<PeerRender> {
         let (peer, res) = (self.peer, self.resolution);
         let mut command = render_peer_command();
         if !budget.warmup {
