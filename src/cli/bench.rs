@@ -251,5 +251,6 @@ pub fn run(bench: Bench) -> Result<()> {
             lab::bench_fire(&bench)
         }
         Bench::InstancesMemory { scene } => lab::instances_memory(&scene),
-    }
+    }?;
+    Ok(())
 }

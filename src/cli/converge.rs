@@ -74,5 +74,6 @@ pub fn run(args: ConvergeArgs) -> Result<()> {
         peers: args.peers,
         peer_reference_spp: args.peer_reference_spp,
         out: args.out,
-    })
+    })?;
+    Ok(())
 }

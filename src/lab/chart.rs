@@ -3,10 +3,9 @@
 
 use std::path::Path;
 
-use anyhow::Result;
-
 use super::files::write_text;
 use super::metrics::ErrorMetric;
+use super::{LabError, Result};
 
 /// The x axis of a [`write_chart`]: what it shows, in the title, and its
 /// unit, under the axis.
@@ -42,7 +41,7 @@ pub(crate) fn write_chart(
     curves: &[(String, Vec<(f64, f64)>)],
 ) -> Result<()> {
     let svg = svg_chart(title, x_axis, metric, curves)
-        .map_err(|e| anyhow::anyhow!("cannot draw chart {}: {e}", path.display()))?;
+        .map_err(|e| LabError::Failed(format!("cannot draw chart {}: {e}", path.display())))?;
     write_text(path, &svg)
 }
 

@@ -5,7 +5,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use glam::UVec2;
 
 use super::chart::{write_chart, TIME_AXIS};
@@ -14,6 +13,7 @@ use super::metrics::ErrorMetric;
 use super::reference::render;
 use super::scenes::scenes_or_default;
 use super::stats::median;
+use super::{LabError, Result};
 use crate::integrator::{Budget, RenderSettings, RenderStats, DEFAULT_MAX_DEPTH};
 use crate::render_state::RenderState;
 
@@ -93,8 +93,7 @@ impl EqualTimeBench {
     /// the reference is rendered.
     fn start(&self, reference: &str) -> Result<()> {
         for dir in std::iter::once(self.out.as_path()).chain(self.charts.as_deref()) {
-            std::fs::create_dir_all(dir)
-                .with_context(|| format!("cannot create {}", dir.display()))?;
+            std::fs::create_dir_all(dir).map_err(|e| LabError::io("create", dir, e))?;
         }
         println!("{}\n", machine_line());
         println!(

@@ -4,12 +4,11 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use super::{LabError, Result};
 
 /// Writes `text` to `path` atomically.
 pub(crate) fn write_text(path: &Path, text: &str) -> Result<()> {
-    crate::image::write_file(path, text.as_bytes())
-        .with_context(|| format!("cannot write {}", path.display()))
+    crate::image::write_file(path, text.as_bytes()).map_err(|e| LabError::io("write", path, e))
 }
 
 /// Writes a CSV of `header` and one line per row to `path` and says so.

@@ -1,7 +1,7 @@
 //! Where a study ran: the machine, date and commit line every benchmark
 //! table opens with, and the worker pool its renders run on.
 
-use anyhow::Result;
+use super::Result;
 
 /// "Machine: <cpu>, <cores> cores; <date>; commit <hash>" for benchmark headers.
 pub(crate) fn machine_line() -> String {

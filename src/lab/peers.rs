@@ -11,10 +11,10 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
-use anyhow::{Context, Result};
 use glam::UVec2;
 
 use super::reference::{read_rgb, reference_path, REFERENCE_SEED};
+use super::{LabError, Result};
 use crate::integrator::DEFAULT_MAX_DEPTH;
 use crate::scene::is_usd;
 
@@ -81,17 +81,26 @@ fn render_peer_command() -> std::process::Command {
     command
 }
 
+/// The error of a render_peer.py that could not be started.
+fn cannot_run_render_peer(source: std::io::Error) -> LabError {
+    LabError::system(
+        "cannot run scenes/peers/render_peer.py with .venv/bin/python",
+        source,
+    )
+}
+
 /// Fails, with render_peer.py's reason, when `peer` cannot run here.
 pub(crate) fn check_peer(peer: Peer) -> Result<()> {
     let out = render_peer_command()
         .args(["--available", peer.name()])
         .output()
-        .context("cannot run scenes/peers/render_peer.py with .venv/bin/python")?;
-    anyhow::ensure!(
-        out.status.success(),
-        "peer {peer} is not available: {}",
-        String::from_utf8_lossy(&out.stderr).trim()
-    );
+        .map_err(cannot_run_render_peer)?;
+    if !out.status.success() {
+        return Err(LabError::Failed(format!(
+            "peer {peer} is not available: {}",
+            String::from_utf8_lossy(&out.stderr).trim()
+        )));
+    }
     Ok(())
 }
 
@@ -175,29 +184,37 @@ impl PeerRun<'_> {
             .args(["--res", &format!("{}x{}", res.x, res.y)])
             .args(["--max-depth", &DEFAULT_MAX_DEPTH.to_string()])
             .output()
-            .context("cannot run scenes/peers/render_peer.py with .venv/bin/python")?;
+            .map_err(cannot_run_render_peer)?;
         let (stdout, stderr) = (
             String::from_utf8_lossy(&out.stdout),
             String::from_utf8_lossy(&out.stderr),
         );
-        anyhow::ensure!(
-            out.status.success(),
-            "{peer} failed on {}:\n{stderr}",
-            self.folder.display()
-        );
+        if !out.status.success() {
+            return Err(LabError::Failed(format!(
+                "{peer} failed on {}:\n{stderr}",
+                self.folder.display()
+            )));
+        }
         let line = stdout
             .lines()
             .rev()
             .find(|l| l.starts_with("peer="))
-            .with_context(|| format!("render_peer.py printed no timing line:\n{stdout}"))?;
+            .ok_or_else(|| {
+                LabError::Failed(format!("render_peer.py printed no timing line:\n{stdout}"))
+            })?;
         let field = |key: &str| -> Result<f64> {
             line.split_whitespace()
                 .find_map(|w| w.strip_prefix(key))
                 .and_then(|v| v.parse().ok())
-                .with_context(|| format!("no {key} in {line:?}"))
+                .ok_or_else(|| LabError::Failed(format!("no {key} in {line:?}")))
         };
-        let rgb = read_rgb(output, res).with_context(|| {
-            format!("{} is not a {}x{} RGB EXR", output.display(), res.x, res.y)
+        let rgb = read_rgb(output, res).ok_or_else(|| {
+            LabError::Failed(format!(
+                "{} is not a {}x{} RGB EXR",
+                output.display(),
+                res.x,
+                res.y
+            ))
         })?;
         Ok(PeerRender {
             rgb,

@@ -4,9 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use glam::UVec2;
 
+use super::{LabError, Result};
 use crate::film::AovSet;
 use crate::film::FilterKind;
 use crate::image::read_image;
@@ -59,7 +59,7 @@ pub(crate) fn render(state: &RenderState, settings: &RenderSettings) -> (Vec<f32
 pub(crate) fn reference_key(scene: &Scene, name: &str) -> Result<String> {
     let crc = scene
         .content_crc()
-        .with_context(|| format!("cannot read the scene in {}", scene.dir.display()))?;
+        .map_err(|e| LabError::io("read the scene in", &scene.dir, e))?;
     Ok(format!("{name}-{crc:08x}"))
 }
 

@@ -13,7 +13,6 @@
 use std::path::Path;
 
 use crate::choice::Choice;
-use anyhow::Result;
 
 use super::equal_time::{
     ladder, median_curve, median_errors, spp_per_second, write_scene_charts, EqualTimeBench, Rung,
@@ -23,6 +22,7 @@ use super::metrics::ErrorMetric;
 use super::reference::{base_settings, cached_reference, reference_key};
 use super::scenes::scene_name;
 use super::stats::median;
+use super::Result;
 use crate::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
 use crate::render_state::{RenderState, StateOptions};
 use crate::scene::Scene;

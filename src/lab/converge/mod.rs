@@ -31,7 +31,6 @@ mod rows;
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use glam::UVec2;
 
 use method::{budgets, Series, METHODS};
@@ -45,6 +44,7 @@ use crate::lab::peers::{check_peer, exported_folder, Peer, PeerBudget, PeerRun};
 use crate::lab::reference::{base_settings, cached_reference, reference_key, render};
 use crate::lab::scenes::{scene_name, scenes_or_default};
 use crate::lab::stats::median;
+use crate::lab::{LabError, Result};
 use crate::render_state::{RenderState, StateOptions};
 use crate::volumes::MajorantKind;
 
@@ -83,8 +83,7 @@ const DEFAULT_SCENES: [&str; 1] = ["bench/smoke.usda"];
 /// Runs the study and prints its summary.
 pub fn run(options: &ConvergeOptions) -> Result<()> {
     let scenes = scenes_or_default(options.scenes.clone(), &DEFAULT_SCENES);
-    std::fs::create_dir_all(&options.out)
-        .with_context(|| format!("cannot create {}", options.out.display()))?;
+    std::fs::create_dir_all(&options.out).map_err(|e| LabError::io("create", &options.out, e))?;
     for &peer in &options.peers {
         check_peer(peer)?;
     }

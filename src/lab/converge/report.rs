@@ -4,8 +4,6 @@
 
 use std::path::Path;
 
-use anyhow::Result;
-
 use super::method::{Method, Series};
 use super::rows::Summary;
 use crate::lab::chart::{write_chart, SPP_AXIS, TIME_AXIS};
@@ -14,6 +12,7 @@ use crate::lab::files::write_text;
 use crate::lab::metrics::ErrorMetric;
 use crate::lab::peers::Peer;
 use crate::lab::stats::log_log_slope;
+use crate::lab::Result;
 
 /// The slope of ln median relMSE against ln spp over one method's budgets:
 /// -1 for plain Monte Carlo, lower for QMC, flatter where the reference's

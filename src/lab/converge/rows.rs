@@ -4,12 +4,11 @@
 
 use std::path::Path;
 
-use anyhow::Result;
-
 use super::method::Series;
 use crate::lab::files::write_csv;
 use crate::lab::metrics::ErrorMetric;
 use crate::lab::stats::{median, MeanInterval};
+use crate::lab::Result;
 
 /// One render of the study: a row of `converge.csv`.
 pub(crate) struct Row {
