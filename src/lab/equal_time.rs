@@ -21,23 +21,23 @@ use crate::render_state::RenderState;
 /// `bench fire`).
 pub struct EqualTimeBench {
     /// Scenes (USD or exported).
-    pub(crate) scenes: Vec<PathBuf>,
+    pub scenes: Vec<PathBuf>,
     /// Image size.
-    pub(crate) resolution: UVec2,
+    pub resolution: UVec2,
     /// Samples per pixel of each scene's reference.
-    pub(crate) reference_spp: u32,
+    pub reference_spp: u32,
     /// Equal-time budgets, seconds.
-    pub(crate) times: Vec<f64>,
+    pub times: Vec<f64>,
     /// Seeds per method; the tables show the median error.
-    pub(crate) repeats: u32,
+    pub repeats: u32,
     /// Worker threads.
-    pub(crate) threads: usize,
+    pub threads: usize,
     /// Folder for references and charts.
-    pub(crate) out: PathBuf,
+    pub out: PathBuf,
     /// A folder that also receives each chart as
     /// `<benchmark>-<scene>-equal-time.svg` (the README's live in
     /// `docs/bench`), when given.
-    pub(crate) charts: Option<PathBuf>,
+    pub charts: Option<PathBuf>,
 }
 
 impl EqualTimeBench {

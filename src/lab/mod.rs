@@ -102,7 +102,7 @@ pub enum LabError {
     /// A render state that could not be built.
     #[error(transparent)]
     RenderState(#[from] RenderStateError),
-    /// An image that could not be written.
+    /// An EXR (a reference, a benchmark's film) that could not be written.
     #[error(transparent)]
     Image(#[from] ImageError),
     /// A VDB file or grid that could not be read.
