@@ -2,7 +2,9 @@
 //! run it. Each study prints Markdown tables headed by the machine, date
 //! and commit, so that every number in the README can be rerun, and some
 //! write CSVs and log-log SVG charts beside them. Never used by the
-//! renderer, nor by tests as timings.
+//! renderer, nor by tests as timings. Part of the library (the CLI's
+//! `bench` and `converge` commands only parse flags and call in), so tests
+//! can call it; its errors are [`LabError`]s.
 //!
 //! Studies, one file each (the convergence study a folder), import only
 //! the shared helpers, never each other:
