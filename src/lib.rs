@@ -14,6 +14,7 @@ pub mod geometry;
 pub mod host;
 pub mod image;
 pub mod integrator;
+pub mod lab;
 pub mod lights;
 pub mod materials;
 pub mod memory;

@@ -1,9 +1,8 @@
-//! The `cirrus` binary: the command line (`cli/`), which parses flags and maps
-//! errors to exit codes, and the lab (`lab/`), the benchmarks and studies
-//! its `bench` and `converge` commands run, over the `cirrus` library.
+//! The `cirrus` binary: the command line (`cli/`), which parses flags, calls
+//! the `cirrus` library (the renderer, and the lab its `bench` and `converge`
+//! commands run) and maps errors to exit codes.
 
 mod cli;
-mod lab;
 
 fn main() -> std::process::ExitCode {
     cli::run()

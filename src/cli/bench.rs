@@ -1,5 +1,5 @@
 //! `cirrus bench ...`: the benchmarks' flags, each mapped to one call into
-//! [`crate::lab`], which runs it and prints its Markdown table.
+//! [`cirrus::lab`], which runs it and prints its Markdown table.
 
 use std::path::PathBuf;
 
@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::Subcommand;
 
 use super::render::parse_resolution;
-use crate::lab::{self, EqualTimeBench};
+use cirrus::lab::{self, EqualTimeBench};
 
 #[derive(Subcommand, Debug)]
 pub enum Bench {
@@ -251,5 +251,6 @@ pub fn run(bench: Bench) -> Result<()> {
             lab::bench_fire(&bench)
         }
         Bench::InstancesMemory { scene } => lab::instances_memory(&scene),
-    }
+    }?;
+    Ok(())
 }

@@ -1,5 +1,5 @@
 //! `cirrus converge`: the convergence study's flags, mapped to one call
-//! into [`crate::lab`].
+//! into [`cirrus::lab`].
 
 use std::path::PathBuf;
 
@@ -8,7 +8,7 @@ use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use glam::UVec2;
 
 use super::render::parse_resolution;
-use crate::lab::{self, parse_method, ConvergeOptions, Method, Peer};
+use cirrus::lab::{self, parse_method, ConvergeOptions, Method, Peer};
 
 /// `cirrus converge` arguments.
 #[derive(clap::Args, Debug)]
@@ -74,5 +74,6 @@ pub fn run(args: ConvergeArgs) -> Result<()> {
         peers: args.peers,
         peer_reference_spp: args.peer_reference_spp,
         out: args.out,
-    })
+    })?;
+    Ok(())
 }

@@ -6,19 +6,19 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Result;
 use glam::UVec2;
 
 use super::machine::{machine_line, with_threads};
 use super::scenes::{scene_name, scenes_or_default};
 use super::stats::median;
-use cirrus::film::AovSet;
-use cirrus::film::FilterKind;
-use cirrus::image::Compression;
-use cirrus::integrator::{self, Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
-use cirrus::output::{write_film, AovFiles, ExrHeader};
-use cirrus::render_state::{RenderState, StateOptions};
-use cirrus::sampling::SamplerKind;
+use super::{LabError, Result};
+use crate::film::AovSet;
+use crate::film::FilterKind;
+use crate::image::Compression;
+use crate::integrator::{self, Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
+use crate::output::{write_film, AovFiles, ExrHeader};
+use crate::render_state::{RenderState, StateOptions};
+use crate::sampling::SamplerKind;
 
 /// What to measure.
 pub struct AovsBench {
@@ -53,9 +53,9 @@ fn run_scenes(bench: &AovsBench) -> Result<()> {
     );
     println!("| scene | AOVs | channels | render s | vs beauty | write s | file MB |");
     println!("|---|---|---:|---:|---:|---:|---:|");
-    std::fs::create_dir_all(&bench.out)?;
+    std::fs::create_dir_all(&bench.out).map_err(LabError::Os)?;
     for path in &scenes_or_default(bench.scenes.clone(), &DEFAULT_SCENES) {
-        let scene = cirrus::scene::Scene::open(path, None)?;
+        let scene = crate::scene::Scene::open(path, None)?;
         let state = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
         let sets = [AovSet::beauty_only(), AovSet::default()];
         let name = scene_name(path);
@@ -83,7 +83,7 @@ fn run_scenes(bench: &AovsBench) -> Result<()> {
                         Compression::Zip,
                     )?;
                     let write = start.elapsed().as_secs_f64();
-                    let bytes = std::fs::metadata(&exr)?.len();
+                    let bytes = std::fs::metadata(&exr).map_err(LabError::Os)?.len();
                     let channels: usize = 4 + sets[i]
                         .aovs()
                         .iter()

@@ -3,14 +3,13 @@
 
 use std::path::Path;
 
-use anyhow::Result;
-
 use super::files::write_text;
 use super::metrics::ErrorMetric;
+use super::{LabError, Result};
 
 /// The x axis of a [`write_chart`]: what it shows, in the title, and its
 /// unit, under the axis.
-pub struct ChartAxis {
+pub(crate) struct ChartAxis {
     /// The quantity, e.g. "render time".
     pub quantity: &'static str,
     /// Its unit, e.g. "seconds".
@@ -18,13 +17,13 @@ pub struct ChartAxis {
 }
 
 /// Render time in seconds: the x axis of the equal-time charts.
-pub const TIME_AXIS: ChartAxis = ChartAxis {
+pub(crate) const TIME_AXIS: ChartAxis = ChartAxis {
     quantity: "render time",
     unit: "seconds",
 };
 
 /// Samples per pixel: the x axis of charts against spp.
-pub const SPP_AXIS: ChartAxis = ChartAxis {
+pub(crate) const SPP_AXIS: ChartAxis = ChartAxis {
     quantity: "samples per pixel",
     unit: "spp",
 };
@@ -34,7 +33,7 @@ pub const SPP_AXIS: ChartAxis = ChartAxis {
 /// measured points per labelled curve of (x, error) points, drawn with
 /// plotters' SVG backend (decade ticks and labels, a legend). Only curves
 /// are drawn with stroke width 2, so `stroke-width="2"` polylines count them.
-pub fn write_chart(
+pub(crate) fn write_chart(
     path: &Path,
     title: &str,
     x_axis: &ChartAxis,
@@ -42,7 +41,7 @@ pub fn write_chart(
     curves: &[(String, Vec<(f64, f64)>)],
 ) -> Result<()> {
     let svg = svg_chart(title, x_axis, metric, curves)
-        .map_err(|e| anyhow::anyhow!("cannot draw chart {}: {e}", path.display()))?;
+        .map_err(|e| LabError::Failed(format!("cannot draw chart {}: {e}", path.display())))?;
     write_text(path, &svg)
 }
 

@@ -5,7 +5,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use glam::UVec2;
 
 use super::chart::{write_chart, TIME_AXIS};
@@ -14,8 +13,9 @@ use super::metrics::ErrorMetric;
 use super::reference::render;
 use super::scenes::scenes_or_default;
 use super::stats::median;
-use cirrus::integrator::{Budget, RenderSettings, RenderStats, DEFAULT_MAX_DEPTH};
-use cirrus::render_state::RenderState;
+use super::{LabError, Result};
+use crate::integrator::{Budget, RenderSettings, RenderStats, DEFAULT_MAX_DEPTH};
+use crate::render_state::RenderState;
 
 /// What an equal-time benchmark measures (`bench render`, `bench volumes`,
 /// `bench fire`).
@@ -67,13 +67,13 @@ impl EqualTimeBench {
     }
 
     /// The largest time budget, seconds: where the ladders stop.
-    pub fn max_time(&self) -> f64 {
+    pub(crate) fn max_time(&self) -> f64 {
         self.times.iter().copied().fold(0.0, f64::max)
     }
 
     /// On `threads` workers: [`start`](Self::start)s, then runs `study` on
     /// each scene (`defaults`, in `scenes/`, when none were given).
-    pub fn run(
+    pub(crate) fn run(
         &self,
         reference: &str,
         defaults: &[&str],
@@ -93,8 +93,7 @@ impl EqualTimeBench {
     /// the reference is rendered.
     fn start(&self, reference: &str) -> Result<()> {
         for dir in std::iter::once(self.out.as_path()).chain(self.charts.as_deref()) {
-            std::fs::create_dir_all(dir)
-                .with_context(|| format!("cannot create {}", dir.display()))?;
+            std::fs::create_dir_all(dir).map_err(|e| LabError::io("create", dir, e))?;
         }
         println!("{}\n", machine_line());
         println!(
@@ -111,7 +110,7 @@ impl EqualTimeBench {
 
 /// One render of a [`ladder`]: its error and what it did (spp, time, rays,
 /// media counters).
-pub struct Rung {
+pub(crate) struct Rung {
     /// Error against the reference.
     pub error: f64,
     /// The render's statistics.
@@ -120,7 +119,7 @@ pub struct Rung {
 
 impl Rung {
     /// Seconds of sampling.
-    pub fn seconds(&self) -> f64 {
+    pub(crate) fn seconds(&self) -> f64 {
         self.stats.elapsed.as_secs_f64()
     }
 }
@@ -128,7 +127,7 @@ impl Rung {
 /// One method's convergence: renders with `settings` at 1, 2, 4, ... spp,
 /// each a separate render, up to the first that takes longer than
 /// `max_seconds` (or reaches 65536 spp).
-pub fn ladder(
+pub(crate) fn ladder(
     state: &RenderState,
     reference: &[f32],
     metric: ErrorMetric,
@@ -159,13 +158,13 @@ pub fn ladder(
 /// The error at `t` seconds: log error interpolated linearly in log time
 /// between the two rungs around `t` (extrapolated from the end segments), so
 /// times are equal exactly rather than rounded to whole passes.
-pub fn error_at(ladder: &[Rung], t: f64) -> f64 {
+pub(crate) fn error_at(ladder: &[Rung], t: f64) -> f64 {
     let points: Vec<(f64, f64)> = ladder.iter().map(|r| (r.seconds(), r.error)).collect();
     error_at_time(&points, t)
 }
 
 /// [`error_at`] on (seconds, error) points in increasing time.
-pub fn error_at_time(points: &[(f64, f64)], t: f64) -> f64 {
+pub(crate) fn error_at_time(points: &[(f64, f64)], t: f64) -> f64 {
     if points.len() == 1 {
         return points[0].1;
     }
@@ -184,14 +183,14 @@ pub fn error_at_time(points: &[(f64, f64)], t: f64) -> f64 {
 }
 
 /// Samples per pixel per second of a ladder's largest (longest) render.
-pub fn spp_per_second(ladder: &[Rung]) -> f64 {
+pub(crate) fn spp_per_second(ladder: &[Rung]) -> f64 {
     let last = ladder.last().expect("a ladder has one render at least");
     f64::from(last.stats.samples_per_pixel) / last.seconds()
 }
 
 /// Per time in `times`, the median over `ladders` (one per seed) of the
 /// error at that time.
-pub fn median_errors(ladders: &[Vec<Rung>], times: &[f64]) -> Vec<f64> {
+pub(crate) fn median_errors(ladders: &[Vec<Rung>], times: &[f64]) -> Vec<f64> {
     times
         .iter()
         .map(|&t| median(ladders.iter().map(|l| error_at(l, t)).collect()))
@@ -200,7 +199,7 @@ pub fn median_errors(ladders: &[Vec<Rung>], times: &[f64]) -> Vec<f64> {
 
 /// The chart curve of the median ladder (by final error): (seconds, error)
 /// per render.
-pub fn median_curve(ladders: &[Vec<Rung>]) -> Vec<(f64, f64)> {
+pub(crate) fn median_curve(ladders: &[Vec<Rung>]) -> Vec<(f64, f64)> {
     let mut order: Vec<&Vec<Rung>> = ladders.iter().collect();
     order.sort_by(|a, b| last_error(a).total_cmp(&last_error(b)));
     order[order.len() / 2]
@@ -216,7 +215,7 @@ fn last_error(ladder: &[Rung]) -> f64 {
 /// Writes the relMSE-against-time chart of scene `name` into the bench's
 /// output folder and, when asked, into its `charts` folder as
 /// `<prefix>-<name>-equal-time.svg`; one labelled curve per method.
-pub fn write_scene_charts(
+pub(crate) fn write_scene_charts(
     bench: &EqualTimeBench,
     (prefix, name): (&str, &str),
     curves: &[(String, Vec<(f64, f64)>)],
@@ -241,8 +240,8 @@ mod tests {
     use std::time::Duration;
 
     use super::*;
-    use cirrus::integrator::RayCounts;
-    use cirrus::volumes::TrackingStats;
+    use crate::integrator::RayCounts;
+    use crate::volumes::TrackingStats;
 
     fn rung(seconds: f64, error: f64) -> Rung {
         Rung {

@@ -4,16 +4,15 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use super::{LabError, Result};
 
 /// Writes `text` to `path` atomically.
-pub fn write_text(path: &Path, text: &str) -> Result<()> {
-    cirrus::image::write_file(path, text.as_bytes())
-        .with_context(|| format!("cannot write {}", path.display()))
+pub(crate) fn write_text(path: &Path, text: &str) -> Result<()> {
+    crate::image::write_file(path, text.as_bytes()).map_err(|e| LabError::io("write", path, e))
 }
 
 /// Writes a CSV of `header` and one line per row to `path` and says so.
-pub fn write_csv(path: &Path, header: &str, lines: &[String]) -> Result<()> {
+pub(crate) fn write_csv(path: &Path, header: &str, lines: &[String]) -> Result<()> {
     write_text(path, &format!("{header}\n{}\n", lines.join("\n")))?;
     println!("Wrote {}", path.display());
     Ok(())

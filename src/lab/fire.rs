@@ -10,8 +10,6 @@
 
 use std::path::Path;
 
-use anyhow::{bail, Result};
-
 use super::equal_time::{
     ladder, median_curve, median_errors, spp_per_second, write_scene_charts, EqualTimeBench, Rung,
 };
@@ -20,8 +18,9 @@ use super::metrics::ErrorMetric;
 use super::reference::{base_settings, cached_reference, reference_key};
 use super::scenes::scene_name;
 use super::stats::median;
-use cirrus::integrator::Budget;
-use cirrus::render_state::{RenderState, StateOptions};
+use super::{LabError, Result};
+use crate::integrator::Budget;
+use crate::render_state::{RenderState, StateOptions};
 
 /// One way of rendering one scene, measured.
 struct Measurement {
@@ -62,7 +61,7 @@ pub fn run(bench: &EqualTimeBench) -> Result<()> {
 
 /// One scene's tables and chart.
 fn measure_scene(bench: &EqualTimeBench, path: &Path) -> Result<()> {
-    let scene = cirrus::scene::Scene::open(path, None)?;
+    let scene = crate::scene::Scene::open(path, None)?;
     let name = scene_name(path);
     let build = |volume_lights| {
         let options = StateOptions {
@@ -73,11 +72,11 @@ fn measure_scene(bench: &EqualTimeBench, path: &Path) -> Result<()> {
     };
     let (on, off) = (build(true)?, build(false)?);
     if !on.lights.has_volume_lights() {
-        bail!(
+        return Err(LabError::Failed(format!(
             "{}: no volume emits light (is its VDB missing? see docs/benchmarks.md for the \
              commands that write it)",
             path.display()
-        );
+        )));
     }
     let key = reference_key(&scene, &name)?;
     drop(scene);

@@ -13,12 +13,11 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-use anyhow::{bail, ensure, Context, Result};
-
 use super::machine::machine_line;
 use super::stats::median;
-use cirrus::geometry::Geometry;
-use cirrus::scene::Scene;
+use super::{LabError, Result};
+use crate::geometry::Geometry;
+use crate::scene::Scene;
 
 /// The target for load plus TLAS build at 1M instances, in seconds.
 const TARGET_SECONDS: f64 = 3.0;
@@ -67,11 +66,11 @@ pub fn run(bench: &InstancesBench) -> Result<()> {
     let load_average_start = load_average();
     let dir = std::env::temp_dir().join(format!("cirrus-bench-instances-{}", std::process::id()));
     let dir = dir.as_path();
-    std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|e| LabError::system(dir.display().to_string(), e))?;
     // The baseline first: it also starts the thread pool the timed builds use.
     let base = measure(dir, 1, triangles, repeats)?;
     let big = measure(dir, instances, triangles, repeats)?;
-    std::fs::remove_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
+    std::fs::remove_dir_all(dir).map_err(|e| LabError::system(dir.display().to_string(), e))?;
 
     let ms = |s: f64| s * 1e3;
     let mb = |b: f64| b / 1e6;
@@ -147,7 +146,7 @@ fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Re
     generate(&stage, instances, triangles)?;
     let scene_dir = dir.join(format!("stress_{instances}"));
     let start = Instant::now();
-    cirrus::scene::export(&stage, &scene_dir, None)?;
+    crate::scene::export(&stage, &scene_dir, None)?;
     let export_s = start.elapsed().as_secs_f64();
 
     let [after_load, after_build, peak] = memory_in_child(&scene_dir)?;
@@ -161,11 +160,12 @@ fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Re
     );
     let scene = Scene::load(&scene_dir)?;
     let count = scene.manifest.instances.count;
-    ensure!(
-        count == instances as u64,
-        "{}: {count} instances exported, {instances} generated",
-        scene_dir.display()
-    );
+    if count != instances as u64 {
+        return Err(LabError::Failed(format!(
+            "{}: {count} instances exported, {instances} generated",
+            scene_dir.display()
+        )));
+    }
     let build_s = median(
         (0..repeats)
             .map(|_| timed(|| Geometry::build(&scene)).0)
@@ -191,7 +191,7 @@ fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
 /// Runs `scenes/make_instancing_stress.py` under the `.venv` of the checkout
 /// named by `$CIRRUS_HOME` (else the one this binary was built from).
 fn generate(stage: &Path, instances: usize, triangles: usize) -> Result<()> {
-    let root = cirrus::scene::repo_root();
+    let root = crate::scene::repo_root();
     let script = root.join("scenes/make_instancing_stress.py");
     let out = Command::new(root.join(".venv/bin/python"))
         .arg(&script)
@@ -199,13 +199,13 @@ fn generate(stage: &Path, instances: usize, triangles: usize) -> Result<()> {
         .args(["--instances", &instances.to_string()])
         .args(["--triangles", &triangles.to_string()])
         .output()
-        .with_context(|| format!("running {}", script.display()))?;
+        .map_err(|e| LabError::system(format!("running {}", script.display()), e))?;
     if !out.status.success() {
-        bail!(
+        return Err(LabError::Failed(format!(
             "{} failed: {}",
             script.display(),
             String::from_utf8_lossy(&out.stderr).trim()
-        );
+        )));
     }
     Ok(())
 }
@@ -214,12 +214,13 @@ fn generate(stage: &Path, instances: usize, triangles: usize) -> Result<()> {
 /// returns its three numbers. A fresh process per stage keeps memory freed by
 /// an earlier stage, and kept by the allocator, out of the next one's count.
 fn memory_in_child(scene_dir: &Path) -> Result<[f64; 3]> {
-    let exe = std::env::current_exe().context("finding the cirrus executable")?;
+    let exe = std::env::current_exe()
+        .map_err(|e| LabError::system("finding the cirrus executable", e))?;
     let out = Command::new(&exe)
         .args(["bench", "instances-memory"])
         .arg(scene_dir)
         .output()
-        .with_context(|| format!("running {}", exe.display()))?;
+        .map_err(|e| LabError::system(format!("running {}", exe.display()), e))?;
     let stdout = String::from_utf8_lossy(&out.stdout);
     let numbers: Vec<f64> = stdout
         .split_whitespace()
@@ -227,12 +228,12 @@ fn memory_in_child(scene_dir: &Path) -> Result<[f64; 3]> {
         .collect();
     match (out.status.success(), numbers.as_slice()) {
         (true, &[a, b, c]) => Ok([a, b, c]),
-        _ => bail!(
+        _ => Err(LabError::Failed(format!(
             "cirrus bench instances-memory {}: {}{}",
             scene_dir.display(),
             stdout.trim(),
             String::from_utf8_lossy(&out.stderr).trim()
-        ),
+        ))),
     }
 }
 
@@ -244,7 +245,8 @@ pub fn print_memory(scene_dir: &Path) -> Result<()> {
     let before = memory("VmRSS")?;
     // Writing 5 resets VmHWM to the current RSS (proc(5), Linux >= 4.0), so
     // start-up's own peak is not counted.
-    std::fs::write("/proc/self/clear_refs", "5").context("resetting the peak RSS")?;
+    std::fs::write("/proc/self/clear_refs", "5")
+        .map_err(|e| LabError::system("resetting the peak RSS", e))?;
     let scene = Scene::load(scene_dir)?;
     let after_load = memory("VmRSS")? - before;
     let geometry = Geometry::build(&scene);
@@ -257,11 +259,12 @@ pub fn print_memory(scene_dir: &Path) -> Result<()> {
 
 /// A `/proc/self/status` memory field (`VmRSS`, `VmHWM`), in bytes.
 fn memory(field: &str) -> Result<f64> {
-    let status = std::fs::read_to_string("/proc/self/status").context("/proc/self/status")?;
+    let status = std::fs::read_to_string("/proc/self/status")
+        .map_err(|e| LabError::system("/proc/self/status", e))?;
     status
         .lines()
         .find_map(|l| l.strip_prefix(field)?.strip_prefix(':'))
         .and_then(|v| v.trim().strip_suffix("kB")?.trim().parse::<f64>().ok())
         .map(|kb| kb * 1024.0)
-        .with_context(|| format!("no {field} in /proc/self/status"))
+        .ok_or_else(|| LabError::Failed(format!("no {field} in /proc/self/status")))
 }

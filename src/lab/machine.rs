@@ -1,10 +1,10 @@
 //! Where a study ran: the machine, date and commit line every benchmark
 //! table opens with, and the worker pool its renders run on.
 
-use anyhow::Result;
+use super::Result;
 
 /// "Machine: <cpu>, <cores> cores; <date>; commit <hash>" for benchmark headers.
-pub fn machine_line() -> String {
+pub(crate) fn machine_line() -> String {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|s| {
@@ -33,7 +33,7 @@ pub fn machine_line() -> String {
 }
 
 /// Runs `f` on a rayon pool of `threads` workers (at least one).
-pub fn with_threads(threads: usize, f: impl FnOnce() -> Result<()> + Send) -> Result<()> {
+pub(crate) fn with_threads(threads: usize, f: impl FnOnce() -> Result<()> + Send) -> Result<()> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.max(1))
         .build()?

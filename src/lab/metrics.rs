@@ -3,7 +3,7 @@
 
 /// How an image's error against the reference is measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ErrorMetric {
+pub(crate) enum ErrorMetric {
     /// Mean squared error over pixels and RGB channels.
     Mse,
     /// Relative MSE: mean over pixels and channels of (x - r)^2 / (r^2 +
@@ -19,7 +19,7 @@ pub enum ErrorMetric {
 
 impl ErrorMetric {
     /// The error of `image` against `reference` (same layout, linear RGB).
-    pub fn error(self, image: &[f32], reference: &[f32]) -> f64 {
+    pub(crate) fn error(self, image: &[f32], reference: &[f32]) -> f64 {
         let sum: f64 = image
             .iter()
             .zip(reference)
@@ -36,7 +36,7 @@ impl ErrorMetric {
     }
 
     /// The metric's name in tables and charts.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Self::Mse => "MSE",
             Self::RelMse => "relMSE",

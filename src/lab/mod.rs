@@ -2,7 +2,9 @@
 //! run it. Each study prints Markdown tables headed by the machine, date
 //! and commit, so that every number in the README can be rerun, and some
 //! write CSVs and log-log SVG charts beside them. Never used by the
-//! renderer, nor by tests as timings.
+//! renderer, nor by tests as timings. Part of the library (the CLI's
+//! `bench` and `converge` commands only parse flags and call in), so tests
+//! can call it; its errors are [`LabError`]s.
 //!
 //! Studies, one file each (the convergence study a folder), import only
 //! the shared helpers, never each other:
@@ -40,6 +42,15 @@ mod stats;
 mod vdb;
 mod volumes;
 
+use std::path::PathBuf;
+
+use thiserror::Error;
+
+use crate::image::ImageError;
+use crate::render_state::RenderStateError;
+use crate::scene::{ExportError, OpenError, SceneError};
+use crate::volumes::VolumeError;
+
 pub use aovs::{run as bench_aovs, AovsBench};
 pub use converge::{parse_method, run as converge, ConvergeOptions, Method};
 pub use equal_time::EqualTimeBench;
@@ -49,3 +60,79 @@ pub use peers::Peer;
 pub use render::run as bench_render;
 pub use vdb::{run as bench_vdb, VdbBench};
 pub use volumes::run as bench_volumes;
+
+/// Why a benchmark or study stopped. Printed with its causes (`{e:#}`),
+/// each variant reads as the one line it replaces.
+#[derive(Debug, Error)]
+pub enum LabError {
+    /// A study that cannot go on; the message says why.
+    #[error("{0}")]
+    Failed(String),
+    /// A file or folder operation failed.
+    #[error("cannot {action} {}", path.display())]
+    Io {
+        /// What was being done: `create`, `write`, `read the scene in`, ...
+        action: &'static str,
+        /// The file or folder.
+        path: PathBuf,
+        /// What the OS said.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A system call or a child process failed.
+    #[error("{doing}")]
+    System {
+        /// What was being done: `running <script>`, `finding the cirrus
+        /// executable`, a file or folder, ...
+        doing: String,
+        /// What the OS said.
+        #[source]
+        source: std::io::Error,
+    },
+    /// What the OS said, alone (`bench aovs`'s output folder and EXR sizes).
+    #[error(transparent)]
+    Os(std::io::Error),
+    /// A scene that could not be opened (exported or loaded).
+    #[error(transparent)]
+    Open(#[from] OpenError),
+    /// An exported scene that could not be read.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// A USD stage that could not be exported.
+    #[error(transparent)]
+    Export(#[from] ExportError),
+    /// A render state that could not be built.
+    #[error(transparent)]
+    RenderState(#[from] RenderStateError),
+    /// An EXR (a reference, a benchmark's film) that could not be written.
+    #[error(transparent)]
+    Image(#[from] ImageError),
+    /// A VDB file or grid that could not be read.
+    #[error(transparent)]
+    Volume(#[from] VolumeError),
+    /// The worker pool could not be started.
+    #[error(transparent)]
+    Threads(#[from] rayon::ThreadPoolBuildError),
+}
+
+impl LabError {
+    /// A [`LabError::Io`] error.
+    fn io(action: &'static str, path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Self::Io {
+            action,
+            path: path.into(),
+            source,
+        }
+    }
+
+    /// A [`LabError::System`] error.
+    fn system(doing: impl Into<String>, source: std::io::Error) -> Self {
+        Self::System {
+            doing: doing.into(),
+            source,
+        }
+    }
+}
+
+/// A lab result: [`LabError`] unless said otherwise.
+pub type Result<T, E = LabError> = std::result::Result<T, E>;

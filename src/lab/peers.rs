@@ -11,12 +11,12 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
-use anyhow::{Context, Result};
 use glam::UVec2;
 
 use super::reference::{read_rgb, reference_path, REFERENCE_SEED};
-use cirrus::integrator::DEFAULT_MAX_DEPTH;
-use cirrus::scene::is_usd;
+use super::{LabError, Result};
+use crate::integrator::DEFAULT_MAX_DEPTH;
+use crate::scene::is_usd;
 
 /// A peer renderer, by its name in scenes/peers/render_peer.py, the CSVs
 /// and the charts.
@@ -75,32 +75,41 @@ impl FromStr for Peer {
 
 /// scenes/peers/render_peer.py in the project's `.venv`.
 fn render_peer_command() -> std::process::Command {
-    let root = cirrus::scene::repo_root();
+    let root = crate::scene::repo_root();
     let mut command = std::process::Command::new(root.join(".venv/bin/python"));
     command.arg(root.join("scenes/peers/render_peer.py"));
     command
 }
 
+/// The error of a render_peer.py that could not be started.
+fn cannot_run_render_peer(source: std::io::Error) -> LabError {
+    LabError::system(
+        "cannot run scenes/peers/render_peer.py with .venv/bin/python",
+        source,
+    )
+}
+
 /// Fails, with render_peer.py's reason, when `peer` cannot run here.
-pub fn check_peer(peer: Peer) -> Result<()> {
+pub(crate) fn check_peer(peer: Peer) -> Result<()> {
     let out = render_peer_command()
         .args(["--available", peer.name()])
         .output()
-        .context("cannot run scenes/peers/render_peer.py with .venv/bin/python")?;
-    anyhow::ensure!(
-        out.status.success(),
-        "peer {peer} is not available: {}",
-        String::from_utf8_lossy(&out.stderr).trim()
-    );
+        .map_err(cannot_run_render_peer)?;
+    if !out.status.success() {
+        return Err(LabError::Failed(format!(
+            "peer {peer} is not available: {}",
+            String::from_utf8_lossy(&out.stderr).trim()
+        )));
+    }
     Ok(())
 }
 
 /// The exported scene folder the peers convert: a USD file's export in the
 /// cache (the one `load_scene` rendered), else the folder given (or the
 /// folder of the scene.json given).
-pub fn exported_folder(path: &Path) -> Result<PathBuf> {
+pub(crate) fn exported_folder(path: &Path) -> Result<PathBuf> {
     if is_usd(path) {
-        Ok(cirrus::scene::export_cached(path, None)?.dir)
+        Ok(crate::scene::export_cached(path, None)?.dir)
     } else if path.is_dir() {
         Ok(path.to_owned())
     } else {
@@ -109,7 +118,7 @@ pub fn exported_folder(path: &Path) -> Result<PathBuf> {
 }
 
 /// One peer render: its RGB, its times and the converter's warnings.
-pub struct PeerRender {
+pub(crate) struct PeerRender {
     pub rgb: Vec<f32>,
     /// The timed render call, seconds (render_peer.py's `render_seconds`).
     pub seconds: f64,
@@ -121,7 +130,7 @@ pub struct PeerRender {
 
 /// What one peer render is asked for.
 #[derive(Clone, Copy)]
-pub struct PeerBudget {
+pub(crate) struct PeerBudget {
     pub spp: u32,
     pub seed: u64,
     /// Whether an untimed warm-up render comes first (timed renders; a
@@ -130,7 +139,7 @@ pub struct PeerBudget {
 }
 
 /// One peer on one exported scene, at an image size and a thread count.
-pub struct PeerRun<'a> {
+pub(crate) struct PeerRun<'a> {
     pub peer: Peer,
     /// The exported scene folder ([`exported_folder`]).
     pub folder: &'a Path,
@@ -143,7 +152,7 @@ impl PeerRun<'_> {
     /// at `spp`: kept in `out` as `<key>-<peer>-<w>x<h>-ref<spp>.exr`, like
     /// ours, and rendered (without warm-up, with our reference seed) when
     /// not there yet.
-    pub fn own_reference(&self, out: &Path, key: &str, spp: u32) -> Result<Vec<f32>> {
+    pub(crate) fn own_reference(&self, out: &Path, key: &str, spp: u32) -> Result<Vec<f32>> {
         let path = reference_path(out, &format!("{key}-{}", self.peer), self.resolution, spp);
         if let Some(rgb) = read_rgb(&path, self.resolution) {
             return Ok(rgb);
@@ -159,7 +168,7 @@ impl PeerRun<'_> {
     }
 
     /// Renders the scene into `output` at `budget`, with our max depth.
-    pub fn render(&self, output: &Path, budget: PeerBudget) -> Result<PeerRender> {
+    pub(crate) fn render(&self, output: &Path, budget: PeerBudget) -> Result<PeerRender> {
         let (peer, res) = (self.peer, self.resolution);
         let mut command = render_peer_command();
         if !budget.warmup {
@@ -175,29 +184,37 @@ impl PeerRun<'_> {
             .args(["--res", &format!("{}x{}", res.x, res.y)])
             .args(["--max-depth", &DEFAULT_MAX_DEPTH.to_string()])
             .output()
-            .context("cannot run scenes/peers/render_peer.py with .venv/bin/python")?;
+            .map_err(cannot_run_render_peer)?;
         let (stdout, stderr) = (
             String::from_utf8_lossy(&out.stdout),
             String::from_utf8_lossy(&out.stderr),
         );
-        anyhow::ensure!(
-            out.status.success(),
-            "{peer} failed on {}:\n{stderr}",
-            self.folder.display()
-        );
+        if !out.status.success() {
+            return Err(LabError::Failed(format!(
+                "{peer} failed on {}:\n{stderr}",
+                self.folder.display()
+            )));
+        }
         let line = stdout
             .lines()
             .rev()
             .find(|l| l.starts_with("peer="))
-            .with_context(|| format!("render_peer.py printed no timing line:\n{stdout}"))?;
+            .ok_or_else(|| {
+                LabError::Failed(format!("render_peer.py printed no timing line:\n{stdout}"))
+            })?;
         let field = |key: &str| -> Result<f64> {
             line.split_whitespace()
                 .find_map(|w| w.strip_prefix(key))
                 .and_then(|v| v.parse().ok())
-                .with_context(|| format!("no {key} in {line:?}"))
+                .ok_or_else(|| LabError::Failed(format!("no {key} in {line:?}")))
         };
-        let rgb = read_rgb(output, res).with_context(|| {
-            format!("{} is not a {}x{} RGB EXR", output.display(), res.x, res.y)
+        let rgb = read_rgb(output, res).ok_or_else(|| {
+            LabError::Failed(format!(
+                "{} is not a {}x{} RGB EXR",
+                output.display(),
+                res.x,
+                res.y
+            ))
         })?;
         Ok(PeerRender {
             rgb,

@@ -4,31 +4,31 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use glam::UVec2;
 
-use cirrus::film::AovSet;
-use cirrus::film::FilterKind;
-use cirrus::image::read_image;
-use cirrus::integrator::{
+use super::{LabError, Result};
+use crate::film::AovSet;
+use crate::film::FilterKind;
+use crate::image::read_image;
+use crate::integrator::{
     self, Budget, PathSettings, RenderSettings, RenderStats, Strategy, VolumeEstimator,
     DEFAULT_MAX_DEPTH,
 };
-use cirrus::output::{write_beauty, ExrHeader};
-use cirrus::render_state::RenderState;
-use cirrus::sampling::SamplerKind;
-use cirrus::scene::Scene;
+use crate::output::{write_beauty, ExrHeader};
+use crate::render_state::RenderState;
+use crate::sampling::SamplerKind;
+use crate::scene::Scene;
 
 /// Seed of every reference render, apart from the seeds of the measured ones
 /// (0, 1, 2, ...).
-pub const REFERENCE_SEED: u64 = 1 << 20;
+pub(crate) const REFERENCE_SEED: u64 = 1 << 20;
 
 /// Settings of every benchmark and convergence render unless the measured
 /// method changes them: `cirrus render`'s defaults (MIS, Sobol, max depth
 /// [`DEFAULT_MAX_DEPTH`], null-scattering MIS with equiangular sampling, no clamp)
 /// but a box filter, so each sample lands in its own pixel only, and the
 /// beauty alone.
-pub fn base_settings(budget: Budget, seed: u64) -> RenderSettings {
+pub(crate) fn base_settings(budget: Budget, seed: u64) -> RenderSettings {
     RenderSettings {
         budget,
         seed,
@@ -46,7 +46,7 @@ pub fn base_settings(budget: Budget, seed: u64) -> RenderSettings {
 }
 
 /// Renders `state` with `settings`; the film's RGB and the statistics.
-pub fn render(state: &RenderState, settings: &RenderSettings) -> (Vec<f32>, RenderStats) {
+pub(crate) fn render(state: &RenderState, settings: &RenderSettings) -> (Vec<f32>, RenderStats) {
     let (film, stats) = integrator::render(state, settings, &|_| {});
     (film.rgb(), stats)
 }
@@ -56,17 +56,22 @@ pub fn render(state: &RenderState, settings: &RenderSettings) -> (Vec<f32>, Rend
 /// `scene.bin`), so a reference rendered before the scene changed is never
 /// read back (a stale smoke reference, from before its ground lost its
 /// specular lobe, once made every method look stuck at relMSE 0.13).
-pub fn reference_key(scene: &Scene, name: &str) -> Result<String> {
+pub(crate) fn reference_key(scene: &Scene, name: &str) -> Result<String> {
     let crc = scene
         .content_crc()
-        .with_context(|| format!("cannot read the scene in {}", scene.dir.display()))?;
+        .map_err(|e| LabError::io("read the scene in", &scene.dir, e))?;
     Ok(format!("{name}-{crc:08x}"))
 }
 
 /// The reference of the scene whose [`reference_key`] is `key`:
 /// [`base_settings`] at `spp` with [`REFERENCE_SEED`], kept in `out` by
 /// [`reference`] at [`reference_path`].
-pub fn cached_reference(state: &RenderState, out: &Path, key: &str, spp: u32) -> Result<Vec<f32>> {
+pub(crate) fn cached_reference(
+    state: &RenderState,
+    out: &Path,
+    key: &str,
+    spp: u32,
+) -> Result<Vec<f32>> {
     let path = reference_path(out, key, state.resolution, spp);
     let settings = base_settings(Budget::Samples(spp), REFERENCE_SEED);
     reference(state, &settings, &path)
@@ -76,7 +81,7 @@ pub fn cached_reference(state: &RenderState, out: &Path, key: &str, spp: u32) ->
 /// resolution and spp is kept: `<out>/<key>-<w>x<h>-ref<spp>.exr`. The key
 /// holds neither the settings, nor the renderer's version, nor the VDB
 /// files' contents: delete the file after changing any of them.
-pub fn reference_path(out: &Path, key: &str, resolution: UVec2, spp: u32) -> PathBuf {
+pub(crate) fn reference_path(out: &Path, key: &str, resolution: UVec2, spp: u32) -> PathBuf {
     out.join(format!(
         "{key}-{}x{}-ref{spp}.exr",
         resolution.x, resolution.y
@@ -102,8 +107,8 @@ fn reference(state: &RenderState, settings: &RenderSettings, path: &Path) -> Res
 
 /// The RGB pixels of the EXR at `path` when it exists, holds 3 channels and
 /// has this `resolution`; None otherwise.
-pub fn read_rgb(path: &Path, resolution: UVec2) -> Option<Vec<f32>> {
-    let image = read_image(path, cirrus::scene::ColorSpace::Raw).ok()?;
+pub(crate) fn read_rgb(path: &Path, resolution: UVec2) -> Option<Vec<f32>> {
+    let image = read_image(path, crate::scene::ColorSpace::Raw).ok()?;
     (image.channels == 3 && UVec2::new(image.width, image.height) == resolution)
         .then_some(image.pixels)
 }

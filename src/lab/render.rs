@@ -6,8 +6,6 @@
 //! time. References are kept in the output folder, named by scene,
 //! resolution and spp: delete them after changing the renderer.
 
-use anyhow::{Context, Result};
-
 use super::chart::{write_chart, TIME_AXIS};
 use super::equal_time::{
     ladder, median_curve, median_errors, spp_per_second, EqualTimeBench, Rung,
@@ -18,11 +16,12 @@ use super::metrics::ErrorMetric;
 use super::reference::{base_settings, cached_reference, reference_key, render};
 use super::scenes::scene_name;
 use super::stats::median;
-use cirrus::integrator::{
+use super::{LabError, Result};
+use crate::integrator::{
     Budget, PathSettings, RenderSettings, RenderStats, Strategy, DEFAULT_MAX_DEPTH,
 };
-use cirrus::render_state::{RenderState, StateOptions};
-use cirrus::sampling::SamplerKind;
+use crate::render_state::{RenderState, StateOptions};
+use crate::sampling::SamplerKind;
 
 /// The estimator and sampler pairs compared at equal time.
 const METHODS: [(Strategy, SamplerKind); 6] = [
@@ -41,8 +40,7 @@ pub fn run(bench: &EqualTimeBench) -> Result<()> {
 
 /// [`run`], on the worker pool.
 fn run_scenes(bench: &EqualTimeBench) -> Result<()> {
-    std::fs::create_dir_all(&bench.out)
-        .with_context(|| format!("cannot create {}", bench.out.display()))?;
+    std::fs::create_dir_all(&bench.out).map_err(|e| LabError::io("create", &bench.out, e))?;
     println!("{}\n", machine_line());
     println!(
         "Threads: {}; {}x{} pixels; max depth {DEFAULT_MAX_DEPTH}; box filter; reference: MIS + Sobol at {} spp.\n",
@@ -52,7 +50,7 @@ fn run_scenes(bench: &EqualTimeBench) -> Result<()> {
         bench.reference_spp
     );
     for path in &bench.scenes {
-        let scene = cirrus::scene::Scene::open(path, None)?;
+        let scene = crate::scene::Scene::open(path, None)?;
         let state = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
         let name = scene_name(path);
         let key = reference_key(&scene, &name)?;

@@ -5,10 +5,10 @@
 use std::path::{Path, PathBuf};
 
 /// `scenes` when any are given, else `defaults`: paths relative to the
-/// `scenes/` folder of the checkout ([`cirrus::scene::repo_root`]).
-pub fn scenes_or_default(scenes: Vec<PathBuf>, defaults: &[&str]) -> Vec<PathBuf> {
+/// `scenes/` folder of the checkout ([`crate::scene::repo_root`]).
+pub(crate) fn scenes_or_default(scenes: Vec<PathBuf>, defaults: &[&str]) -> Vec<PathBuf> {
     if scenes.is_empty() {
-        let folder = cirrus::scene::repo_root().join("scenes");
+        let folder = crate::scene::repo_root().join("scenes");
         defaults.iter().map(|d| folder.join(d)).collect()
     } else {
         scenes
@@ -16,7 +16,7 @@ pub fn scenes_or_default(scenes: Vec<PathBuf>, defaults: &[&str]) -> Vec<PathBuf
 }
 
 /// A scene's name in tables, charts and file names: its file stem.
-pub fn scene_name(path: &Path) -> String {
+pub(crate) fn scene_name(path: &Path) -> String {
     path.file_stem()
         .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
 }

@@ -2,7 +2,7 @@
 //! intervals of a mean, and power-law slopes on log-log axes.
 
 /// The median of `xs` (the mean of the middle two for an even count).
-pub fn median(mut xs: Vec<f64>) -> f64 {
+pub(crate) fn median(mut xs: Vec<f64>) -> f64 {
     xs.sort_by(f64::total_cmp);
     let n = xs.len();
     if n % 2 == 1 {
@@ -22,7 +22,7 @@ const T_975: [f64; 30] = [
 /// The 97.5% quantile of Student's t with `dof` degrees of freedom: the
 /// table up to 30, then the normal quantile 1.96 with its first
 /// Cornish-Fisher correction, 1.96 + (1.96^3 + 1.96) / (4 dof), within 0.2%.
-pub fn t_975(dof: usize) -> f64 {
+pub(crate) fn t_975(dof: usize) -> f64 {
     match dof {
         0 => f64::NAN,
         1..=30 => T_975[dof - 1],
@@ -33,14 +33,14 @@ pub fn t_975(dof: usize) -> f64 {
 /// The mean of independent samples and the half width of its 95%
 /// confidence interval (Student's t over the samples).
 #[derive(Clone, Copy, Debug)]
-pub struct MeanInterval {
+pub(crate) struct MeanInterval {
     pub mean: f64,
     pub half_width: f64,
 }
 
 impl MeanInterval {
     /// The interval of `samples` (two at least for a finite width).
-    pub fn of(samples: &[f64]) -> Self {
+    pub(crate) fn of(samples: &[f64]) -> Self {
         let n = samples.len();
         let mean = samples.iter().sum::<f64>() / n as f64;
         let variance =
@@ -54,7 +54,7 @@ impl MeanInterval {
 
 /// Least-squares slope of ln y against ln x over `points` (x, y): the
 /// exponent of a power law y = c x^k.
-pub fn log_log_slope(points: &[(f64, f64)]) -> f64 {
+pub(crate) fn log_log_slope(points: &[(f64, f64)]) -> f64 {
     let points: Vec<(f64, f64)> = points.iter().map(|&(x, y)| (x.ln(), y.ln())).collect();
     let n = points.len() as f64;
     let (mx, my) = points

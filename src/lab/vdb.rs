@@ -8,13 +8,13 @@ use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Result;
 use glam::Vec3;
 
 use super::machine::machine_line;
 use super::stats::median;
-use cirrus::sampling::Pcg32;
-use cirrus::volumes::VdbFile;
+use super::Result;
+use crate::sampling::Pcg32;
+use crate::volumes::VdbFile;
 
 /// What to measure.
 pub struct VdbBench {

@@ -12,8 +12,7 @@
 
 use std::path::Path;
 
-use anyhow::Result;
-use cirrus::choice::Choice;
+use crate::choice::Choice;
 
 use super::equal_time::{
     ladder, median_curve, median_errors, spp_per_second, write_scene_charts, EqualTimeBench, Rung,
@@ -23,10 +22,11 @@ use super::metrics::ErrorMetric;
 use super::reference::{base_settings, cached_reference, reference_key};
 use super::scenes::scene_name;
 use super::stats::median;
-use cirrus::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
-use cirrus::render_state::{RenderState, StateOptions};
-use cirrus::scene::Scene;
-use cirrus::volumes::{MajorantKind, TrackingStats, VdbFile};
+use super::Result;
+use crate::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
+use crate::render_state::{RenderState, StateOptions};
+use crate::scene::Scene;
+use crate::volumes::{MajorantKind, TrackingStats, VdbFile};
 
 /// The targets: global / grid density lookups per camera ray at
 /// least this, ...
@@ -92,7 +92,7 @@ pub fn run(bench: &EqualTimeBench) -> Result<()> {
 
 /// One scene's tables and chart.
 fn measure_scene(bench: &EqualTimeBench, path: &Path) -> Result<()> {
-    let scene = cirrus::scene::Scene::open(path, None)?;
+    let scene = crate::scene::Scene::open(path, None)?;
     let name = scene_name(path);
     println!("### {name}\n");
     print_extinction(&scene)?;

@@ -2,11 +2,11 @@
 //! most one flag changed, by their names in `--methods`, the CSVs and the
 //! charts; the series of a study (a method or a peer); its budgets.
 
+use crate::integrator::{RenderSettings, Strategy, VolumeEstimator};
 use crate::lab::peers::Peer;
-use cirrus::integrator::{RenderSettings, Strategy, VolumeEstimator};
-use cirrus::render_state::RenderState;
-use cirrus::sampling::SamplerKind;
-use cirrus::volumes::MajorantKind;
+use crate::render_state::RenderState;
+use crate::sampling::SamplerKind;
+use crate::volumes::MajorantKind;
 
 /// A method of the study: the reference's settings ([`base_settings`](crate::lab::reference::base_settings),
 /// which are `cirrus render`'s defaults but a box filter) with at most one
@@ -28,7 +28,7 @@ pub enum Method {
 }
 
 /// Every method, in table and chart order.
-pub const METHODS: [Method; 9] = [
+pub(crate) const METHODS: [Method; 9] = [
     Method::Default,
     Method::Sampler(SamplerKind::Independent),
     Method::Strategy(Strategy::Bsdf),
@@ -43,7 +43,7 @@ pub const METHODS: [Method; 9] = [
 impl Method {
     /// The name in `--methods`, the CSVs and the charts: the flag's name
     /// (volume estimators shortened to `estimator`) and value.
-    pub fn name(self) -> String {
+    pub(crate) fn name(self) -> String {
         match self {
             Self::Default => "default".into(),
             Self::Sampler(s) => format!("sampler-{}", s),
@@ -55,7 +55,7 @@ impl Method {
     }
 
     /// The `cirrus render` flag this method adds (empty for `default`).
-    pub fn flag(self) -> String {
+    pub(crate) fn flag(self) -> String {
         match self {
             Self::Default => String::new(),
             Self::Sampler(s) => format!("--sampler {}", s),
@@ -68,8 +68,8 @@ impl Method {
 
     /// Whether the method differs from `default` on this scene: volume
     /// methods need volumes, and `no-equiangular` also a light that
-    /// equiangular sampling targets ([`cirrus::lights::Lights::has_equiangular_target`]).
-    pub fn applies_to(self, state: &RenderState) -> bool {
+    /// equiangular sampling targets ([`crate::lights::Lights::has_equiangular_target`]).
+    pub(crate) fn applies_to(self, state: &RenderState) -> bool {
         let volumes = !state.media.is_empty();
         match self {
             Self::Default | Self::Sampler(_) | Self::Strategy(_) => true,
@@ -79,7 +79,7 @@ impl Method {
     }
 
     /// `base` with this method's flag applied, as `cirrus render` applies it.
-    pub fn settings(self, base: RenderSettings) -> RenderSettings {
+    pub(crate) fn settings(self, base: RenderSettings) -> RenderSettings {
         let mut s = base;
         match self {
             Self::Default | Self::Majorant(_) => {}
@@ -92,7 +92,7 @@ impl Method {
     }
 
     /// The majorants the render state is built with.
-    pub fn majorant(self) -> MajorantKind {
+    pub(crate) fn majorant(self) -> MajorantKind {
         match self {
             Self::Majorant(m) => m,
             _ => MajorantKind::Grid,
@@ -102,14 +102,14 @@ impl Method {
 
 /// What one row of the study rendered: a method of ours or a peer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Series {
+pub(crate) enum Series {
     Ours(Method),
     Peer(Peer),
 }
 
 impl Series {
     /// The name in the CSVs and charts: the method's or the peer's.
-    pub fn name(self) -> String {
+    pub(crate) fn name(self) -> String {
         match self {
             Self::Ours(m) => m.name(),
             Self::Peer(p) => p.to_string(),
@@ -117,7 +117,7 @@ impl Series {
     }
 
     /// How it is rendered: the `cirrus render` flag, or the peer's script.
-    pub fn flag(self) -> String {
+    pub(crate) fn flag(self) -> String {
         match self {
             Self::Ours(m) => m.flag(),
             Self::Peer(p) => format!("render_peer.py {p}"),
@@ -135,7 +135,7 @@ pub fn parse_method(s: &str) -> Result<Method, String> {
 
 /// The budgets: 1, 2, 4, ... spp up to `spp_max`, which comes last when it
 /// is not a power of two.
-pub fn budgets(spp_max: u32) -> Vec<u32> {
+pub(crate) fn budgets(spp_max: u32) -> Vec<u32> {
     let mut spp: Vec<u32> = std::iter::successors(Some(1u32), |&n| n.checked_mul(2))
         .take_while(|&n| n <= spp_max)
         .collect();
@@ -148,8 +148,8 @@ pub fn budgets(spp_max: u32) -> Vec<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::integrator::Budget;
     use crate::lab::reference::base_settings;
-    use cirrus::integrator::Budget;
 
     #[test]
     fn method_names_parse_back_and_are_unique() {

@@ -31,7 +31,6 @@ mod rows;
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use glam::UVec2;
 
 use method::{budgets, Series, METHODS};
@@ -39,14 +38,15 @@ pub use method::{parse_method, Method};
 use report::{equal_time_rows, print_summary, write_charts, write_equal_time};
 use rows::{summarise, write_csvs, Row};
 
+use crate::integrator::Budget;
 use crate::lab::machine::{machine_line, with_threads};
 use crate::lab::peers::{check_peer, exported_folder, Peer, PeerBudget, PeerRun};
 use crate::lab::reference::{base_settings, cached_reference, reference_key, render};
 use crate::lab::scenes::{scene_name, scenes_or_default};
 use crate::lab::stats::median;
-use cirrus::integrator::Budget;
-use cirrus::render_state::{RenderState, StateOptions};
-use cirrus::volumes::MajorantKind;
+use crate::lab::{LabError, Result};
+use crate::render_state::{RenderState, StateOptions};
+use crate::volumes::MajorantKind;
 
 /// What the study renders.
 pub struct ConvergeOptions {
@@ -83,8 +83,7 @@ const DEFAULT_SCENES: [&str; 1] = ["bench/smoke.usda"];
 /// Runs the study and prints its summary.
 pub fn run(options: &ConvergeOptions) -> Result<()> {
     let scenes = scenes_or_default(options.scenes.clone(), &DEFAULT_SCENES);
-    std::fs::create_dir_all(&options.out)
-        .with_context(|| format!("cannot create {}", options.out.display()))?;
+    std::fs::create_dir_all(&options.out).map_err(|e| LabError::io("create", &options.out, e))?;
     for &peer in &options.peers {
         check_peer(peer)?;
     }
@@ -121,7 +120,7 @@ pub fn run(options: &ConvergeOptions) -> Result<()> {
 
 /// Every render of one scene: per method, per budget, per seed.
 fn converge_scene(options: &ConvergeOptions, path: &Path, name: &str) -> Result<Vec<Row>> {
-    let scene = cirrus::scene::Scene::open(path, None)?;
+    let scene = crate::scene::Scene::open(path, None)?;
     let grid = RenderState::build(&scene, Some(options.resolution), StateOptions::default())?;
     let methods: Vec<Method> = if options.methods.is_empty() {
         METHODS

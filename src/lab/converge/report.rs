@@ -4,8 +4,6 @@
 
 use std::path::Path;
 
-use anyhow::Result;
-
 use super::method::{Method, Series};
 use super::rows::Summary;
 use crate::lab::chart::{write_chart, SPP_AXIS, TIME_AXIS};
@@ -14,6 +12,7 @@ use crate::lab::files::write_text;
 use crate::lab::metrics::ErrorMetric;
 use crate::lab::peers::Peer;
 use crate::lab::stats::log_log_slope;
+use crate::lab::Result;
 
 /// The slope of ln median relMSE against ln spp over one method's budgets:
 /// -1 for plain Monte Carlo, lower for QMC, flatter where the reference's
@@ -34,7 +33,7 @@ fn by_method(summaries: &[Summary]) -> impl Iterator<Item = &[Summary]> {
 
 /// One Markdown line per method: its largest budget's medians, the bias
 /// interval there, and the relMSE slope over all budgets.
-pub fn print_summary(name: &str, summaries: &[Summary]) {
+pub(crate) fn print_summary(name: &str, summaries: &[Summary]) {
     println!("### {name}\n");
     println!(
         "| method | flag | spp | seconds | relMSE | RMSE | bias (95% CI) | relMSE slope vs spp |"
@@ -63,7 +62,7 @@ pub fn print_summary(name: &str, summaries: &[Summary]) {
 /// `<scene>-relmse-time.svg` (against median seconds) and
 /// `<scene>-relmse-spp.svg`, both against our reference; with peers also
 /// `<scene>-relmse-own-time.svg`, each renderer against its own reference.
-pub fn write_charts(out: &Path, name: &str, summaries: &[Summary]) -> Result<()> {
+pub(crate) fn write_charts(out: &Path, name: &str, summaries: &[Summary]) -> Result<()> {
     let curves = |x: fn(&Summary) -> f64, y: fn(&Summary) -> f64| {
         by_method(summaries)
             .map(|list| {
@@ -106,7 +105,7 @@ pub fn write_charts(out: &Path, name: &str, summaries: &[Summary]) -> Result<()>
 
 /// One peer budget of `equal_time.md`: the peer's medians and our default
 /// method's at the same render time.
-pub struct EqualTime {
+pub(crate) struct EqualTime {
     scene: String,
     peer: Peer,
     spp: u32,
@@ -126,7 +125,7 @@ pub struct EqualTime {
 /// default method's median relMSE read off at the peer's median time with
 /// [`error_at_time`] (our error is against our reference, which is also our
 /// own). Empty without peers or without the default method.
-pub fn equal_time_rows(summaries: &[Summary]) -> Vec<EqualTime> {
+pub(crate) fn equal_time_rows(summaries: &[Summary]) -> Vec<EqualTime> {
     let ours: Vec<(f64, f64)> = summaries
         .iter()
         .filter(|s| s.method == Series::Ours(Method::Default))
@@ -156,7 +155,7 @@ pub fn equal_time_rows(summaries: &[Summary]) -> Vec<EqualTime> {
 /// Writes `equal_time.md`: per scene, peer and budget, our relMSE over the
 /// peer's at the peer's render time (below 1: we are more accurate in the
 /// same time), against our reference and against each one's own.
-pub fn write_equal_time(out: &Path, machine: &str, rows: &[EqualTime]) -> Result<()> {
+pub(crate) fn write_equal_time(out: &Path, machine: &str, rows: &[EqualTime]) -> Result<()> {
     let mut text = format!(
         "# Equal-time relMSE, Cirrus (default method) against peers\n\n{machine}\n\n\
          At each peer budget, Cirrus' median relMSE at the peer's median render time (read \

@@ -4,15 +4,14 @@
 
 use std::path::Path;
 
-use anyhow::Result;
-
 use super::method::Series;
 use crate::lab::files::write_csv;
 use crate::lab::metrics::ErrorMetric;
 use crate::lab::stats::{median, MeanInterval};
+use crate::lab::Result;
 
 /// One render of the study: a row of `converge.csv`.
-pub struct Row {
+pub(crate) struct Row {
     pub scene: String,
     pub method: Series,
     pub spp: u32,
@@ -39,7 +38,7 @@ const ROWS_HEADER: &str = "scene,method,spp,seed,seconds,relmse,rmse,bias,relmse
 
 impl Row {
     /// A row from an image's errors against our reference and its renderer's own.
-    pub fn new(
+    pub(crate) fn new(
         key: (&str, Series, u32, u64),
         rgb: &[f32],
         reference: &[f32],
@@ -79,7 +78,7 @@ impl Row {
 }
 
 /// The seeds of one scene, method and budget: a row of `summary.csv`.
-pub struct Summary {
+pub(crate) struct Summary {
     pub scene: String,
     pub method: Series,
     pub spp: u32,
@@ -100,7 +99,7 @@ const SUMMARY_HEADER: &str = "scene,method,spp,seeds,median_seconds,median_relms
 
 impl Summary {
     /// Summarises `rows`, the seeds of one scene, method and budget.
-    pub fn of(rows: &[Row]) -> Self {
+    pub(crate) fn of(rows: &[Row]) -> Self {
         let column = |f: fn(&Row) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
         Self {
             scene: rows[0].scene.clone(),
@@ -136,14 +135,14 @@ impl Summary {
 }
 
 /// One summary per scene, method and budget of `rows` (grouped as rendered).
-pub fn summarise(rows: &[Row]) -> Vec<Summary> {
+pub(crate) fn summarise(rows: &[Row]) -> Vec<Summary> {
     rows.chunk_by(|a, b| a.scene == b.scene && a.method == b.method && a.spp == b.spp)
         .map(Summary::of)
         .collect()
 }
 
 /// Writes `converge.csv` (`rows`) and `summary.csv` (`summaries`) into `out`.
-pub fn write_csvs(out: &Path, rows: &[Row], summaries: &[Summary]) -> Result<()> {
+pub(crate) fn write_csvs(out: &Path, rows: &[Row], summaries: &[Summary]) -> Result<()> {
     let rows: Vec<String> = rows.iter().map(Row::csv).collect();
     write_csv(&out.join("converge.csv"), ROWS_HEADER, &rows)?;
     let summaries: Vec<String> = summaries.iter().map(Summary::csv).collect();
