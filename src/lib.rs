@@ -9,6 +9,7 @@ pub mod camera;
 pub mod choice;
 pub mod color;
 pub mod farm;
+pub mod file_error;
 pub mod film;
 pub mod geometry;
 pub mod host;

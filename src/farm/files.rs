@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::FarmError;
+use crate::file_error::FileError;
 use crate::film::AovSet;
 use crate::output::AovFiles;
 
@@ -83,7 +84,9 @@ impl OutputFiles {
 
 fn remove_if_present(path: &Path) -> Result<(), FarmError> {
     match std::fs::remove_file(path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(FarmError::io("remove", path, e)),
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            Err(FileError::new("remove", path, e).into())
+        }
         _ => Ok(()),
     }
 }

@@ -13,10 +13,9 @@ mod part;
 mod slurm;
 mod snapshot;
 
-use std::path::PathBuf;
-
 use thiserror::Error;
 
+use crate::file_error::FileError;
 use crate::film::FilmStateError;
 use crate::image::ImageError;
 use crate::scene::{ExportError, SceneError};
@@ -36,16 +35,8 @@ pub enum FarmError {
     #[error("{0}")]
     Refused(String),
     /// A file or folder operation failed.
-    #[error("cannot {action} {}", path.display())]
-    Io {
-        /// What was being done: `remove`, `create`, `write`, ...
-        action: &'static str,
-        /// The file or folder.
-        path: PathBuf,
-        /// What the OS said.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    File(#[from] FileError),
     /// A film-state file (checkpoint or part).
     #[error(transparent)]
     FilmState(#[from] FilmStateError),
@@ -58,15 +49,4 @@ pub enum FarmError {
     /// A USD stage that could not be exported.
     #[error(transparent)]
     Export(#[from] ExportError),
-}
-
-impl FarmError {
-    /// An [`FarmError::Io`] error.
-    fn io(action: &'static str, path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Self::Io {
-            action,
-            path: path.into(),
-            source,
-        }
-    }
 }

@@ -18,6 +18,7 @@ use std::process::Command;
 use glam::UVec2;
 
 use super::FarmError;
+use crate::file_error::FileError;
 
 /// How a frame is split into parts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -109,7 +110,7 @@ fn quote_path(p: &Path) -> String {
 
 /// An absolute path (the scripts run elsewhere).
 fn absolute(p: &Path) -> Result<PathBuf, FarmError> {
-    std::path::absolute(p).map_err(|e| FarmError::io("resolve", p, e))
+    std::path::absolute(p).map_err(|e| FileError::new("resolve", p, e).into())
 }
 
 /// Exports every frame of `job` into its job folder, writes the two job
@@ -142,7 +143,7 @@ pub fn submit(job: &SlurmJob) -> Result<Submitted, FarmError> {
     }
     for sub in ["scenes", "parts", "logs", "status"] {
         let path = dir.join(sub);
-        std::fs::create_dir_all(&path).map_err(|e| FarmError::io("create", &path, e))?;
+        std::fs::create_dir_all(&path).map_err(|e| FileError::new("create", &path, e))?;
     }
     let frames: Vec<Option<i64>> = match &args.frames {
         Some(r) => r.clone().map(Some).collect(),
@@ -161,11 +162,11 @@ pub fn submit(job: &SlurmJob) -> Result<Submitted, FarmError> {
         } else {
             let _ = std::fs::remove_file(&scene);
             std::os::unix::fs::symlink(absolute(&args.scene)?, &scene)
-                .map_err(|e| FarmError::io("link", &scene, e))?;
+                .map_err(|e| FileError::new("link", &scene, e))?;
         }
     }
     let cirrus =
-        std::env::current_exe().map_err(|e| FarmError::io("find", "the cirrus binary", e))?;
+        std::env::current_exe().map_err(|e| FileError::new("find", "the cirrus binary", e))?;
     let labels: Vec<String> = frames.iter().map(|&f| quote(&label(f))).collect();
     let outputs: Vec<String> = frames
         .iter()
@@ -239,7 +240,7 @@ exit "$code"
     let merge_path = dir.join("merge.sbatch");
     for (path, text) in [(&parts_path, &parts_script), (&merge_path, &merge_script)] {
         crate::image::write_file(path, text.as_bytes())
-            .map_err(|e| FarmError::io("write", path, e))?;
+            .map_err(|e| FileError::new("write", path, e))?;
     }
     let mut submitted = Submitted {
         dir,
@@ -271,7 +272,7 @@ fn sbatch(flags: &[String], script: &Path) -> Result<String, FarmError> {
         .args(flags)
         .arg(script)
         .output()
-        .map_err(|e| FarmError::io("run", "sbatch (is Slurm installed and SLURM_CONF set?)", e))?;
+        .map_err(|e| FileError::new("run", "sbatch (is Slurm installed and SLURM_CONF set?)", e))?;
     if !out.status.success() {
         return Err(FarmError::Refused(format!(
             "sbatch {} failed: {}",

@@ -11,6 +11,7 @@ use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
 use super::{FarmError, PartInfo};
+use crate::file_error::FileError;
 use crate::film::{read_film_state, write_film_state, Film};
 use crate::integrator::{Budget, RenderProgress, RenderSettings, Snapshot};
 use crate::output::ExrHeader;
@@ -91,7 +92,7 @@ impl Fingerprint {
 fn scene_hash(scene: &Scene) -> Result<String, FarmError> {
     let crc = scene
         .content_crc()
-        .map_err(|e| FarmError::io("read", scene.dir.join(MANIFEST_FILE), e))?;
+        .map_err(|e| FileError::new("read", scene.dir.join(MANIFEST_FILE), e))?;
     Ok(format!("{crc:08x}"))
 }
 

@@ -141,6 +141,39 @@ impl Path<'_, '_> {
         emission_weight(self.settings.strategy, self.bounce, light_pdf, null_ratio)
     }
 
+    /// Next-event estimation at `vertex`: one light sample (`u`: selection and
+    /// position); `None` when it contributes nothing.
+    fn next_event(
+        &mut self,
+        vertex: &Vertex,
+        (u_select, u): (f32, Vec2),
+    ) -> Option<LightContribution> {
+        let (state, settings) = (self.state, self.settings);
+        let (light, ls) = state
+            .lights
+            .sample(state.emitters(), vertex.position(), u_select, u)?;
+        let f = vertex.f(ls.wi);
+        if ls.pdf.is_nan() || ls.pdf <= 0.0 || f == Vec3::ZERO {
+            return None;
+        }
+        let shadow = vertex.shadow_ray(&ls);
+        let seen = visibility(state, settings, &shadow, light, self.rng, &mut self.counts);
+        if seen.transmittance == Vec3::ZERO {
+            return None;
+        }
+        let weight = if ls.delta || settings.strategy == Strategy::Nee {
+            1.0
+        } else {
+            power_heuristic(ls.pdf, vertex.pdf(ls.wi) * seen.null_ratio)
+        };
+        Some(LightContribution {
+            light,
+            f,
+            li: ls.radiance * seen.transmittance * (weight / ls.pdf),
+            wi: ls.wi,
+        })
+    }
+
     /// Follows `ray` (after `depth` scattering events) to its next
     /// scattering event, adding what it finds; the next ray, or `None`
     /// when the path ends.
@@ -285,14 +318,7 @@ impl Path<'_, '_> {
         let u_light = (self.sampler.next_1d(), self.sampler.next_2d());
         if settings.strategy != Strategy::Bsdf {
             let vertex = Vertex::Medium { p, phase, wo };
-            if let Some(light) = next_event(
-                state,
-                settings,
-                &vertex,
-                u_light,
-                self.rng,
-                &mut self.counts,
-            ) {
+            if let Some(light) = self.next_event(&vertex, u_light) {
                 // Equiangular sampling could have made this path too: its
                 // share of the NEE weight.
                 let share = equiangular.as_ref().map_or(1.0, |eq| {
@@ -354,14 +380,7 @@ impl Path<'_, '_> {
                 bsdf: &bsdf,
                 wo,
             };
-            if let Some(light) = next_event(
-                state,
-                settings,
-                &vertex,
-                u_light,
-                self.rng,
-                &mut self.counts,
-            ) {
+            if let Some(light) = self.next_event(&vertex, u_light) {
                 let contribution = self.throughput * light.f * light.li;
                 if depth == 0 {
                     // The first event: split the light by lobe.
@@ -476,41 +495,6 @@ struct LightContribution {
     li: Vec3,
     /// Unit direction towards the light.
     wi: Vec3,
-}
-
-/// Next-event estimation at `vertex`: one light sample (`u`: selection and
-/// position); `None` when it contributes nothing.
-fn next_event(
-    state: &RenderState,
-    settings: &PathSettings,
-    vertex: &Vertex,
-    (u_select, u): (f32, Vec2),
-    rng: &mut Pcg32,
-    counts: &mut PathCounts,
-) -> Option<LightContribution> {
-    let (light, ls) = state
-        .lights
-        .sample(state.emitters(), vertex.position(), u_select, u)?;
-    let f = vertex.f(ls.wi);
-    if ls.pdf.is_nan() || ls.pdf <= 0.0 || f == Vec3::ZERO {
-        return None;
-    }
-    let shadow = vertex.shadow_ray(&ls);
-    let seen = visibility(state, settings, &shadow, light, rng, counts);
-    if seen.transmittance == Vec3::ZERO {
-        return None;
-    }
-    let weight = if ls.delta || settings.strategy == Strategy::Nee {
-        1.0
-    } else {
-        power_heuristic(ls.pdf, vertex.pdf(ls.wi) * seen.null_ratio)
-    };
-    Some(LightContribution {
-        light,
-        f,
-        li: ls.radiance * seen.transmittance * (weight / ls.pdf),
-        wi: ls.wi,
-    })
 }
 
 /// Russian roulette from [`ROULETTE_DEPTH`]: false ends the path; a

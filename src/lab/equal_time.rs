@@ -13,7 +13,8 @@ use super::metrics::ErrorMetric;
 use super::reference::render;
 use super::scenes::scenes_or_default;
 use super::stats::median;
-use super::{LabError, Result};
+use super::Result;
+use crate::file_error::FileError;
 use crate::integrator::{Budget, RenderSettings, RenderStats, DEFAULT_MAX_DEPTH};
 use crate::render_state::RenderState;
 
@@ -93,7 +94,7 @@ impl EqualTimeBench {
     /// the reference is rendered.
     fn start(&self, reference: &str) -> Result<()> {
         for dir in std::iter::once(self.out.as_path()).chain(self.charts.as_deref()) {
-            std::fs::create_dir_all(dir).map_err(|e| LabError::io("create", dir, e))?;
+            std::fs::create_dir_all(dir).map_err(|e| FileError::new("create", dir, e))?;
         }
         println!("{}\n", machine_line());
         println!(

@@ -4,11 +4,13 @@
 
 use std::path::Path;
 
-use super::{LabError, Result};
+use super::Result;
+use crate::file_error::FileError;
 
 /// Writes `text` to `path` atomically.
 pub(crate) fn write_text(path: &Path, text: &str) -> Result<()> {
-    crate::image::write_file(path, text.as_bytes()).map_err(|e| LabError::io("write", path, e))
+    crate::image::write_file(path, text.as_bytes())
+        .map_err(|e| FileError::new("write", path, e).into())
 }
 
 /// Writes a CSV of `header` and one line per row to `path` and says so.

@@ -42,7 +42,7 @@ mod stats;
 mod vdb;
 mod volumes;
 
-use std::path::PathBuf;
+use crate::file_error::FileError;
 
 use thiserror::Error;
 
@@ -69,16 +69,8 @@ pub enum LabError {
     #[error("{0}")]
     Failed(String),
     /// A file or folder operation failed.
-    #[error("cannot {action} {}", path.display())]
-    Io {
-        /// What was being done: `create`, `write`, `read the scene in`, ...
-        action: &'static str,
-        /// The file or folder.
-        path: PathBuf,
-        /// What the OS said.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    File(#[from] FileError),
     /// A system call or a child process failed.
     #[error("{doing}")]
     System {
@@ -116,15 +108,6 @@ pub enum LabError {
 }
 
 impl LabError {
-    /// A [`LabError::Io`] error.
-    fn io(action: &'static str, path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Self::Io {
-            action,
-            path: path.into(),
-            source,
-        }
-    }
-
     /// A [`LabError::System`] error.
     fn system(doing: impl Into<String>, source: std::io::Error) -> Self {
         Self::System {

@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 
 use glam::UVec2;
 
-use super::{LabError, Result};
+use super::Result;
+use crate::file_error::FileError;
 use crate::film::AovSet;
 use crate::film::FilterKind;
 use crate::image::read_image;
@@ -59,7 +60,7 @@ pub(crate) fn render(state: &RenderState, settings: &RenderSettings) -> (Vec<f32
 pub(crate) fn reference_key(scene: &Scene, name: &str) -> Result<String> {
     let crc = scene
         .content_crc()
-        .map_err(|e| LabError::io("read the scene in", &scene.dir, e))?;
+        .map_err(|e| FileError::new("read the scene in", &scene.dir, e))?;
     Ok(format!("{name}-{crc:08x}"))
 }
 

@@ -16,7 +16,8 @@ use super::metrics::ErrorMetric;
 use super::reference::{base_settings, cached_reference, reference_key, render};
 use super::scenes::scene_name;
 use super::stats::median;
-use super::{LabError, Result};
+use super::Result;
+use crate::file_error::FileError;
 use crate::integrator::{
     Budget, PathSettings, RenderSettings, RenderStats, Strategy, DEFAULT_MAX_DEPTH,
 };
@@ -40,7 +41,7 @@ pub fn run(bench: &EqualTimeBench) -> Result<()> {
 
 /// [`run`], on the worker pool.
 fn run_scenes(bench: &EqualTimeBench) -> Result<()> {
-    std::fs::create_dir_all(&bench.out).map_err(|e| LabError::io("create", &bench.out, e))?;
+    std::fs::create_dir_all(&bench.out).map_err(|e| FileError::new("create", &bench.out, e))?;
     println!("{}\n", machine_line());
     println!(
         "Threads: {}; {}x{} pixels; max depth {DEFAULT_MAX_DEPTH}; box filter; reference: MIS + Sobol at {} spp.\n",

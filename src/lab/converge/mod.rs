@@ -38,13 +38,14 @@ pub use method::{parse_method, Method};
 use report::{equal_time_rows, print_summary, write_charts, write_equal_time};
 use rows::{summarise, write_csvs, Row};
 
+use crate::file_error::FileError;
 use crate::integrator::Budget;
 use crate::lab::machine::{machine_line, with_threads};
 use crate::lab::peers::{check_peer, exported_folder, Peer, PeerBudget, PeerRun};
 use crate::lab::reference::{base_settings, cached_reference, reference_key, render};
 use crate::lab::scenes::{scene_name, scenes_or_default};
 use crate::lab::stats::median;
-use crate::lab::{LabError, Result};
+use crate::lab::Result;
 use crate::render_state::{RenderState, StateOptions};
 use crate::volumes::MajorantKind;
 
@@ -83,7 +84,7 @@ const DEFAULT_SCENES: [&str; 1] = ["bench/smoke.usda"];
 /// Runs the study and prints its summary.
 pub fn run(options: &ConvergeOptions) -> Result<()> {
     let scenes = scenes_or_default(options.scenes.clone(), &DEFAULT_SCENES);
-    std::fs::create_dir_all(&options.out).map_err(|e| LabError::io("create", &options.out, e))?;
+    std::fs::create_dir_all(&options.out).map_err(|e| FileError::new("create", &options.out, e))?;
     for &peer in &options.peers {
         check_peer(peer)?;
     }
