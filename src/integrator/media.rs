@@ -8,6 +8,7 @@ use glam::{Vec2, Vec3};
 use super::shadow::{visibility, PathCounts};
 use super::{PathSettings, Strategy};
 use crate::geometry::shadow_ray;
+use crate::lights::EquiangularTarget;
 use crate::render_state::RenderState;
 use crate::sampling::warp::{power_heuristic, Equiangular};
 use crate::sampling::Pcg32;
@@ -188,7 +189,11 @@ pub(super) fn equiangular_sample(
     counts: &mut PathCounts,
 ) -> Option<Vec3> {
     let lights = &state.lights;
-    let (light, centre, p_pick) = lights.pick_equiangular_target(eq.reference, rng.next_f32())?;
+    let EquiangularTarget {
+        light,
+        centre,
+        probability: p_pick,
+    } = lights.pick_equiangular_target(eq.reference, rng.next_f32())?;
     let distances = eq.towards(centre)?;
     let t = distances.sample(rng.next_f32()).clamp(eq.a, eq.b);
     let p_t = distances.pdf(t);

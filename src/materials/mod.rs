@@ -3,21 +3,29 @@
 //!
 //! [`Materials::build`] reads every `UsdUVTexture` image once (texture.rs:
 //! bilinear, wrap modes, `st` transform, scale and bias) and resolves every
-//! material's inputs; [`Materials::bsdf`] evaluates them at a hit into a
-//! layered [`Bsdf`] (bsdf.rs): clearcoat over GGX specular over Lambert, plus
-//! a rough dielectric where opacity < 1. GGX uses Smith height-correlated
-//! masking-shadowing (Heitz 2014) and visible-normal sampling through
-//! spherical caps (Dupuy and Benyoub 2023); refraction follows Walter et al.
-//! 2007; shading normals that face away from `wo` are bent as in Iray
-//! (Keller et al. 2017).
+//! material's inputs; [`Materials::bsdf`] evaluates them at a hit
+//! (preview_surface.rs) into a layered [`Bsdf`] (bsdf.rs, sampled in
+//! bsdf_sample.rs): clearcoat over GGX specular over Lambert, plus a rough
+//! dielectric where opacity < 1 (the lobes: lobes.rs). GGX uses Smith
+//! height-correlated masking-shadowing (Heitz 2014) and visible-normal
+//! sampling through spherical caps (Dupuy and Benyoub 2023); refraction
+//! follows Walter et al. 2007; shading normals that face away from `wo` are
+//! bent as in Iray (Keller et al. 2017).
 
 mod bsdf;
+mod bsdf_sample;
 mod fresnel;
+mod lobes;
 mod microfacet;
 mod preview_surface;
 mod texture;
 
-pub use bsdf::{Bsdf, BsdfSample, LobeValues};
+#[cfg(test)]
+mod test_support;
+
+pub use bsdf::Bsdf;
+pub use bsdf_sample::BsdfSample;
+pub use lobes::LobeValues;
 
 use glam::{Vec2, Vec3};
 use thiserror::Error;
@@ -81,7 +89,10 @@ impl Materials {
     /// surface, the shading normal's correction and the lobe probabilities,
     /// so the returned BSDF is for this `wo` only.
     pub fn bsdf(&self, sp: &SurfacePoint, wo: Vec3) -> Bsdf {
-        self.surface(sp.material).bsdf(&self.textures, sp, wo)
+        Bsdf::new(
+            self.surface(sp.material).shading(&self.textures, sp, wo),
+            wo,
+        )
     }
 
     /// `emissiveColor` of `material` at texture coordinates `uv`: radiance in

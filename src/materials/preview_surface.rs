@@ -1,11 +1,12 @@
 //! A `UsdPreviewSurface` record with its inputs resolved to constants or
-//! texture lookups, evaluated at a hit into a [`Bsdf`]: workflow (metallic or
-//! specular), normal map, and the shading normal's correction.
+//! texture lookups, evaluated at a hit into the [`Shading`] a
+//! [`Bsdf`](super::Bsdf) is built from: workflow (metallic or specular),
+//! normal map, and the shading normal's correction.
 
 use glam::{Vec2, Vec3};
 
-use super::bsdf::{Bsdf, Layers};
 use super::fresnel;
+use super::lobes::Layers;
 use super::microfacet::Ggx;
 use super::texture::Texture;
 use crate::geometry::{Frame, SurfacePoint};
@@ -47,6 +48,19 @@ pub(crate) struct PreviewSurface {
     pub(crate) normal: Option<u32>,
 }
 
+/// A surface evaluated at one hit for one outgoing direction `wo`: what a
+/// [`Bsdf`](super::Bsdf) is built from.
+#[derive(Clone, Debug)]
+pub(crate) struct Shading {
+    /// Shading frame: the (normal-mapped) shading normal turned to `wo`'s
+    /// side of the surface and bent so that `wo` lies above it.
+    pub(crate) frame: Frame,
+    /// Unit geometric normal on `wo`'s side.
+    pub(crate) ng: Vec3,
+    /// The layers' weights and parameters at the hit.
+    pub(crate) layers: Layers,
+}
+
 impl Param<Vec3> {
     /// The colour at `uv`.
     pub(crate) fn eval(&self, textures: &[Texture], uv: Vec2) -> Vec3 {
@@ -70,7 +84,7 @@ impl Param<f32> {
 }
 
 impl PreviewSurface {
-    /// The BSDF at `sp` seen from `wo`: inputs evaluated at `sp.uv`, the
+    /// The surface at `sp` seen from `wo`: inputs evaluated at `sp.uv`, the
     /// normal map applied, the shading frame turned to `wo`'s side of the
     /// surface and bent so that `wo` lies above it.
     ///
@@ -87,7 +101,7 @@ impl PreviewSurface {
     /// meshes (the same from both sides) and a solid interface otherwise,
     /// entered when `wo` is on the front side of `ng` (eta = ior) and left
     /// from the back (eta = 1 / ior).
-    pub(crate) fn bsdf(&self, textures: &[Texture], sp: &SurfacePoint, wo: Vec3) -> Bsdf {
+    pub(crate) fn shading(&self, textures: &[Texture], sp: &SurfacePoint, wo: Vec3) -> Shading {
         let uv = sp.uv;
         let diffuse_color = self.diffuse_color.eval(textures, uv).max(Vec3::ZERO);
         let fade = |f0: Vec3| Vec3::splat((50.0 * (f0.x + f0.y + f0.z) / 3.0).min(1.0));
@@ -138,7 +152,7 @@ impl PreviewSurface {
             // White where the dielectric transmits, as denoisers expect for glass.
             albedo: base * opacity + Vec3::splat(1.0 - opacity),
         };
-        Bsdf::new(frame, ng, wo, layers)
+        Shading { frame, ng, layers }
     }
 
     /// The shading normal on the front side, with the tangent-space normal
@@ -245,14 +259,12 @@ fn scalar(input: &Input<f32>) -> Param<f32> {
 }
 
 #[cfg(test)]
-mod tests {
-    use std::f32::consts::FRAC_1_PI;
-
+pub(super) mod tests {
     use super::*;
     use crate::scene::{ColorSpace, Wrap};
 
     /// A texture without an image: every lookup reads its fallback `value`.
-    fn constant_texture(value: [f32; 4]) -> Texture {
+    pub(crate) fn constant_texture(value: [f32; 4]) -> Texture {
         let record = scene::Texture {
             file: "absent.exr".into(),
             wrap_s: Wrap::Repeat,
@@ -264,95 +276,6 @@ mod tests {
             st_transform: None,
         };
         Texture::new(&record, None)
-    }
-
-    fn point() -> SurfacePoint {
-        SurfacePoint {
-            p: Vec3::ZERO,
-            offset: 0.0,
-            ng: Vec3::Z,
-            ns: Vec3::Z,
-            dpdu: Vec3::X,
-            uv: Vec2::new(0.5, 0.5),
-            material: 0,
-            double_sided: false,
-            instance: 0,
-            prototype_mesh: 0,
-            triangle: 0,
-        }
-    }
-
-    fn white_lambert() -> PreviewSurface {
-        PreviewSurface {
-            use_specular_workflow: true,
-            diffuse_color: Param::Constant(Vec3::ONE),
-            ..PreviewSurface::default_surface()
-        }
-    }
-
-    /// A [0, 1]-encoded normal map texel (0.75, 0.5, 1) is (0.5, 0, 1) in
-    /// tangent space: the Lambert lobe peaks along it, tilted towards dpdu.
-    #[test]
-    fn normal_map_tilts_the_shading_normal_along_dpdu() {
-        let textures = [constant_texture([0.75, 0.5, 1.0, 1.0])];
-        let surface = PreviewSurface {
-            normal: Some(0),
-            ..white_lambert()
-        };
-        let wo = Vec3::Z;
-        let bsdf = surface.bsdf(&textures, &point(), wo);
-        let n = Vec3::new(0.5, 0.0, 1.0).normalize();
-        assert!(
-            (bsdf.eval(wo, n) - Vec3::splat(FRAC_1_PI))
-                .abs()
-                .max_element()
-                < 1e-5
-        );
-        let along_ng = bsdf.eval(wo, Vec3::Z).x;
-        assert!((along_ng - n.z * FRAC_1_PI).abs() < 1e-5, "{along_ng}");
-        // Scale and bias that already map to [-1, 1] are trusted as they are.
-        let signed = [constant_texture([0.5, 0.0, 1.0, 1.0])];
-        let bsdf = surface.bsdf(&signed, &point(), wo);
-        assert!(
-            (bsdf.eval(wo, n) - Vec3::splat(FRAC_1_PI))
-                .abs()
-                .max_element()
-                > 1e-3
-        );
-    }
-
-    /// Metallic workflow: F0 blends from the ior's reflectance to
-    /// diffuseColor, and the albedo AOV from diffuseColor to F0.
-    #[test]
-    fn metallic_workflow_blends_f0_and_albedo() {
-        let red = Vec3::new(0.9, 0.1, 0.1);
-        for metallic in [0.0f32, 0.5, 1.0] {
-            let surface = PreviewSurface {
-                diffuse_color: Param::Constant(red),
-                metallic: Param::Constant(metallic),
-                ..PreviewSurface::default_surface()
-            };
-            let bsdf = surface.bsdf(&[], &point(), Vec3::Z);
-            let f0 = Vec3::splat(0.04).lerp(red, metallic);
-            let albedo = red.lerp(f0, metallic);
-            assert!(
-                (bsdf.albedo() - albedo).abs().max_element() < 1e-6,
-                "{metallic}"
-            );
-            // Normal incidence and exit: the specular term is F0 times a grey
-            // factor, the diffuse term (1 - metallic) red (1 - F0)^2 /
-            // (1 - F_avg) / pi, with F90 = lerp(white, red, metallic).
-            let f = bsdf.eval(Vec3::Z, Vec3::Z);
-            let f90 = Vec3::ONE.lerp(red, metallic);
-            let through = (Vec3::ONE - f0) * (Vec3::ONE - f0)
-                / (Vec3::ONE - fresnel::schlick_average(f0, f90));
-            let diffuse = red * (1.0 - metallic) * through * FRAC_1_PI;
-            let spec = f - diffuse;
-            assert!(
-                (spec / f0 - Vec3::splat(spec.x / f0.x)).abs().max_element() < 1e-3,
-                "{spec}"
-            );
-        }
     }
 
     #[test]

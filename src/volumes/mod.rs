@@ -17,18 +17,22 @@
 //! 2018, "Monte Carlo Methods for Volumetric Light Transport Simulation");
 //! scattering uses the Henyey-Greenstein (1941) phase function.
 
+mod dda;
 mod emission;
 mod emitter;
 mod grid;
+mod lookup;
 mod majorant;
 mod medium;
 mod phase;
 mod tracking;
 mod vdb;
 
+pub use dda::{MajorantSegment, MajorantSegments};
 pub use emission::{BlackbodyTable, REFERENCE_TEMPERATURE_K};
-pub use grid::{GridAccessor, GridStats, GridTransform, LayoutError, SparseGrid, Tile};
-pub use majorant::{MajorantGrid, MajorantKind, MajorantSegment, MajorantSegments};
+pub use grid::{GridStats, GridTransform, LayoutError, SparseGrid, Tile};
+pub use lookup::GridAccessor;
+pub use majorant::{MajorantGrid, MajorantKind};
 pub use medium::{Emitter, Media, MediaRay, MediumPoint, RaySegments};
 pub use phase::{HenyeyGreenstein, PhaseSample};
 pub use tracking::{

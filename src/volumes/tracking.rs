@@ -26,7 +26,7 @@ use crate::sampling::Pcg32;
 pub const RUSSIAN_ROULETTE_THRESHOLD: f32 = 0.1;
 
 /// Per-render counters of the tracking estimators, summed over threads by
-/// the caller and reported beside the film (issue 5, "guards").
+/// the caller and reported beside the film (in `RenderStats`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct TrackingStats {
     /// Evaluations of `sigma_t`, one per tentative collision.

@@ -1,0 +1,555 @@
+//! [`Lights`]: every light of a scene with the structure that picks one per
+//! sample, built from the scene's UsdLux records, emissive meshes and
+//! emitting volumes (a white dome when there are none), and the API through
+//! which the integrator samples lights, finds them along rays and weighs
+//! them for MIS.
+
+use std::collections::HashMap;
+
+use glam::{Vec2, Vec3};
+
+use super::mesh::MeshLight;
+use super::select::{self, LightSelection};
+use super::volume::VolumeLight;
+use super::{Emitters, Light, LightError, LightHit, LightSample, LOG_TARGET};
+use crate::geometry::SurfacePoint;
+use crate::materials::Materials;
+use crate::scene::{Light as LightRecord, LightShape, Scene};
+use crate::volumes::Media;
+
+/// Every light of a scene with the structure that picks one per sample.
+pub struct Lights {
+    /// UsdLux lights first (in manifest order, those with power), then
+    /// emissive meshes.
+    lights: Vec<Light>,
+    /// Picks a light per sample; `None` when there are none.
+    selection: Option<LightSelection>,
+    /// Indices of the analytic area lights (sphere, rect, disk, cylinder).
+    area: Vec<usize>,
+    /// Indices of the lights an escaping ray can see (dome, distant with a cone).
+    infinite: Vec<usize>,
+    /// Light index of each emissive placed mesh, by (instance, prototype mesh).
+    meshes: HashMap<(u32, u32), usize>,
+    /// Indices of the emitting volumes' lights.
+    volumes: Vec<usize>,
+}
+
+/// The light equiangular sampling aims at from one point (see
+/// [`Lights::pick_equiangular_target`]).
+#[derive(Clone, Copy, Debug)]
+pub struct EquiangularTarget {
+    /// Index of the picked light.
+    pub light: usize,
+    /// The light's centre, world space.
+    pub centre: Vec3,
+    /// Probability of having picked the light from that point.
+    pub probability: f32,
+}
+
+impl Lights {
+    /// Picks a light with `u_select` (by power, and for bounded lights by
+    /// distance and orientation from `p` too), then a point or direction on
+    /// it with `u`, as seen from `p`. `None` when there is no light or the
+    /// sample carries nothing (the light faces away, `p` is inside a sphere).
+    /// The picked light's index comes with the sample.
+    pub fn sample(
+        &self,
+        emitters: Emitters,
+        p: Vec3,
+        u_select: f32,
+        u: Vec2,
+    ) -> Option<(usize, LightSample)> {
+        let pick = self.selection.as_ref()?.pick(p, u_select)?;
+        let mut s = self.lights[pick.light].sample(emitters, p, u)?;
+        s.pdf *= pick.probability;
+        Some((pick.light, s))
+    }
+
+    /// A sample of light `index` seen from `p`, its pdf without selection
+    /// (equiangular sampling picks the light before the point).
+    pub fn sample_light(
+        &self,
+        emitters: Emitters,
+        index: usize,
+        p: Vec3,
+        u: Vec2,
+    ) -> Option<LightSample> {
+        self.lights[index].sample(emitters, p, u)
+    }
+
+    /// Whether any light is one equiangular sampling targets (see
+    /// [`Lights::centre`]; all of them are analytic area lights, so only
+    /// those are looked at, not every emissive triangle: this runs per path).
+    pub fn has_equiangular_target(&self) -> bool {
+        self.area.iter().any(|&i| self.centre(i).is_some())
+    }
+
+    /// Picks a light from `p` with `u` as [`Lights::sample`] does, and keeps
+    /// the pick when equiangular sampling targets it: its index, centre and
+    /// pick probability (Kulla & Fajardo 2012 sample distances towards it).
+    pub fn pick_equiangular_target(&self, p: Vec3, u: f32) -> Option<EquiangularTarget> {
+        let pick = self.selection.as_ref()?.pick(p, u)?;
+        let centre = self.centre(pick.light)?;
+        Some(EquiangularTarget {
+            light: pick.light,
+            centre,
+            probability: pick.probability,
+        })
+    }
+
+    /// The centre of light `index` when equiangular sampling targets it: a
+    /// sphere or point light, or a rect or disk light (Kulla & Fajardo 2012
+    /// aim at a point; for an area light its centre serves, exactly so for a
+    /// small one, and MIS with distance sampling covers a large one).
+    pub fn centre(&self, index: usize) -> Option<Vec3> {
+        match &self.lights[index] {
+            Light::Sphere(l) => Some(l.centre()),
+            Light::Rect(l) => Some(l.centre()),
+            Light::Disk(l) => Some(l.centre()),
+            _ => None,
+        }
+    }
+
+    /// The nearest front-face hit with t in (0, t_max) of the ray from
+    /// `origin` along unit `direction` on the analytic area lights (sphere,
+    /// rect, disk, cylinder; emissive meshes are found by the geometry).
+    pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<LightHit> {
+        let mut nearest: Option<(usize, LightHit)> = None;
+        let mut t_max = t_max;
+        for &i in &self.area {
+            if let Some(hit) = self.lights[i].intersect(origin, direction, t_max) {
+                t_max = hit.t;
+                nearest = Some((i, hit));
+            }
+        }
+        // The selection probability of the nearest only: a BVH walk each.
+        nearest.map(|(i, mut hit)| {
+            hit.pdf *= self.probability(origin, i);
+            hit
+        })
+    }
+
+    /// Whether the front face of an analytic area light other than `target`
+    /// (the light the shadow ray goes to) lies on the shadow ray from `origin`
+    /// along unit `direction` with t in (0, t_max): lights stop the rays that
+    /// hit them (see [`Lights::intersect`]), so they must stop shadow rays
+    /// too, or light sampling and BSDF sampling would estimate different
+    /// images wherever one light hides another. The target itself is skipped:
+    /// its sampled point is its first hit, up to rounding that would
+    /// otherwise let a sphere light shadow itself at grazing angles.
+    pub fn blocks(&self, origin: Vec3, direction: Vec3, t_max: f32, target: usize) -> bool {
+        self.area
+            .iter()
+            .any(|&i| i != target && self.lights[i].intersect(origin, direction, t_max).is_some())
+    }
+
+    /// Calls `radiance_pdf(radiance, pdf)` once for each infinite light a ray
+    /// from `origin` escaping the scene along unit `direction` sees: the dome, and distant
+    /// lights of non-zero angle whose cone holds `direction`. `pdf` is what
+    /// [`Lights::sample`] gives that direction, selection included.
+    pub fn escaped(&self, origin: Vec3, direction: Vec3, mut radiance_pdf: impl FnMut(Vec3, f32)) {
+        for &i in &self.infinite {
+            if let Some(hit) = self.lights[i].escaped(direction) {
+                radiance_pdf(hit.radiance, hit.pdf * self.probability(origin, i));
+            }
+        }
+    }
+
+    /// Solid-angle density with which [`Lights::sample`] picks the emissive
+    /// mesh point `sp` from `origin`, selection included (for MIS when a BSDF
+    /// ray hits an emitter); 0 when `sp`'s mesh is not a light.
+    pub fn mesh_pdf(&self, sp: &SurfacePoint, origin: Vec3) -> f32 {
+        let Some(&i) = self.meshes.get(&(sp.instance, sp.prototype_mesh)) else {
+            return 0.0;
+        };
+        match &self.lights[i] {
+            Light::Mesh(mesh) => mesh.pdf(sp, origin) * self.probability(origin, i),
+            _ => unreachable!("the mesh map holds mesh lights only"),
+        }
+    }
+
+    /// Whether any volume emits as a light.
+    pub fn has_volume_lights(&self) -> bool {
+        !self.volumes.is_empty()
+    }
+
+    /// The emitting volumes' lights as seen from `origin`, for the MIS
+    /// weights of volume emission that tracking finds along a ray from there.
+    pub fn volume_lights_from(&self, origin: Vec3) -> VolumeLightsFrom<'_> {
+        VolumeLightsFrom {
+            lights: self,
+            origin,
+            picks: self
+                .volumes
+                .iter()
+                .map(|&i| (i, self.probability(origin, i)))
+                .filter(|&(_, p)| p > 0.0)
+                .collect(),
+        }
+    }
+
+    /// Probability of picking light `index` from shading point `p`.
+    pub fn probability(&self, p: Vec3, index: usize) -> f32 {
+        self.selection
+            .as_ref()
+            .map_or(0.0, |s| s.probability(p, index))
+    }
+
+    /// Every UsdLux light of the scene and every placed mesh with emissive
+    /// triangles, then the power-based selection over them. Lights of zero
+    /// power (black, zero size without `normalize`) are left out with a
+    /// warning; unusable values are a [`LightError`].
+    pub fn build(
+        scene: &Scene,
+        materials: &Materials,
+        media: &Media,
+        volume_lights: bool,
+    ) -> Result<Self, LightError> {
+        let radius = select::scene_radius(&scene.manifest.bounds);
+        let mut lights = Vec::new();
+        for record in &scene.manifest.lights {
+            let light = Light::from_record(record)?;
+            if light.power(radius) > 0.0 {
+                lights.push(light);
+            } else {
+                log::warn!(target: LOG_TARGET, "light {} emits nothing; left out", record.path);
+            }
+        }
+        let mut meshes = HashMap::new();
+        for (key, mesh) in MeshLight::build_all(scene, materials) {
+            if mesh.power() > 0.0 {
+                meshes.insert(key, lights.len());
+                lights.push(Light::Mesh(mesh));
+            }
+        }
+        let emitters: Vec<_> = media.emitters().collect();
+        let mut volumes = Vec::new();
+        for emitter in emitters.iter().filter(|_| volume_lights) {
+            let light = VolumeLight::new(emitter);
+            log::debug!(
+                target: LOG_TARGET,
+                "emitting volume {} as a light: power {:.4} W (luminance), box {} .. {}",
+                emitter.medium,
+                emitter.power,
+                emitter.world_min,
+                emitter.world_max
+            );
+            if light.power() > 0.0 {
+                volumes.push(lights.len());
+                lights.push(Light::Volume(light));
+            }
+        }
+        // Fire counts as a light here whether or not it is light-sampled,
+        // so `--volume-light-sampling off` renders the same image.
+        if lights.len() == volumes.len() && scene.manifest.lights.is_empty() && emitters.is_empty()
+        {
+            log::warn!(
+                target: LOG_TARGET,
+                "the scene has no lights: lighting it with a white dome of radiance 1 \
+                 (add a DomeLight or any UsdLux light to choose)"
+            );
+            lights.push(Light::from_record(&default_dome())?);
+        }
+        Ok(Self::from_lights(
+            lights,
+            meshes,
+            volumes,
+            &scene.manifest.bounds,
+        ))
+    }
+
+    fn from_lights(
+        lights: Vec<Light>,
+        meshes: HashMap<(u32, u32), usize>,
+        volumes: Vec<usize>,
+        bounds: &crate::scene::Bounds,
+    ) -> Self {
+        let indices = |keep: fn(&Light) -> bool| -> Vec<usize> {
+            (0..lights.len()).filter(|&i| keep(&lights[i])).collect()
+        };
+        let area = indices(|l| {
+            matches!(
+                l,
+                Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_)
+            )
+        });
+        let infinite = indices(|l| match l {
+            Light::Dome(_) => true,
+            Light::Distant(d) => !d.is_delta(),
+            _ => false,
+        });
+        let selection = (!lights.is_empty()).then(|| LightSelection::new(&lights, bounds));
+        Self {
+            lights,
+            selection,
+            area,
+            infinite,
+            meshes,
+            volumes,
+        }
+    }
+}
+
+/// The emitting volumes' lights with their selection probabilities from
+/// one ray origin (see [`Lights::volume_lights_from`]).
+pub struct VolumeLightsFrom<'a> {
+    lights: &'a Lights,
+    origin: Vec3,
+    picks: smallvec::SmallVec<[(usize, f32); 2]>,
+}
+
+impl VolumeLightsFrom<'_> {
+    /// The density, selection included, with which [`Lights::sample`] from
+    /// the origin picks the volume point `point` where tracking's majorant
+    /// is `sigma_maj` (see `volume.rs` for the measure); summed over the
+    /// volumes whose emission may hold it.
+    pub fn pdf(&self, media: &Media, point: Vec3, sigma_maj: f32) -> f32 {
+        let distance = point.distance(self.origin);
+        self.picks
+            .iter()
+            .map(|&(i, p)| match &self.lights.lights[i] {
+                Light::Volume(l) => p * l.pdf(media, point, distance, sigma_maj),
+                _ => unreachable!("the volume list holds volume lights only"),
+            })
+            .sum()
+    }
+}
+
+/// The light of a scene that has none: a constant white dome of radiance 1,
+/// so a layout without lights (many assets ship without) renders visibly.
+fn default_dome() -> LightRecord {
+    LightRecord {
+        path: "(default dome)".into(),
+        transform: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        color: [1.0; 3],
+        intensity: 1.0,
+        exposure: 0.0,
+        normalize: false,
+        color_temperature: None,
+        shape: LightShape::Dome { texture: None },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lights::test_support::{
+        assert_within_4_sigma, estimate, scene_with, sphere_json, translated,
+    };
+    use crate::sampling::Pcg32;
+
+    /// No volumes: these tests light with UsdLux lights and meshes.
+    static NO_MEDIA: std::sync::LazyLock<Media> = std::sync::LazyLock::new(Media::default);
+
+    fn emitters(materials: &Materials) -> Emitters<'_> {
+        Emitters {
+            materials,
+            media: &NO_MEDIA,
+        }
+    }
+
+    /// Two spheres of equal size on either side of the origin, the one on +X
+    /// nine times brighter, plus an emissive quad far below: the share of
+    /// samples towards each light follows its selection probability, the
+    /// two equidistant spheres' probabilities are in proportion to their
+    /// power, and each sample's pdf is what `intersect` reports.
+    #[test]
+    fn selection_picks_lights_by_power_and_distance() {
+        let far = translated(Vec3::new(-0.5, -0.5, -50.0));
+        let scene = scene_with(
+            "selection",
+            serde_json::json!([
+                sphere_json("/Dim", Vec3::new(-3.0, 0.0, 0.0), 0.5, 1.0),
+                sphere_json("/Bright", Vec3::new(3.0, 0.0, 0.0), 0.5, 9.0),
+            ]),
+            [1.0, 1.0, 1.0],
+            &[far],
+        );
+        let materials = Materials::build(&scene).unwrap();
+        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true).unwrap();
+        assert_eq!(lights.lights.len(), 3);
+        let probabilities: Vec<f32> = (0..3).map(|i| lights.probability(Vec3::ZERO, i)).collect();
+        assert!((probabilities.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+        assert!(
+            (probabilities[1] / probabilities[0] - 9.0).abs() < 1e-3,
+            "{probabilities:?}"
+        );
+        // The quad, 50 units away, is picked far less than its power share
+        // (power pi x 0.5 against pi^2 x 10): the BVH weighs distance.
+        assert!(probabilities[2] < 1e-3, "{probabilities:?}");
+        let mut rng = Pcg32::new(21, 0);
+        let n = 20_000;
+        let mut counts = [0u32; 3];
+        for _ in 0..n {
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            let Some((_, s)) = lights.sample(emitters(&materials), Vec3::ZERO, rng.next_f32(), u)
+            else {
+                continue;
+            };
+            let which = if s.wi.x > 0.5 {
+                1
+            } else if s.wi.x < -0.5 {
+                0
+            } else {
+                2
+            };
+            counts[which] += 1;
+            if which < 2 {
+                let hit = lights.intersect(Vec3::ZERO, s.wi, f32::INFINITY).unwrap();
+                assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
+            }
+        }
+        for (i, &c) in counts.iter().enumerate() {
+            let p = f64::from(probabilities[i]);
+            let sigma = (f64::from(n) * p * (1.0 - p)).sqrt();
+            assert!(
+                (f64::from(c) - f64::from(n) * p).abs() < 4.0 * sigma,
+                "light {i}: {c} of {n}, expected p = {p}"
+            );
+        }
+    }
+
+    /// Irradiance at the origin (normal +Z) from the emissive triangle of a
+    /// quad turned to face down at height 1, against Lambert's exact formula
+    /// for a polygon; `mesh_pdf` at each sampled point equals the sample's pdf.
+    #[test]
+    fn emissive_mesh_irradiance_and_pdf() {
+        // Rotation by pi about X (front +z -> -z), then translation.
+        let placed = [1., 0., 0., -0.5, 0., -1., 0., 0.5, 0., 0., -1., 1.];
+        let scene = scene_with("mesh", serde_json::json!([]), [2.0, 2.0, 2.0], &[placed]);
+        let materials = Materials::build(&scene).unwrap();
+        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true).unwrap();
+        let e = estimate(20_000, 22, |u| {
+            let (_, s) = lights.sample(emitters(&materials), Vec3::ZERO, 0.5, u)?;
+            let p = s.wi * s.distance;
+            // Triangle 0 of the quad is mesh-space x > y: world x + 0.5 > 0.5 - y.
+            let sp = SurfacePoint {
+                p,
+                offset: 0.0,
+                ng: -Vec3::Z,
+                ns: -Vec3::Z,
+                dpdu: Vec3::X,
+                uv: Vec2::ZERO,
+                material: 0,
+                double_sided: false,
+                instance: 0,
+                prototype_mesh: 0,
+                triangle: if p.x > -p.y { 0 } else { 1 },
+            };
+            assert_eq!(sp.triangle, 0);
+            let pdf = lights.mesh_pdf(&sp, Vec3::ZERO);
+            assert!((pdf - s.pdf).abs() <= 1e-3 * s.pdf, "{pdf} vs {}", s.pdf);
+            Some(s.radiance.x * s.wi.z.max(0.0) / s.pdf)
+        });
+        // World vertices of triangle 0: mesh (0,0),(1,0),(1,1) placed.
+        let v = [
+            Vec3::new(-0.5, 0.5, 1.0),
+            Vec3::new(0.5, 0.5, 1.0),
+            Vec3::new(0.5, -0.5, 1.0),
+        ];
+        let lambert: f32 = (0..3)
+            .map(|i| {
+                let (a, b) = (v[i].normalize(), v[(i + 1) % 3].normalize());
+                a.dot(b).acos() * a.cross(b).normalize().z
+            })
+            .sum::<f32>()
+            .abs()
+            / 2.0;
+        assert_within_4_sigma(e, 2.0 * lambert, "emissive triangle");
+        // From above, the single-sided quad shows its back: nothing.
+        let above = Vec3::new(0.0, 0.0, 3.0);
+        assert!(lights
+            .sample(emitters(&materials), above, 0.5, Vec2::splat(0.4))
+            .is_none());
+    }
+
+    #[test]
+    fn unusable_lights_are_errors_naming_the_prim() {
+        let mut bad = sphere_json("/World/Bad", Vec3::ZERO, 0.0, 1.0);
+        bad["normalize"] = true.into();
+        let scene = scene_with("bad", serde_json::json!([bad]), [0.0; 3], &[]);
+        let materials = Materials::build(&scene).unwrap();
+        let err = Lights::build(&scene, &materials, &NO_MEDIA, true)
+            .err()
+            .unwrap();
+        assert!(err.to_string().contains("/World/Bad"), "{err}");
+    }
+
+    /// A scene without lights is lit by a white dome of radiance 1: every
+    /// escaping direction sees radiance 1, and light sampling finds it.
+    #[test]
+    fn a_scene_without_lights_gets_the_default_dome() {
+        let empty = scene_with("empty", serde_json::json!([]), [0.0; 3], &[]);
+        let materials = Materials::build(&empty).unwrap();
+        let lights = Lights::build(&empty, &materials, &NO_MEDIA, true).unwrap();
+        let mut seen = Vec::new();
+        lights.escaped(
+            Vec3::ZERO,
+            Vec3::new(0.3, -0.2, 0.9).normalize(),
+            |radiance, pdf| seen.push((radiance, pdf)),
+        );
+        assert_eq!(seen.len(), 1);
+        assert_eq!(seen[0].0, Vec3::ONE);
+        let (_, sample) = lights
+            .sample(emitters(&materials), Vec3::ZERO, 0.5, Vec2::splat(0.3))
+            .expect("the default dome is sampled");
+        assert_eq!(sample.radiance, Vec3::ONE);
+        // A constant dome is sampled uniformly over the sphere, both ways.
+        let uniform = 1.0 / (4.0 * std::f32::consts::PI);
+        assert!((sample.pdf - uniform).abs() < 1e-6 && (seen[0].1 - uniform).abs() < 1e-6);
+    }
+
+    /// A dome and a sphere: dome samples have the pdf `escaped` reports for
+    /// their direction, sphere samples the one `intersect` reports, and the
+    /// dome's share of samples is its selection probability.
+    #[test]
+    fn infinite_and_bounded_lights_share_the_selection() {
+        let dome = serde_json::json!({
+            "type": "dome", "path": "/Sky", "transform": translated(Vec3::ZERO),
+            "color": [1, 1, 1], "intensity": 0.2, "exposure": 0.0, "normalize": false,
+            "color_temperature": null, "texture": null
+        });
+        let scene = scene_with(
+            "dome",
+            serde_json::json!([
+                dome,
+                sphere_json("/Bulb", Vec3::new(0.0, 0.0, 4.0), 0.5, 5.0)
+            ]),
+            [0.0; 3],
+            &[],
+        );
+        let materials = Materials::build(&scene).unwrap();
+        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true).unwrap();
+        let p_dome = lights.probability(Vec3::ZERO, 0);
+        assert!(p_dome > 0.0 && p_dome < 1.0);
+        assert!((p_dome + lights.probability(Vec3::ZERO, 1) - 1.0).abs() < 1e-6);
+        let mut rng = Pcg32::new(23, 0);
+        let n = 20_000;
+        let mut domes = 0u32;
+        for _ in 0..n {
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            let (_, s) = lights
+                .sample(emitters(&materials), Vec3::ZERO, rng.next_f32(), u)
+                .unwrap();
+            if s.distance.is_infinite() {
+                domes += 1;
+                let mut seen = 0;
+                lights.escaped(Vec3::ZERO, s.wi, |radiance, pdf| {
+                    seen += 1;
+                    assert_eq!(radiance, s.radiance);
+                    assert!((pdf - s.pdf).abs() <= 1e-5 * s.pdf);
+                });
+                assert_eq!(seen, 1);
+            } else {
+                let hit = lights.intersect(Vec3::ZERO, s.wi, f32::INFINITY).unwrap();
+                assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
+            }
+        }
+        let q = f64::from(p_dome);
+        let sigma = (f64::from(n) * q * (1.0 - q)).sqrt();
+        assert!(
+            (f64::from(domes) - f64::from(n) * q).abs() < 4.0 * sigma,
+            "{domes} of {n}"
+        );
+    }
+}
