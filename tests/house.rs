@@ -1,0 +1,305 @@
+//! The layout rules of `src/` (docs/architecture.md), checked from the
+//! sources: no import cycle between top-level modules or between the files
+//! of one folder, the lab imported by the command line only, `clap` and
+//! `anyhow` only under `src/cli/`, no file over 800 lines and `src/cli/`
+//! under 1,500 lines. Imports are read from `use` paths and qualified paths
+//! (`crate::lights::...`, `super::...`, and `cirrus::...` in the binary's
+//! files), comments excluded.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+const MAX_FILE_LINES: usize = 800;
+const MAX_CLI_LINES: usize = 1500;
+
+/// One source file: its path under `src/` split into components without
+/// `.rs` (`["integrator", "path"]`, `["film", "mod"]`), and its code with
+/// comment lines removed.
+struct Source {
+    parts: Vec<String>,
+    code: String,
+    lines: usize,
+}
+
+fn sources() -> Vec<Source> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    collect(&src, &mut files);
+    files
+        .into_iter()
+        .map(|path| {
+            let text = std::fs::read_to_string(&path).unwrap();
+            let rel = path.strip_prefix(&src).unwrap().with_extension("");
+            let code = text
+                .lines()
+                .filter(|l| !l.trim_start().starts_with("//"))
+                .collect::<Vec<_>>()
+                .join("\n");
+            Source {
+                parts: rel
+                    .iter()
+                    .map(|c| c.to_string_lossy().into_owned())
+                    .collect(),
+                code,
+                lines: text.lines().count(),
+            }
+        })
+        .collect()
+}
+
+fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            collect(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// The first-level names after each occurrence of `prefix` in `code`:
+/// `prefix::name` gives `name`, `prefix::{a, b::c, d as e}` gives a, b, d.
+fn names_after(code: &str, prefix: &str) -> Vec<String> {
+    let mut names = Vec::new();
+    let mut rest = code;
+    while let Some(i) = rest.find(prefix) {
+        let before = rest[..i].chars().next_back();
+        rest = &rest[i + prefix.len()..];
+        if before.is_some_and(|c| c.is_alphanumeric() || c == '_') {
+            continue;
+        }
+        if let Some(group) = rest.strip_prefix('{') {
+            let mut depth = 1;
+            let mut item = String::new();
+            let mut items = Vec::new();
+            for c in group.chars() {
+                match c {
+                    '{' => depth += 1,
+                    '}' if depth == 1 => break,
+                    '}' => depth -= 1,
+                    ',' if depth == 1 => items.push(std::mem::take(&mut item)),
+                    _ if depth == 1 => item.push(c),
+                    _ => {}
+                }
+            }
+            items.push(item);
+            names.extend(items.iter().filter_map(|i| first_ident(i)));
+        } else if let Some(name) = first_ident(rest) {
+            names.push(name);
+        }
+    }
+    names
+}
+
+fn first_ident(s: &str) -> Option<String> {
+    let ident: String = s
+        .trim_start()
+        .chars()
+        .take_while(|c| c.is_alphanumeric() || *c == '_')
+        .collect();
+    (!ident.is_empty()).then_some(ident)
+}
+
+/// Whether `graph` has a cycle; the modules on one, if so.
+fn cycle(graph: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
+    fn visit(
+        node: &str,
+        graph: &BTreeMap<String, BTreeSet<String>>,
+        state: &mut BTreeMap<String, bool>,
+        stack: &mut Vec<String>,
+    ) -> Option<Vec<String>> {
+        match state.get(node) {
+            Some(true) => return None,
+            Some(false) => {
+                let start = stack.iter().position(|n| n == node).unwrap();
+                return Some(stack[start..].to_vec());
+            }
+            None => {}
+        }
+        state.insert(node.to_string(), false);
+        stack.push(node.to_string());
+        for next in graph.get(node).into_iter().flatten() {
+            if let Some(found) = visit(next, graph, state, stack) {
+                return Some(found);
+            }
+        }
+        stack.pop();
+        state.insert(node.to_string(), true);
+        None
+    }
+    let mut state = BTreeMap::new();
+    graph
+        .keys()
+        .find_map(|node| visit(node, graph, &mut state, &mut Vec::new()))
+}
+
+/// Top-level module -> the top-level modules its files name.
+fn top_level_graph(sources: &[Source]) -> BTreeMap<String, BTreeSet<String>> {
+    let tops: BTreeSet<String> = sources
+        .iter()
+        .filter(|s| !matches!(s.parts[..], [ref f] if f == "lib" || f == "main"))
+        .map(|s| s.parts[0].clone())
+        .collect();
+    let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for s in sources.iter().filter(|s| tops.contains(&s.parts[0])) {
+        let from = &s.parts[0];
+        let named = names_after(&s.code, "crate::")
+            .into_iter()
+            .chain(names_after(&s.code, "cirrus::"));
+        for to in named.filter(|n| tops.contains(n) && n != from) {
+            graph.entry(from.clone()).or_default().insert(to);
+        }
+    }
+    graph
+}
+
+/// Per folder, file -> the files of the same folder it names (through
+/// `super::`, the folder's `crate::` path, or items its `mod.rs` re-exports
+/// from them). The `mod.rs` itself, the interface that declares and
+/// re-exports its files, is not a node.
+fn folder_graphs(sources: &[Source]) -> BTreeMap<String, BTreeMap<String, BTreeSet<String>>> {
+    let mut graphs = BTreeMap::new();
+    let folders: BTreeSet<Vec<String>> = sources
+        .iter()
+        .filter(|s| s.parts.last().is_some_and(|p| p == "mod"))
+        .map(|s| s.parts[..s.parts.len() - 1].to_vec())
+        .collect();
+    for folder in &folders {
+        let depth = folder.len();
+        let children: BTreeSet<String> = sources
+            .iter()
+            .filter(|s| s.parts.len() > depth && s.parts[..depth] == folder[..])
+            .map(|s| s.parts[depth].clone())
+            .filter(|c| c != "mod")
+            .collect();
+        let module = sources
+            .iter()
+            .find(|s| s.parts[..] == [folder.clone(), vec!["mod".into()]].concat())
+            .unwrap();
+        // Items the folder's mod.rs re-exports, by the file they come from.
+        let mut reexported = BTreeMap::new();
+        for prefix in ["pub use ", "pub(crate) use "] {
+            for line in module.code.split(';') {
+                if let Some(i) = line.find(prefix) {
+                    let tree = &line[i + prefix.len()..];
+                    if let Some(child) = first_ident(tree).filter(|c| children.contains(c)) {
+                        let items = names_after(tree, &format!("{child}::"));
+                        for item in items {
+                            reexported.insert(item, child.clone());
+                        }
+                    }
+                }
+            }
+        }
+        let crate_path = format!("crate::{}::", folder.join("::"));
+        let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for s in sources
+            .iter()
+            .filter(|s| s.parts.len() > depth && s.parts[..depth] == folder[..])
+        {
+            let from = &s.parts[depth];
+            if from == "mod" {
+                continue;
+            }
+            // A file directly in the folder reaches it as `super::`; one in
+            // a subfolder as `super::super::`.
+            let nested = s.parts.len() - depth - 1;
+            let up = if s.parts.last().is_some_and(|p| p == "mod") {
+                nested
+            } else {
+                nested + 1
+            };
+            let mut named = names_after(&s.code, &"super::".repeat(up));
+            named.extend(names_after(&s.code, &crate_path));
+            for name in named {
+                let to = if children.contains(&name) {
+                    Some(name)
+                } else {
+                    reexported.get(&name).cloned()
+                };
+                if let Some(to) = to.filter(|t| t != from) {
+                    graph.entry(from.clone()).or_default().insert(to);
+                }
+            }
+        }
+        graphs.insert(folder.join("/"), graph);
+    }
+    graphs
+}
+
+#[test]
+fn no_cycle_between_top_level_modules() {
+    let graph = top_level_graph(&sources());
+    assert!(graph.contains_key("integrator") && graph["integrator"].contains("film"));
+    if let Some(c) = cycle(&graph) {
+        panic!("top-level modules import each other in a circle: {c:?}");
+    }
+}
+
+#[test]
+fn no_cycle_between_the_files_of_a_folder() {
+    let graphs = folder_graphs(&sources());
+    assert!(graphs["integrator"]["path"].contains("shadow"));
+    for (folder, graph) in &graphs {
+        if let Some(c) = cycle(graph) {
+            panic!("files of src/{folder}/ import each other in a circle: {c:?}");
+        }
+    }
+}
+
+#[test]
+fn only_the_command_line_uses_the_lab_clap_and_anyhow() {
+    let sources = sources();
+    let graph = top_level_graph(&sources);
+    let users: Vec<&String> = graph
+        .iter()
+        .filter(|(from, to)| *from != "cli" && to.contains("lab"))
+        .map(|(from, _)| from)
+        .collect();
+    assert!(users.is_empty(), "the renderer imports the lab: {users:?}");
+    for s in sources.iter().filter(|s| s.parts[0] != "cli") {
+        for word in ["clap::", "anyhow"] {
+            assert!(
+                !s.code.contains(word),
+                "src/{}.rs uses {word}: it belongs in src/cli/",
+                s.parts.join("/")
+            );
+        }
+    }
+}
+
+#[test]
+fn files_and_the_command_line_stay_small() {
+    let sources = sources();
+    let long: Vec<String> = sources
+        .iter()
+        .filter(|s| s.lines > MAX_FILE_LINES)
+        .map(|s| format!("src/{}.rs ({} lines)", s.parts.join("/"), s.lines))
+        .collect();
+    assert!(long.is_empty(), "over {MAX_FILE_LINES} lines: {long:?}");
+    let cli: usize = sources
+        .iter()
+        .filter(|s| s.parts[0] == "cli")
+        .map(|s| s.lines)
+        .sum();
+    assert!(
+        (1..MAX_CLI_LINES).contains(&cli),
+        "src/cli/ has {cli} lines"
+    );
+}
+
+#[test]
+fn the_import_reader_sees_groups_and_paths() {
+    let code = "use super::{read_snapshot, FarmError as E, parts::{Part}};\nlet x = crate::film::Film::new();";
+    assert_eq!(
+        names_after(code, "super::"),
+        ["read_snapshot", "FarmError", "parts"]
+    );
+    assert_eq!(names_after(code, "crate::"), ["film"]);
+    let mut graph = BTreeMap::new();
+    graph.insert("a".to_string(), BTreeSet::from(["b".to_string()]));
+    assert_eq!(cycle(&graph), None);
+    graph.insert("b".to_string(), BTreeSet::from(["a".to_string()]));
+    assert!(cycle(&graph).is_some());
+}
