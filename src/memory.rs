@@ -5,18 +5,17 @@
 //!
 //! The estimate is a sum of parts, each the part's peak (a conservative
 //! bound: the scene is dropped before the film exists, so the true peak is
-//! lower than the sum when both are large):
+//! lower than the sum when both are large). Each part's owner says what it
+//! will hold; this module only adds them up:
 //! - scene: the bulk arrays of `scene.bin`, held while the render state is built;
-//! - geometry: per triangle the shading copy, the BVH's triangles and nodes,
-//!   and the build's temporaries for the meshes built at once; per placed
-//!   mesh the top-level leaf, box and nodes;
-//! - volumes: per density (and emitting temperature or emission) grid, the sparse grid's
-//!   9^3-value bricks, node arrays and majorant cells from the grid's active
-//!   voxel count (file metadata, no tree read), plus OpenVDB's tree and the
-//!   bridge's copy while the largest one is read;
-//! - film: per pixel the sums (`PixelSum` and the AOV accumulators), once
-//!   (tiles merge as they finish), then the output layers and their
-//!   interleaved copy;
+//! - geometry: [`Geometry::bytes_for`] (shading copies, BVHs, the build's
+//!   temporaries for the meshes built at once, the top level);
+//! - volumes: per density (and emitting temperature or emission) grid,
+//!   [`Media::field_bytes_for`] from the VDB grid table (sparse layout,
+//!   majorant grid, emission cells; no tree is read), plus what reading the
+//!   largest one holds (`GridInfo::read_bytes`);
+//! - film: [`Film::bytes_for`] (the sums, once: tiles merge as they finish),
+//!   then `output::write_bytes_for` (the output layers and their copies);
 //! - runtime: code, libraries and thread stacks, measured once.
 
 use std::fmt;
@@ -24,11 +23,10 @@ use std::path::{Path, PathBuf};
 
 use glam::UVec2;
 
-use crate::film::CryptoCoverage;
-use crate::film::PixelSum;
-use crate::film::{Aov, AovSet};
+use crate::film::{AovSet, Film};
+use crate::geometry::Geometry;
 use crate::scene::Scene;
-use crate::volumes::{VdbFile, VolumeError};
+use crate::volumes::{Media, VdbFile, VolumeError};
 
 /// Bytes in one MiB and one GiB.
 const MIB: f64 = (1u64 << 20) as f64;
@@ -38,41 +36,6 @@ const GIB: f64 = (1u64 << 30) as f64;
 /// OpenImageIO, TBB and the worker threads' stacks (measured: 131 MiB
 /// for `cirrus info`, 134 MiB for an 8x8 render).
 const RUNTIME_BYTES: u64 = 144 << 20;
-
-/// Per triangle, resident: the BVH's triangle copy (three `Vec3A`, 48
-/// bytes), its primitive index (4) and CWBVH nodes (80 bytes per node, about
-/// one node per four triangles: 20).
-const BVH_BYTES_PER_TRIANGLE: u64 = 48 + 4 + 20;
-/// Per triangle while its mesh's BVH is built: boxes (32 bytes), the
-/// triangle list (48), PLOC's three arrays of 48-byte BVH2 nodes over 2n
-/// nodes (288) and the CWBVH conversion's table of 7 x 16 bytes per node (224).
-const BVH_BUILD_BYTES_PER_TRIANGLE: u64 = 32 + 48 + 288 + 224;
-/// Per placed mesh (instance x prototype mesh): the top-level leaf (an
-/// `Affine3A` and three `u32`, 64 bytes), its box (32) and its share of the
-/// chunked top-level CWBVH and its build (48).
-const TOP_LEVEL_BYTES_PER_PLACEMENT: u64 = 64 + 32 + 48;
-
-/// Voxels per OpenVDB leaf (8^3), and bytes per stored brick: the leaf's
-/// 9^3-value apron copy as `f32` (see `volumes::grid`).
-const LEAF_VOXELS: u64 = 512;
-const BRICK_BYTES: u64 = 9 * 9 * 9 * 4;
-/// Bytes of one 128^3-voxel super-block's node array (16^3 `u32` entries).
-const NODE_BYTES: u64 = 16 * 16 * 16 * 4;
-/// Voxels per super-block edge.
-const SUPER_EDGE: u64 = 128;
-/// Bytes of one 8^3-voxel majorant cell (max and min, and its 6-byte support
-/// box), and the majorant grid's most cells (they grow coarser beyond).
-const MAJORANT_CELL_BYTES: u64 = 14;
-const MAJORANT_MAX_CELLS: u64 = 1 << 24;
-/// Bytes per majorant cell of an emitting volume's light: the cell's slot
-/// and sampling box (28), its weight and CDF entry (8) and collision floor (8);
-/// and per active voxel of its emission grid, about one unit cube's weight
-/// and CDF entry.
-const EMISSION_CELL_BYTES: u64 = 44;
-const EMISSION_BYTES_PER_VOXEL: u64 = 8;
-/// Per leaf while a grid is read: OpenVDB's tree (512 `f32` and masks, about
-/// 2.1 kB) and the bridge's flat copy of the values (2 kB).
-const READ_BYTES_PER_LEAF: u64 = 2112 + 2048;
 
 /// A render's estimated peak memory, by part, in bytes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -193,10 +156,7 @@ fn geometry_bytes(scene: &Scene, mesh_bytes: u64) -> u64 {
         .iter()
         .map(|&p| m.prototypes[p as usize].meshes.len() as u64)
         .sum();
-    mesh_bytes
-        + total * BVH_BYTES_PER_TRIANGLE
-        + building * BVH_BUILD_BYTES_PER_TRIANGLE
-        + placements * TOP_LEVEL_BYTES_PER_PLACEMENT
+    Geometry::bytes_for(mesh_bytes, total, building, placements)
 }
 
 /// Volumes: every distinct grid `Media::build` reads (density fields, and
@@ -228,51 +188,18 @@ fn volume_bytes(scene: &Scene) -> Result<u64, VolumeError> {
             }
         };
         let info = &vdb.grids()[vdb.find(grid, index as usize)?];
-        let leaves = info.active_voxel_count.div_ceil(LEAF_VOXELS);
-        let dims = info.dims();
-        let blocks = |edge: u64| {
-            dims.to_array()
-                .iter()
-                .map(|d| d.div_ceil(edge) + 1)
-                .product::<u64>()
-        };
-        let cell_bytes = MAJORANT_CELL_BYTES + if emits { EMISSION_CELL_BYTES } else { 0 };
-        let majorant = blocks(8).min(MAJORANT_MAX_CELLS) * cell_bytes
-            + if emits {
-                info.active_voxel_count * EMISSION_BYTES_PER_VOXEL
-            } else {
-                0
-            };
-        let nodes = blocks(SUPER_EDGE).min(leaves) * NODE_BYTES + blocks(SUPER_EDGE) * 4;
-        resident += leaves * BRICK_BYTES + nodes + majorant;
-        largest_read = largest_read.max(leaves * READ_BYTES_PER_LEAF);
+        resident += Media::field_bytes_for(info, emits);
+        largest_read = largest_read.max(info.read_bytes());
     }
     Ok(resident + largest_read)
 }
 
-/// Film: per pixel the accumulators (tile films are merged as they finish,
-/// so only the few in flight add to them), and at output the larger of the
-/// layers (beauty RGBA and every chosen AOV's channels, as `f32`, held with
-/// their interleaved copy and the bridge's) and the preview's buffers.
+/// Film: the accumulators (tile films are merged as they finish, so only
+/// the few in flight add to them), then what writing the EXRs and the
+/// preview holds.
 fn film_bytes(resolution: UVec2, aovs: &AovSet) -> u64 {
     let pixels = u64::from(resolution.x) * u64::from(resolution.y);
-    let size = |bytes: usize| bytes as u64;
-    let mut sums = size(std::mem::size_of::<PixelSum>());
-    let mut channels = 4u64;
-    for &aov in aovs.aovs() {
-        sums += match aov {
-            Aov::Z => 4,
-            Aov::CryptoObject | Aov::CryptoMaterial => size(std::mem::size_of::<CryptoCoverage>()),
-            Aov::SampleCount | Aov::Variance => 0,
-            _ => 12,
-        };
-        channels += aov.channels().len() as u64;
-    }
-    // The layers, their interleaved copy, and the bridge's copy for OpenImageIO.
-    let layers = 3 * 4 * channels;
-    // Beauty RGB, its tone-mapped copy, and OpenImageIO's 8-bit buffer.
-    let preview = 12 + 12 + 3;
-    pixels * (sums + layers.max(preview))
+    Film::bytes_for(pixels, aovs) + crate::output::write_bytes_for(pixels, aovs)
 }
 
 /// Parses a byte count for `--memory-limit`: a positive number with an

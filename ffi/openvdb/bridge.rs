@@ -17,6 +17,9 @@ pub(super) mod ffi {
         index_bbox_max: [i32; 3],
         /// Active voxels, counting every voxel covered by an active tile.
         active_voxel_count: u64,
+        /// OpenVDB's in-memory size of the tree, bytes (the file's
+        /// `file_mem_bytes`, else measured on the read tree).
+        tree_bytes: u64,
         /// Index-to-world affine map, row-major, acting on column vectors:
         /// `p_world = M * [i, j, k, 1]`. Only meaningful when `is_linear`.
         world_from_index: [f64; 16],

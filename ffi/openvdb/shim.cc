@@ -90,20 +90,23 @@ rust::Vec<GridInfo> VdbFile::grids() const {
       // Files written by OpenVDB carry the active bounds and count as metadata;
       // older or foreign files may not, and then the tree must be read.
       openvdb::Coord lo, hi;
-      int64_t count = 0;
+      int64_t count = 0, tree_bytes = 0;
       auto bmin = meta->getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MIN);
       auto bmax = meta->getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MAX);
       auto vcount = meta->getMetadata<openvdb::Int64Metadata>(openvdb::GridBase::META_FILE_VOXEL_COUNT);
-      if (bmin && bmax && vcount) {
+      auto mem = meta->getMetadata<openvdb::Int64Metadata>(openvdb::GridBase::META_FILE_MEM_BYTES);
+      if (bmin && bmax && vcount && mem) {
         lo = openvdb::Coord(bmin->value());
         hi = openvdb::Coord(bmax->value());
         count = vcount->value();
+        tree_bytes = mem->value();
       } else {
         openvdb::GridBase::Ptr full = impl_->read(static_cast<uint32_t>(i));
         const openvdb::CoordBBox box = full->evalActiveVoxelBoundingBox();
         lo = box.min();
         hi = box.max();
         count = static_cast<int64_t>(full->activeVoxelCount());
+        tree_bytes = static_cast<int64_t>(full->memUsage());
       }
       if (count == 0) { // OpenVDB stores an inverted sentinel box for empty grids
         lo = openvdb::Coord(0);
@@ -112,6 +115,7 @@ rust::Vec<GridInfo> VdbFile::grids() const {
       info.index_bbox_min = {lo.x(), lo.y(), lo.z()};
       info.index_bbox_max = {hi.x(), hi.y(), hi.z()};
       info.active_voxel_count = static_cast<uint64_t>(count);
+      info.tree_bytes = static_cast<uint64_t>(std::max<int64_t>(tree_bytes, 0));
 
       const openvdb::math::MapBase::ConstPtr map = meta->transform().baseMap();
       info.is_linear = map->isLinear();

@@ -287,6 +287,28 @@ impl Film {
         }
     }
 
+    /// Bytes the sums of a film of `pixels` pixels accumulating `set` hold
+    /// (each Cryptomatte coverage's list of ids beyond its inline ranks aside).
+    pub fn bytes_for(pixels: u64, set: &AovSet) -> u64 {
+        let buffers = AovBuffers::new(set, 0);
+        let crypto = buffers.crypto.iter().flatten().count();
+        let per_pixel = std::mem::size_of::<PixelSum>()
+            + 4 * buffers.stride
+            + 4 * usize::from(buffers.depth.is_some())
+            + crypto * std::mem::size_of::<CryptoCoverage>();
+        pixels * per_pixel as u64
+    }
+
+    /// Bytes held by the sums (see [`Self::bytes_for`]).
+    pub fn memory_bytes(&self) -> u64 {
+        let a = &self.aovs;
+        let crypto: usize = a.crypto.iter().flatten().map(Vec::capacity).sum();
+        (self.pixels.capacity() * std::mem::size_of::<PixelSum>()
+            + 4 * a.sums.capacity()
+            + 4 * a.depth.as_ref().map_or(0, Vec::capacity)
+            + crypto * std::mem::size_of::<CryptoCoverage>()) as u64
+    }
+
     /// The AOVs this film accumulates.
     pub fn aov_set(&self) -> &AovSet {
         &self.set
@@ -448,6 +470,16 @@ fn channels(names: &[&str], pixel_type: PixelType) -> Vec<Channel> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_memory_estimate_is_what_a_film_holds() {
+        let size = UVec2::new(13, 7);
+        for aovs in ["beauty", "default", "all", "Z,CryptoObject", "albedo,N,P"] {
+            let set: AovSet = aovs.parse().unwrap();
+            let film = Film::new(size, set.clone());
+            assert_eq!(Film::bytes_for(91, &set), film.memory_bytes(), "{aovs}");
+        }
+    }
 
     #[test]
     fn tiles_cover_the_image_once_and_merge_back() {

@@ -152,7 +152,32 @@ pub struct Hit {
     leaf: u32,
 }
 
+/// Per triangle, resident: the BVH's triangle copy (three `Vec3A`, 48
+/// bytes), its primitive index (4) and CWBVH nodes (80 bytes per node, about
+/// one node per four triangles: 20).
+const BVH_BYTES_PER_TRIANGLE: u64 = 48 + 4 + 20;
+/// Per triangle while its mesh's BVH is built: boxes (32 bytes), the
+/// triangle list (48), PLOC's three arrays of 48-byte BVH2 nodes over 2n
+/// nodes (288) and the CWBVH conversion's table of 7 x 16 bytes per node (224).
+const BVH_BUILD_BYTES_PER_TRIANGLE: u64 = 32 + 48 + 288 + 224;
+/// Per placed mesh (instance x prototype mesh): the top-level leaf (an
+/// `Affine3A` and three `u32`, 64 bytes), its box (32) and its share of the
+/// chunked top-level CWBVH and its build (48).
+const TOP_LEVEL_BYTES_PER_PLACEMENT: u64 = 64 + 32 + 48;
+
 impl Geometry {
+    /// Bytes [`Geometry::build`] holds at its peak for a scene of
+    /// `mesh_bytes` bytes of mesh arrays (its shading copy is as large),
+    /// `triangles` triangles, of which `building` are in the meshes built at
+    /// once (the largest, one per worker thread), and `placements` placed
+    /// meshes (instance x prototype mesh), estimated from the scene alone.
+    pub fn bytes_for(mesh_bytes: u64, triangles: u64, building: u64, placements: u64) -> u64 {
+        mesh_bytes
+            + triangles * BVH_BYTES_PER_TRIANGLE
+            + building * BVH_BUILD_BYTES_PER_TRIANGLE
+            + placements * TOP_LEVEL_BYTES_PER_PLACEMENT
+    }
+
     /// Builds the world-space BVH over the meshes placed once, one BVH per
     /// mesh placed more than once (in parallel), and the top-level BVH over
     /// those meshes' placements. Placements whose transform cannot be

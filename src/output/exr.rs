@@ -101,6 +101,22 @@ impl ExrHeader {
     }
 }
 
+/// Bytes writing a film of `pixels` pixels with `aovs` holds at its peak
+/// beside the film: the layers (beauty RGBA and every AOV's channels, as
+/// `f32`), their interleaved copy and the bridge's copy for OpenImageIO;
+/// or, when larger, the preview's beauty RGB, its tone-mapped copy and
+/// OpenImageIO's 8-bit buffer.
+pub fn write_bytes_for(pixels: u64, aovs: &AovSet) -> u64 {
+    let channels = 4 + aovs
+        .aovs()
+        .iter()
+        .map(|a| a.channels().len())
+        .sum::<usize>();
+    let layers = 3 * 4 * channels as u64;
+    let preview = 12 + 12 + 3;
+    pixels * layers.max(preview)
+}
+
 /// Writes the film: the beauty layer and every chosen AOV, in one EXR or
 /// one per AOV (`OUT.<aov>.exr`), each with the header, the run's
 /// statistics and a Cryptomatte's own metadata.

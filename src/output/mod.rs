@@ -8,5 +8,5 @@ mod exr;
 mod preview;
 
 pub use contact_sheet::{write_contact_sheet, ContactSheet, SheetTile};
-pub use exr::{write_beauty, write_film, AovFiles, ExrHeader};
+pub use exr::{write_beauty, write_bytes_for, write_film, AovFiles, ExrHeader};
 pub use preview::write_preview;

@@ -52,6 +52,16 @@ pub struct Distribution2D {
 }
 
 impl Distribution1D {
+    /// Bytes held: the weights and the CDF.
+    pub fn memory_bytes(&self) -> usize {
+        4 * (self.func.capacity() + self.cdf.capacity())
+    }
+
+    /// Bytes a distribution over `n` weights holds.
+    pub fn bytes_for(n: u64) -> u64 {
+        4 * (2 * n + 1)
+    }
+
     /// Samples a point in [0, 1) with density proportional to the weights,
     /// by inverting the piecewise-linear CDF.
     pub fn sample_continuous(&self, u: f32) -> ContinuousSample {

@@ -120,6 +120,31 @@ impl EmittingCell {
 }
 
 impl EmissionCells {
+    /// Bytes the emission cells of a volume whose majorant grid has
+    /// `cells` cells and whose emission grid has `active_voxels` active
+    /// voxels hold at most, estimated before either is read: every cell
+    /// emitting, with its entry, pick weight and collision floor, and one
+    /// unit cube per active voxel in the cells' own distributions.
+    pub(crate) fn bytes_for(cells: u64, active_voxels: u64) -> u64 {
+        let per_cell = std::mem::size_of::<EmittingCell>() + std::mem::size_of::<(u32, f32)>();
+        cells * per_cell as u64
+            + Distribution1D::bytes_for(cells)
+            + Distribution1D::bytes_for(active_voxels)
+    }
+
+    /// Bytes held.
+    pub(crate) fn memory_bytes(&self) -> usize {
+        let cubes: usize = self
+            .cells
+            .iter()
+            .filter_map(|c| c.cubes.as_ref().map(Distribution1D::memory_bytes))
+            .sum();
+        self.cells.capacity() * std::mem::size_of::<EmittingCell>()
+            + self.floors.capacity() * std::mem::size_of::<(u32, f32)>()
+            + self.distribution.memory_bytes()
+            + cubes
+    }
+
     /// An index-space point by power from `u` in [0, 1)^3, and its
     /// index-space volume density.
     pub(crate) fn sample(&self, u: Vec3) -> (Vec3, f32) {

@@ -21,7 +21,7 @@
 //! between points the value is trilinear; anything not stored is the
 //! background.
 
-use glam::{DAffine3, IVec3};
+use glam::{DAffine3, IVec3, U64Vec3};
 use rayon::prelude::*;
 
 /// Entry tag: nothing stored here, the grid's background applies.
@@ -150,6 +150,15 @@ pub struct SparseGrid {
     pub(super) constants: Vec<f32>,
     pub(super) transform: GridTransform,
     stats: GridStats,
+}
+
+/// The most aligned blocks of `edge` voxels a box of `dims` voxels can
+/// touch: `ceil(d / edge) + 1` per axis (the box need not be aligned).
+pub(super) fn blocks_spanned(dims: U64Vec3, edge: u64) -> u64 {
+    dims.to_array()
+        .map(|d| d.div_ceil(edge) + 1)
+        .iter()
+        .product()
 }
 
 impl SparseGrid {
@@ -281,6 +290,19 @@ impl SparseGrid {
     /// What the grid holds.
     pub fn stats(&self) -> &GridStats {
         &self.stats
+    }
+
+    /// Bytes the layout of a grid of `leaves` 8^3 leaves over an index box
+    /// of `dims` voxels will hold, estimated before it is read (the memory
+    /// preflight): an apron brick per leaf, a node array per super-block
+    /// that can hold one, and the top array over the box.
+    pub fn bytes_for(dims: U64Vec3, leaves: u64) -> u64 {
+        let supers = blocks_spanned(dims, 1 << SUPER_LOG2);
+        let node_bytes = (NODE_ENTRIES * 4) as u64;
+        std::mem::size_of::<Self>() as u64
+            + leaves * (APRON_VOXELS * 4) as u64
+            + supers.min(leaves) * node_bytes
+            + supers * 4
     }
 
     /// Bytes held by the layout's arrays (what the renderer keeps resident).

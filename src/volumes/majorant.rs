@@ -29,9 +29,10 @@
 //! the stored data: a non-zero background beyond it (a medium of infinite
 //! extent) is not represented.
 
-use glam::{IVec3, Vec3};
+use glam::{IVec3, U64Vec3, Vec3};
 use rayon::prelude::*;
 
+use super::grid::blocks_spanned;
 use super::SparseGrid;
 
 /// Voxels per cell edge, log2, at the finest resolution (one OpenVDB leaf).
@@ -196,6 +197,26 @@ impl MajorantGrid {
             corner + Vec3::from(support.hi.map(f32::from)) * eighth,
         )
     }
+
+    /// Bytes the majorant grid of a density grid whose active voxels span
+    /// `dims` will hold, estimated before the grid is read (the memory
+    /// preflight): one cell per 8^3 block the span can touch and one block
+    /// below it per axis (whose footprint reaches the data), at most
+    /// [`MAX_CELLS`].
+    pub fn bytes_for(dims: U64Vec3) -> u64 {
+        std::mem::size_of::<Self>() as u64 + Self::cells_for(dims) * Self::CELL_BYTES
+    }
+
+    /// The most cells the majorant grid of a span of `dims` voxels has (see
+    /// [`Self::bytes_for`]).
+    pub(crate) fn cells_for(dims: U64Vec3) -> u64 {
+        let blocks = blocks_spanned(dims + U64Vec3::splat(1 << BLOCK_LOG2), 1 << BLOCK_LOG2);
+        blocks.min(MAX_CELLS)
+    }
+
+    /// Bytes per cell: its density range and support box.
+    const CELL_BYTES: u64 =
+        (std::mem::size_of::<DensityRange>() + std::mem::size_of::<SupportBox>()) as u64;
 
     /// Bytes held (the struct and its cell array).
     pub fn memory_bytes(&self) -> usize {

@@ -25,7 +25,7 @@ use smallvec::SmallVec;
 use super::emitter::{EmissionCells, SourceSample};
 use super::tracking::channel_mean;
 use super::{
-    BlackbodyTable, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
+    BlackbodyTable, GridInfo, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
     MajorantSegments, SparseGrid, VdbFile, VolumeError,
 };
 use crate::color::luminance;
@@ -291,6 +291,43 @@ impl Media {
     /// True when the scene has no volume: the integrator skips all media work.
     pub fn is_empty(&self) -> bool {
         self.media.is_empty()
+    }
+
+    /// Bytes a medium keeps for the grid `info` describes, estimated from
+    /// the grid table before it is read (the memory preflight): its sparse
+    /// layout and majorant grid, and, for an emission (or temperature) grid
+    /// that `emits`, the emission cells light sampling picks from.
+    pub fn field_bytes_for(info: &GridInfo, emits: bool) -> u64 {
+        let dims = info.dims();
+        let emission = if emits {
+            EmissionCells::bytes_for(MajorantGrid::cells_for(dims), info.active_voxel_count)
+        } else {
+            0
+        };
+        SparseGrid::bytes_for(dims, info.leaves()) + MajorantGrid::bytes_for(dims) + emission
+    }
+
+    /// Bytes held by the grids, majorant grids and emission cells of every
+    /// medium, each shared one (instances) counted once.
+    pub fn memory_bytes(&self) -> u64 {
+        let mut seen = std::collections::HashSet::new();
+        let mut bytes = 0;
+        let mut count = |ptr: *const u8, size: usize| {
+            if seen.insert(ptr) {
+                bytes += size as u64;
+            }
+        };
+        for m in &self.media {
+            count(Arc::as_ptr(&m.density).cast(), m.density.memory_bytes());
+            count(Arc::as_ptr(&m.majorant).cast(), m.majorant.memory_bytes());
+            for e in &m.emission {
+                count(Arc::as_ptr(&e.grid).cast(), e.grid.memory_bytes());
+            }
+            if let Some(cells) = &m.emitter {
+                count(Arc::as_ptr(cells).cast(), cells.memory_bytes());
+            }
+        }
+        bytes
     }
 
     /// The media crossed by `origin + t direction` (unit `direction`, world

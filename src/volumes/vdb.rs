@@ -126,11 +126,38 @@ pub struct GridInfo {
     pub index_max: IVec3,
     /// Active voxels, tiles counted voxel by voxel.
     pub active_voxel_count: u64,
+    /// OpenVDB's in-memory size of the tree, bytes (the file's
+    /// `file_mem_bytes` metadata, else measured on the read tree).
+    pub tree_bytes: u64,
     /// Index-to-world affine map; `None` for non-affine (frustum) maps.
     pub world_from_index: Option<DAffine3>,
 }
 
 impl GridInfo {
+    /// The most 8^3 leaves the tree can hold, from the grid table alone:
+    /// its in-memory size over one float leaf's (512 `f32` and masks, about
+    /// 2.1 kB; internal nodes make this an upper bound), at most the leaves
+    /// the active box can touch and at least the active voxels over 512.
+    pub fn leaves(&self) -> u64 {
+        const TREE_BYTES_PER_LEAF: u64 = 2112;
+        let spanned: u64 = self
+            .dims()
+            .to_array()
+            .map(|d| d.div_ceil(8) + 1)
+            .iter()
+            .product();
+        (self.tree_bytes / TREE_BYTES_PER_LEAF)
+            .min(spanned)
+            .max(self.active_voxel_count.div_ceil(512))
+    }
+
+    /// Bytes reading this grid holds at its peak beside the layout it
+    /// builds: OpenVDB's tree and the bridge's flat copy of the leaves'
+    /// values (2 kB each).
+    pub fn read_bytes(&self) -> u64 {
+        self.tree_bytes + self.leaves() * 2048
+    }
+
     /// Voxels along each axis of the active bounds (zero when empty).
     pub fn dims(&self) -> U64Vec3 {
         (self.index_max - self.index_min + IVec3::ONE)
@@ -322,6 +349,7 @@ impl From<ffi::GridInfo> for GridInfo {
             index_min: IVec3::from_array(g.index_bbox_min),
             index_max: IVec3::from_array(g.index_bbox_max),
             active_voxel_count: g.active_voxel_count,
+            tree_bytes: g.tree_bytes,
             world_from_index,
         }
     }
