@@ -172,6 +172,20 @@ fn assert_points(scene: &Scene, want: &Arrays, normals: Option<&Arrays>, what: &
     worst
 }
 
+/// Exports `usda` at `frame`, asserts that it gave no warning and that every
+/// mesh copy has usd-core's posed points and normals for `reference_usda` (the
+/// same stage, or one that poses the same copies without instancing); returns
+/// the scene, the reference and the largest point error.
+fn assert_posed(usda: &Path, reference_usda: &Path, frame: &str) -> (Scene, Reference, f64) {
+    let scene = export(usda, frame);
+    let warnings = &scene.manifest.warnings;
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let want = reference(reference_usda, frame);
+    let what = format!("{} at frame {frame}", usda.display());
+    let error = assert_points(&scene, &want.posed, Some(&want.normals), &what);
+    (scene, want, error)
+}
+
 #[test]
 fn posed_points_match_usd_core_at_every_frame() {
     let dir = scratch("skinning_posed");
@@ -179,21 +193,9 @@ fn posed_points_match_usd_core_at_every_frame() {
     let mut worst: f64 = 0.0;
     let mut tube_at = Vec::new();
     for frame in FRAMES {
-        let scene = export(&usda, frame);
-        assert!(
-            scene.manifest.warnings.is_empty(),
-            "{:?}",
-            scene.manifest.warnings
-        );
-        let want = reference(&usda, frame);
+        let (_, want, error) = assert_posed(&usda, &usda, frame);
         assert!(want.normals.contains_key("/World/Character/Tube"));
-        let what = format!("frame {frame}");
-        worst = worst.max(assert_points(
-            &scene,
-            &want.posed,
-            Some(&want.normals),
-            &what,
-        ));
+        worst = worst.max(error);
         tube_at.push(want.posed["/World/Character/Tube"].clone());
     }
     eprintln!("max point error over frames {FRAMES:?}: {worst:.3e}");
@@ -207,31 +209,15 @@ fn posed_points_match_usd_core_at_every_frame() {
 /// the skeleton's.
 #[test]
 fn corner_normals_and_a_mesh_joint_order_follow_the_pose() {
-    let dir = scratch("skinning_corners");
-    let usda = stage(&dir, "corners");
-    let scene = export(&usda, "3");
-    assert!(
-        scene.manifest.warnings.is_empty(),
-        "{:?}",
-        scene.manifest.warnings
-    );
-    let want = reference(&usda, "3");
+    let usda = stage(&scratch("skinning_corners"), "corners");
+    let (_, want, _) = assert_posed(&usda, &usda, "3");
     assert_eq!(want.normals["/World/Character/Tube"].len(), 7 * 12 * 4);
-    assert_points(&scene, &want.posed, Some(&want.normals), "corners");
 }
 
 #[test]
 fn without_animation_the_rest_pose_is_rendered_without_warning() {
-    let dir = scratch("skinning_rest");
-    let usda = stage(&dir, "rest");
-    let scene = export(&usda, "2");
-    assert!(
-        scene.manifest.warnings.is_empty(),
-        "{:?}",
-        scene.manifest.warnings
-    );
-    let want = reference(&usda, "2");
-    assert_points(&scene, &want.posed, Some(&want.normals), "rest pose");
+    let usda = stage(&scratch("skinning_rest"), "rest");
+    assert_posed(&usda, &usda, "2");
 }
 
 /// Four native instances of one character: C1 and C2 play one animation and
@@ -242,12 +228,9 @@ fn without_animation_the_rest_pose_is_rendered_without_warning() {
 fn instances_share_a_pose_only_when_animated_alike() {
     let dir = scratch("skinning_crowd");
     let flat = stage(&dir, "crowd_flat");
-    let want = reference(&flat, "2");
+    let (scene, want, _) = assert_posed(&stage(&dir, "crowd"), &flat, "2");
     assert_eq!(want.posed.len(), 8);
-    let scene = export(&stage(&dir, "crowd"), "2");
     let m = &scene.manifest;
-    assert!(m.warnings.is_empty(), "{:?}", m.warnings);
-    assert_points(&scene, &want.posed, Some(&want.normals), "crowd");
     let copies = world_copies(&scene);
     let mesh_of = |path: &str| copies[path].mesh;
     assert_eq!(
