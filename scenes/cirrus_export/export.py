@@ -17,6 +17,7 @@ from .lights import export_lights
 from .materials import MaterialTable
 from .prototypes import MeshTable, Prototypes
 from .report import ExportError, Report
+from .skinning import Skinning
 from .volumes import VolumeTable
 from .xforms import box_corners
 
@@ -126,10 +127,11 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report) -> t
     resolver = AssetResolver(out_dir)
     writer = BinWriter()
     materials = MaterialTable(resolver, report, time)
-    meshes = MeshTable(writer, materials, report, time, str(path))
+    skinning = Skinning(report, time)
+    meshes = MeshTable(writer, materials, skinning, report, time, str(path))
     volumes = VolumeTable(resolver, report, time, frame_label)
     prototypes = Prototypes(meshes, volumes)
-    sink = Walker(prototypes, report, time).walk_stage(stage)
+    sink = Walker(prototypes, skinning, report, time).walk_stage(stage)
     meshes.warn_cages()
     instances, prototype, matrices = instance_records(sink, writer)
     lights = export_lights(stage, time, resolver, report)

@@ -4,6 +4,10 @@ Native instances (prim.IsInstance() -> prim.GetPrototype()) and PointInstancer
 prototypes are exported once each as a Cirrus prototype; nested instancing is
 resolved by composing transform arrays (numpy, never a Python loop per instance), so
 every Cirrus instance is world-from-prototype for a prototype holding real parts.
+
+Meshes posed by UsdSkel are placed by their skeleton (`Skinning.placed`); copies of a
+prototype share a group only when their skinning signatures agree (same skeleton and
+SkelAnimation), so differently animated instances get their own posed meshes.
 """
 
 from dataclasses import dataclass
@@ -14,6 +18,7 @@ from pxr import Usd, UsdGeom
 from .binfile import BinWriter
 from .prototypes import PREDICATE, Prototypes, prototype_path
 from .report import Report
+from .skinning import Skinning
 from .xforms import compose, local_transform, to_3x4
 
 PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Volume"}
@@ -41,9 +46,14 @@ class Leaf:
 
 
 class GroupSink:
-    """Collects the parts and nested instances found under one prototype root."""
+    """Collects the parts and nested instances found under one prototype root.
 
-    def __init__(self) -> None:
+    `holder` is the prim whose space the group is in: the native instance, or the
+    PointInstancer prototype root.
+    """
+
+    def __init__(self, holder: Usd.Prim) -> None:
+        self.holder: Usd.Prim | None = holder
         self.parts: list[tuple[Usd.Prim, np.ndarray]] = []
         self.leaves: list[Leaf] = []
 
@@ -60,6 +70,7 @@ class TopSink:
     """Collects world-space instances, each tagged with the stage prim that produced it."""
 
     def __init__(self, prototypes: Prototypes) -> None:
+        self.holder: Usd.Prim | None = None  # the world
         self.sources: list[str] = []
         self.placed: list[tuple[int, Leaf]] = []
         self._prototypes = prototypes
@@ -92,8 +103,9 @@ class TopSink:
 class Walker:
     """Depth-first traversal honouring visibility and purpose at one time code."""
 
-    def __init__(self, prototypes: Prototypes, report: Report, time: Usd.TimeCode) -> None:
+    def __init__(self, prototypes: Prototypes, skinning: Skinning, report: Report, time: Usd.TimeCode) -> None:
         self._prototypes = prototypes
+        self._skinning = skinning
         self._report = report
         self._time = time
         self._groups: dict[tuple, list[Leaf]] = {}
@@ -134,20 +146,18 @@ class Walker:
             sink.nested(prim, self._point_instancer_leaves(prim), matrix)
             return
         if prim.GetTypeName() in PART_TYPES:
-            sink.part(prim, matrix)
+            sink.part(prim, self._skinning.placed(prim, sink.holder, matrix))
         elif prim.GetTypeName() in UNRENDERED_TYPES:
             self._report.warn(f"{prim.GetTypeName()} {prim.GetPath()} is not rendered: "
                               f"{prim.GetTypeName()} prims are not supported yet")
-        elif prim.GetTypeName() == "SkelRoot":
-            self._report.warn(f"SkelRoot {prim.GetPath()}: UsdSkel skinning is not applied; its meshes "
-                              "are rendered in their bind pose")
         for child in prim.GetFilteredChildren(PREDICATE):
             self._walk(child, matrix, sink)
 
-    def _group(self, key: tuple, name: str, roots: list[Usd.Prim], apply_local: bool) -> list[Leaf]:
-        """Copies of everything under `roots`, in the group's space; built once per key."""
+    def _group(self, key: tuple, name: str, holder: Usd.Prim, roots: list[Usd.Prim],
+               apply_local: bool) -> list[Leaf]:
+        """Copies of everything under `roots`, in `holder`'s space; built once per key."""
         if key not in self._groups:
-            sink = GroupSink()
+            sink = GroupSink(holder)
             for root in roots:
                 self._walk(root, np.eye(4), sink, apply_local)
             leaves = list(sink.leaves)
@@ -160,10 +170,11 @@ class Walker:
     def _native_leaves(self, prim: Usd.Prim) -> list[Leaf]:
         """A native instance's prototype, in the instance prim's space (its xform excluded).
 
-        Instances share one group unless their material bindings differ.
+        Instances share one group unless their material bindings or skinning differ.
         """
-        key = (str(prim.GetPrototype().GetPath()), self._prototypes.meshes.signature(prim))
-        return self._group(key, str(prim.GetPath()), list(prim.GetFilteredChildren(PREDICATE)), True)
+        key = (str(prim.GetPrototype().GetPath()), self._prototypes.meshes.signature(prim),
+               self._skinning.signature(prim))
+        return self._group(key, str(prim.GetPath()), prim, list(prim.GetFilteredChildren(PREDICATE)), True)
 
     def _point_instancer_leaves(self, prim: Usd.Prim) -> list[Leaf]:
         """Every instance of a PointInstancer, in the instancer's space.
@@ -192,7 +203,8 @@ class Walker:
             if not chosen.any():
                 continue
             root = stage.GetPrimAtPath(target)
-            for leaf in self._group((prototype_path(root),), str(target), [root], False):
+            key = (prototype_path(root), self._skinning.signature(root))
+            for leaf in self._group(key, str(target), root, [root], False):
                 inner = compose(leaf.matrices, matrices[chosen])
                 leaves.append(Leaf(leaf.prototype, inner, np.repeat(ids[chosen], len(leaf.index))))
         return leaves

@@ -4,11 +4,15 @@ Everything is vectorised over faces and corners; no Python loop per element.
 """
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pxr import Usd, UsdGeom
 
 from .report import Report
+
+if TYPE_CHECKING:
+    from .skinning import Pose
 
 PER_POINT = ("vertex", "varying")
 
@@ -72,7 +76,7 @@ def _read_primvar(prim: Usd.Prim, name: str, time: Usd.TimeCode) -> tuple[np.nda
     return np.array(values, dtype=np.float64), primvar.GetInterpolation()
 
 
-def _read_normals(mesh: UsdGeom.Mesh, time: Usd.TimeCode) -> tuple[np.ndarray, str] | None:
+def read_normals(mesh: UsdGeom.Mesh, time: Usd.TimeCode) -> tuple[np.ndarray, str] | None:
     """`primvars:normals` if authored (it wins, as in USD), else the `normals` attribute."""
     found = _read_primvar(mesh.GetPrim(), "normals", time)
     if found is not None:
@@ -100,14 +104,16 @@ def _validated(points, counts, indices) -> tuple[np.ndarray, np.ndarray, np.ndar
     return points, counts, indices
 
 
-def read_mesh(prim: Usd.Prim, time: Usd.TimeCode, report: Report, uv_name: str = "st") -> MeshGeometry:
+def read_mesh(prim: Usd.Prim, time: Usd.TimeCode, report: Report, uv_name: str = "st",
+              pose: "Pose | None" = None) -> MeshGeometry:
     """A UsdGeom.Mesh as triangles; per-corner vertices are unwelded when a primvar needs it.
 
-    `uv_name` is the primvar the mesh's material reads as texture coordinates.
+    `uv_name` is the primvar the mesh's material reads as texture coordinates. A `pose`
+    (UsdSkel's) replaces the authored points and normals.
     """
     mesh = UsdGeom.Mesh(prim)
     path = prim.GetPath()
-    points, counts, indices = _validated(mesh.GetPointsAttr().Get(time),
+    points, counts, indices = _validated(mesh.GetPointsAttr().Get(time) if pose is None else pose.points,
                                          mesh.GetFaceVertexCountsAttr().Get(time),
                                          mesh.GetFaceVertexIndicesAttr().Get(time))
     if (counts < 3).any():
@@ -117,7 +123,8 @@ def read_mesh(prim: Usd.Prim, time: Usd.TimeCode, report: Report, uv_name: str =
     corners, face = fan_triangulate(counts)
     corner_face = np.repeat(np.arange(counts.size), counts)
     shape = (len(points), indices.size, counts.size)
-    attrs = {"normals": _read_normals(mesh, time), "st": _read_primvar(prim, uv_name, time)}
+    attrs = {"normals": read_normals(mesh, time) if pose is None else pose.normals,
+             "st": _read_primvar(prim, uv_name, time)}
     for name, found in list(attrs.items()):
         if found is not None and len(found[0]) != _expected_length(found[1], *shape):
             report.warn(f"{path}: {name} has {len(found[0])} values, wrong for "

@@ -1,8 +1,11 @@
 """Unique geometry (meshes, volumes) and the Cirrus prototypes that group it.
 
 A mesh is keyed by its path inside its USD prototype, so every instance of a native
-prototype or PointInstancer prototype shares one copy.
+prototype or PointInstancer prototype shares one copy; a mesh posed by UsdSkel is keyed
+by its own path (the walker decides which instances may share its pose).
 """
+
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
@@ -13,6 +16,9 @@ from .meshes import BadMesh, MeshGeometry, read_mesh
 from .report import Report
 from .shapes import tessellate
 from .xforms import box_corners, to_3x4_list, transform_points
+
+if TYPE_CHECKING:
+    from .skinning import Skinning
 
 EMPTY_BOX = (np.full(3, np.inf), np.full(3, -np.inf))
 PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
@@ -31,24 +37,26 @@ def _optional(writer: BinWriter, values: np.ndarray | None, width: int) -> dict 
 class MeshTable:
     """Meshes of the manifest, each stored once, with their object-space bounds."""
 
-    def __init__(self, writer: BinWriter, materials: MaterialTable, report: Report,
+    def __init__(self, writer: BinWriter, materials: MaterialTable, skinning: "Skinning", report: Report,
                  time: Usd.TimeCode, source: str) -> None:
         self.records: list[dict] = []
         self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
         # Meshes whose subdivisionScheme is not none: rendered as their cages.
         self.cages: list[str] = []
         self._by_path: dict[tuple, int | None] = {}
-        self._writer, self._materials, self._report = writer, materials, report
+        self._writer, self._materials, self._skinning, self._report = writer, materials, skinning, report
         self._time, self._source = time, source
 
     def index(self, prim: Usd.Prim) -> int | None:
         """The mesh index of a Mesh or implicit gprim, or None when it was skipped.
 
         Meshes are shared by prototype path and materials: instances of one prototype
-        whose bindings differ (bound outside the prototype) get their own copy.
+        whose bindings differ (bound outside the prototype) get their own copy. A posed
+        mesh is keyed by its own path.
         """
         materials = self.material_key(prim)
-        key = (prototype_path(prim), materials)
+        posed = self._skinning.pose(prim) is not None
+        key = (str(prim.GetPath()) if posed else prototype_path(prim), materials)
         if key not in self._by_path:
             self._by_path[key] = self._add(prim, key[0], materials)
         return self._by_path[key]
@@ -80,8 +88,8 @@ class MeshTable:
         bound = [m for m in materials if m != NO_MATERIAL]
         uv_name = self._materials.uv_primvar(bound[0]) if bound else "st"
         try:
-            geometry = read_mesh(prim, self._time, self._report, uv_name) if prim.IsA(UsdGeom.Mesh) \
-                else tessellate(prim, self._time)
+            geometry = read_mesh(prim, self._time, self._report, uv_name, self._skinning.pose(prim)) \
+                if prim.IsA(UsdGeom.Mesh) else tessellate(prim, self._time)
         except BadMesh as bad:
             self._report.warn(f"{self._source}: mesh {prim.GetPath()} skipped: {bad}")
             return None

@@ -43,26 +43,56 @@ class Report:
     @contextlib.contextmanager
     def usd_diagnostics(self) -> Iterator[None]:
         """Captures USD's C++ diagnostics on fd 2 and re-reports each as one warning."""
-        sys.stderr.flush()
-        saved = os.dup(2)
-        with tempfile.TemporaryFile(mode="w+b") as captured:
-            os.dup2(captured.fileno(), 2)
-            self._stream = os.fdopen(os.dup(saved), "w")
+        with _fd2_captured() as captured:
+            self._stream = os.fdopen(os.dup(captured.saved), "w")
             try:
                 yield
             finally:
                 self._stream.close()
                 self._stream = sys.stderr
-                os.dup2(saved, 2)
-                os.close(saved)
-                captured.seek(0)
-                self._report_usd_lines(captured.read().decode("utf-8", "replace"))
+        for function, message in captured.diagnostics:
+            if function not in ALREADY_REPORTED:
+                self.warn(f"usd: {message}")
 
-    def _report_usd_lines(self, text: str) -> None:
-        """Turns captured diagnostics into warnings; other captured text is passed through."""
-        for line in text.splitlines():
-            match = USD_DIAGNOSTIC.match(line)
-            if match is None:
-                print(line, file=sys.stderr)
-            elif match.group(1) not in ALREADY_REPORTED:
-                self.warn(f"usd: {match.group(2)}")
+    @staticmethod
+    @contextlib.contextmanager
+    def usd_messages() -> Iterator[list[str]]:
+        """USD's diagnostics printed inside the block, handed to the caller (filled in when
+        the block ends) instead of warned: for callers that fold them into a warning of
+        their own naming the prim."""
+        messages: list[str] = []
+        with _fd2_captured() as captured:
+            yield messages
+        messages.extend(message for _, message in captured.diagnostics)
+
+
+class _Captured:
+    """What a redirection of fd 2 caught: the original fd 2 (while it lasts) and, once it
+    ends, the USD diagnostics as (function, message)."""
+
+    def __init__(self, saved: int) -> None:
+        self.saved = saved
+        self.diagnostics: list[tuple[str, str]] = []
+
+
+@contextlib.contextmanager
+def _fd2_captured() -> Iterator[_Captured]:
+    """Points fd 2 at a temporary file for the block; other captured text is passed through
+    to the previous fd 2 afterwards. Nests: an inner capture restores the outer one."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    result = _Captured(saved)
+    with tempfile.TemporaryFile(mode="w+b") as file:
+        os.dup2(file.fileno(), 2)
+        try:
+            yield result
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            file.seek(0)
+            for line in file.read().decode("utf-8", "replace").splitlines():
+                match = USD_DIAGNOSTIC.match(line)
+                if match is None:
+                    print(line, file=sys.stderr)
+                else:
+                    result.diagnostics.append((match.group(1), match.group(2)))
