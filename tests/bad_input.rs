@@ -1,5 +1,5 @@
-//! Bad input everywhere (issue 8, items 4 and 6): each row of the issue's
-//! table, end to end through `cirrus`, with what the user sees: the exit
+//! Bad input everywhere: each kind of bad input, end to end through
+//! `cirrus`, with what the user sees: the exit
 //! code (0 success, 1 an error, 2 bad usage; `src/cli/mod.rs`), one message
 //! naming the problem, and nothing under the output's name after a failure.
 //!

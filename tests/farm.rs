@@ -1,4 +1,4 @@
-//! Splitting a frame (issue 10): parts rendered with `--tile`, `--crop` or
+//! Splitting a frame: parts rendered with `--tile`, `--crop` or
 //! `--sample-range` into film states and joined by `cirrus merge` give the
 //! frame rendered whole: bit for bit when split by pixels, within the
 //! rounding of adding partial sums when split by samples; sets of parts that

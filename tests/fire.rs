@@ -337,7 +337,7 @@ def Xform "World"
     common::render_tiny(&usda, &dir)
 }
 
-/// Bad fire input (issue 19), each end to end: NaN, infinite and negative
+/// Bad fire input, each end to end: NaN, infinite and negative
 /// temperatures are read as 0 with one warning naming the volume, grid and
 /// file, and no sample goes non-finite; a negative heatScale or
 /// emissionScale is an error naming the prim and the value; an emission

@@ -1,4 +1,4 @@
-//! Agreement with the peer renderers (issue 7): `scenes/peers/compare.py`
+//! Agreement with the peer renderers: `scenes/peers/compare.py`
 //! renders a scene with Cirrus and with a peer (`scenes/peers/render_peer.py`:
 //! Mitsuba 3 `scalar_rgb` or `llvm_ad_rgb` through `to_mitsuba.py`, Blender
 //! Cycles through `to_cycles.py`, each converting the exported scene) and
@@ -13,7 +13,7 @@
 //! Each comparison's means, ratios and relMSE are written to stderr
 //! (uncaptured), so the test log shows the agreement.
 //!
-//! Textures (`textured_quads`) are held to tighter bounds than issue 7's,
+//! Textures (`textured_quads`) are held to tighter bounds than the default ones,
 //! [`TEXTURES`]: on Lambert quads each pixel is its texel, so a flipped t
 //! axis (relMSE 2.2 with Mitsuba) or a lost texture fails at once.
 
@@ -69,8 +69,8 @@ struct Limits {
     relmse: &'static str,
 }
 
-/// Issue 7's bounds (compare.py's defaults).
-const ISSUE_7: Limits = Limits {
+/// The default bounds (compare.py's defaults).
+const DEFAULT_LIMITS: Limits = Limits {
     ratio: "0.02",
     relmse: "1e-2",
 };
@@ -124,21 +124,39 @@ fn compare(scene: &str, peer: &str, res: &str, spp: &str, limits: &Limits) {
 /// and a dome through a perspective camera.
 #[test]
 fn surfaces_agree_with_mitsuba() {
-    compare("surface_lights", "mitsuba-scalar", "96x64", "64", &ISSUE_7);
+    compare(
+        "surface_lights",
+        "mitsuba-scalar",
+        "96x64",
+        "64",
+        &DEFAULT_LIMITS,
+    );
 }
 
 /// The teapot cloud, transformed, coloured and forward-scattering, under a
 /// sun and a dome.
 #[test]
 fn volume_agrees_with_mitsuba() {
-    compare("volume_teapot", "mitsuba-scalar", "96x64", "64", &ISSUE_7);
+    compare(
+        "volume_teapot",
+        "mitsuba-scalar",
+        "96x64",
+        "64",
+        &DEFAULT_LIMITS,
+    );
 }
 
 /// Sub-voxel placement of VDB values: a window of about 21 voxels on the
 /// teapot cloud's edge (half a voxel off fails both thresholds).
 #[test]
 fn voxel_placement_agrees_with_mitsuba() {
-    compare("volume_voxels", "mitsuba-scalar", "64x64", "64", &ISSUE_7);
+    compare(
+        "volume_voxels",
+        "mitsuba-scalar",
+        "64x64",
+        "64",
+        &DEFAULT_LIMITS,
+    );
 }
 
 /// Textures as `bitmap`s: orientation, sRGB decoding, st transform, wrap,
@@ -158,9 +176,27 @@ fn textures_agree_with_mitsuba() {
 /// Debian's libllvm19): the same converter, another backend.
 #[test]
 fn scenes_agree_with_mitsuba_llvm() {
-    compare("surface_lights", "mitsuba-llvm", "96x64", "64", &ISSUE_7);
-    compare("volume_teapot", "mitsuba-llvm", "96x64", "64", &ISSUE_7);
-    compare("volume_voxels", "mitsuba-llvm", "64x64", "64", &ISSUE_7);
+    compare(
+        "surface_lights",
+        "mitsuba-llvm",
+        "96x64",
+        "64",
+        &DEFAULT_LIMITS,
+    );
+    compare(
+        "volume_teapot",
+        "mitsuba-llvm",
+        "96x64",
+        "64",
+        &DEFAULT_LIMITS,
+    );
+    compare(
+        "volume_voxels",
+        "mitsuba-llvm",
+        "64x64",
+        "64",
+        &DEFAULT_LIMITS,
+    );
     compare("textured_quads", "mitsuba-llvm", "128x128", "64", &TEXTURES);
 }
 
@@ -168,21 +204,21 @@ fn scenes_agree_with_mitsuba_llvm() {
 /// irradiance, world radiance) converted from UsdLux.
 #[test]
 fn surfaces_agree_with_cycles() {
-    compare("surface_lights", "cycles", "96x64", "64", &ISSUE_7);
+    compare("surface_lights", "cycles", "96x64", "64", &DEFAULT_LIMITS);
 }
 
 /// The transformed teapot cloud with Cycles: density per world unit
 /// (Blender's default, object space, is 4% off here and fails).
 #[test]
 fn volume_agrees_with_cycles() {
-    compare("volume_teapot", "cycles", "96x64", "64", &ISSUE_7);
+    compare("volume_teapot", "cycles", "96x64", "64", &DEFAULT_LIMITS);
 }
 
 /// VDB placement with Cycles, which puts values at voxel centres: without
 /// the converter's half-voxel shift it is 4% off (relMSE 4.3e-2) and fails.
 #[test]
 fn voxel_placement_agrees_with_cycles() {
-    compare("volume_voxels", "cycles", "64x64", "64", &ISSUE_7);
+    compare("volume_voxels", "cycles", "64x64", "64", &DEFAULT_LIMITS);
 }
 
 /// Textures as Image Texture node chains on the "st" UV layer, 8-bit sRGB

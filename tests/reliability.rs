@@ -1,4 +1,4 @@
-//! Long renders lose nothing (issue 8): a render stopped by SIGTERM or SIGINT
+//! Long renders lose nothing: a render stopped by SIGTERM or SIGINT
 //! saves a checkpoint and a partial EXR and resumes to an image bit-identical
 //! to an uninterrupted one; damaged or foreign checkpoints are refused;
 //! outputs are never overwritten without `--force`, and a render killed while

@@ -1,4 +1,4 @@
-//! The stability suite (issue 7, item 2): scenes and library set-ups built
+//! The stability suite: scenes and library set-ups built
 //! to break a method, each asserting what docs/stability.md says happens
 //! (bias detected or absent, noise or cost bounded, no NaN), with the
 //! numbers that table quotes printed on stderr (`--nocapture`).
@@ -16,7 +16,7 @@
 //! a paired comparison between renders of different seeds. Renders use one
 //! thread each (the test harness runs tests in parallel), fixed seeds and
 //! small images; scenes are in `scenes/tests/stability/`. The emission
-//! rows (issue 19) write their VDBs with Debian's /usr/bin/python3
+//! rows write their VDBs with Debian's /usr/bin/python3
 //! (pyopenvdb, tests/python/make_emission_stability.py) into their scratch
 //! folders, next to copies of their stages.
 
@@ -761,7 +761,7 @@ fn tiny_and_huge_scene_scales_render_the_same_picture() {
 }
 
 // ---------------------------------------------------------------------------
-// Emitting volumes as lights (issue 19): `--volume-light-sampling on|off`.
+// Emitting volumes as lights: `--volume-light-sampling on|off`.
 // ---------------------------------------------------------------------------
 
 /// The stages `stages` of scenes/tests/stability/ copied into the scratch

@@ -115,7 +115,7 @@ pub fn run(bench: &InstancesBench) -> Result<()> {
         ms(tlas_s)
     );
     println!(
-        "Targets (issue 3): load + TLAS build < {TARGET_SECONDS} s: {seconds:.2} s, {}; \
+        "Targets: load + TLAS build < {TARGET_SECONDS} s: {seconds:.2} s, {}; \
          peak memory beyond the prototype < {} MB: {:.1} MB, {}.",
         verdict(seconds < TARGET_SECONDS),
         mb(TARGET_BYTES),
