@@ -135,7 +135,9 @@ pub fn repo_root() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))
 }
 
-fn cache_root() -> PathBuf {
+/// Cirrus's cache folder: `$XDG_CACHE_HOME/cirrus`, else `~/.cache/cirrus`,
+/// else `cirrus` in the system temporary folder.
+pub fn cache_root() -> PathBuf {
     let base = std::env::var_os("XDG_CACHE_HOME")
         .filter(|v| !v.is_empty())
         .map(PathBuf::from)

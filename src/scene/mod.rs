@@ -22,7 +22,7 @@ mod load;
 use std::path::{Path, PathBuf};
 
 pub use export::repo_root;
-pub use export::{export, export_cached, is_usd, CachedExport, ExportError};
+pub use export::{cache_root, export, export_cached, is_usd, CachedExport, ExportError};
 pub use format::{
     affine, Array, Bounds, Camera, Channel, ColorSpace, Element, Input, Instances, Light,
     LightShape, Manifest, Material, Mesh, MeshPart, Projection, Prototype, Render, Rgb, Scalar,
