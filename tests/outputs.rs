@@ -138,7 +138,8 @@ fn a_failed_write_leaves_a_film_state_and_the_command_to_finish() {
         assert!(start.elapsed() < Duration::from_secs(60), "no checkpoint");
         std::thread::sleep(Duration::from_millis(2));
     }
-    std::fs::remove_dir_all(&shot).unwrap();
+    // Renamed, not removed: a checkpoint may be being written into it.
+    std::fs::rename(&shot, dir.join("shot.gone")).unwrap();
     std::fs::write(&shot, b"not a folder").unwrap();
     let out = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -164,6 +165,70 @@ fn a_failed_write_leaves_a_film_state_and_the_command_to_finish() {
         assert!(
             x == y,
             "channel {name} differs from the uninterrupted render"
+        );
+    }
+}
+
+/// A stage with two cameras: `--camera` renders each (the first is the
+/// default), and a path that is not a camera fails listing the cameras.
+#[test]
+fn camera_selects_any_camera_of_the_stage() {
+    let dir = common::scratch("outputs_camera");
+    let usda = dir.join("two_cameras.usda");
+    std::fs::write(
+        &usda,
+        r#"#usda 1.0
+(
+    upAxis = "Y"
+)
+def Sphere "ball"
+{
+    double radius = 1
+}
+def DistantLight "sun"
+{
+    float inputs:intensity = 3
+}
+def Xform "cams"
+{
+    def Camera "front"
+    {
+        double3 xformOp:translate = (0, 0, 6)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def Camera "side"
+    {
+        double3 xformOp:translate = (1.5, 0.5, 6)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+}
+"#,
+    )
+    .unwrap();
+    let run = |name: &str, camera: Option<&str>| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_cirrus"));
+        c.arg("render").arg(&usda).arg("-o").arg(dir.join(name));
+        c.args(["--res", "16x12", "--spp", "4", "--aovs", "beauty"]);
+        c.args(camera.map(|cam| ["--camera", cam]).iter().flatten());
+        c.env("XDG_CACHE_HOME", dir.join("cache"));
+        c
+    };
+    succeeds(run("front.exr", Some("/cams/front")));
+    succeeds(run("side.exr", Some("/cams/side")));
+    succeeds(run("default.exr", None));
+    let bits = |name: &str| common::channel_bits(&dir.join(name));
+    assert_ne!(
+        bits("front.exr"),
+        bits("side.exr"),
+        "--camera changed nothing"
+    );
+    assert_eq!(bits("front.exr"), bits("default.exr"));
+    for bad in ["/ball", "/nope"] {
+        let stderr = fails(run("bad.exr", Some(bad)));
+        assert!(
+            stderr.contains(&format!("--camera {bad} is not a"))
+                && stderr.contains("its cameras: /cams/front, /cams/side"),
+            "{stderr}"
         );
     }
 }

@@ -106,6 +106,10 @@ pub struct RenderArgs {
     /// USD time code to export (USD input only).
     #[arg(long)]
     frame: Option<f64>,
+    /// Camera prim to render, e.g. /World/cam_side (USD input only; default:
+    /// the render settings' camera, else the stage's first).
+    #[arg(long, value_name = "PRIM_PATH")]
+    camera: Option<String>,
     #[command(flatten)]
     part: PartArgs,
     /// Render nothing when the output is complete (it exists, no checkpoint beside it).
@@ -201,7 +205,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     let pool = pool.build().context("cannot start worker threads")?;
     let start = Instant::now();
-    let scene = cirrus::scene::Scene::open(&args.scene, args.frame)?;
+    let scene = cirrus::scene::Scene::open(&args.scene, args.frame, args.camera.as_deref())?;
     let resolution = render_state::resolution_for(&scene, args.res);
     let window = part.window(resolution)?;
     let needs = pool.install(|| memory::estimate(&scene, window.size, &settings.aovs))?;
