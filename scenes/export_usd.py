@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Exports a USD stage to a Cirrus scene folder (scene.json + scene.bin, see FORMAT.md).
 
-Usage: python scenes/export_usd.py IN.usd[a|c|z] -o OUT_DIR [--frame F]
+Usage: python scenes/export_usd.py IN.usd[a|c|z] -o OUT_DIR [--frame F] [--camera PRIM_PATH]
 
 Exit codes: 0 exported (warnings, if any, on stderr and in the manifest);
 2 unusable input (missing file, parse error, nothing to export), one `error:` line;
@@ -29,6 +29,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("-o", "--out", type=Path, required=True, help="output scene folder")
     parser.add_argument("--frame", type=float, default=None,
                         help="time code (default: the stage's startTimeCode, else the default time)")
+    parser.add_argument("--camera", default=None,
+                        help="camera prim path (default: the render settings' camera, else the first)")
     return parser.parse_args(argv)
 
 
@@ -36,7 +38,7 @@ def main(argv: list[str]) -> int:
     """Runs the export; an unusable input is one clear line on stderr, never a traceback."""
     args = parse_args(argv)
     try:
-        warnings = export(args.input, args.out, args.frame)
+        warnings = export(args.input, args.out, args.frame, args.camera)
     except ExportError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_UNUSABLE_INPUT

@@ -129,7 +129,7 @@ def render_scene(scene: Scene, args: argparse.Namespace, work: Path) -> Result:
     res = f"{width}x{height}" if height else resolution(exported, width)
     exr = args.out / f"{scene.name}.exr"
     render = [args.cirrus, "render", str(exported), "-o", str(exr), "--res", res, "--spp", str(args.spp)]
-    done, result.render_s = run_step([*render, "--aovs", "beauty", "--force"])
+    done, result.render_s = run_step([*render, "--aovs", "beauty"])
     result.warnings += warning_lines(done.stderr)
     exr.unlink(missing_ok=True)
     if done.returncode != 0:

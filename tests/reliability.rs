@@ -1,8 +1,8 @@
 //! Long renders lose nothing: a render stopped by SIGTERM or SIGINT
 //! saves a checkpoint and a partial EXR and resumes to an image bit-identical
 //! to an uninterrupted one; damaged or foreign checkpoints are refused;
-//! outputs are never overwritten without `--force`, and a render killed while
-//! writing leaves the previous file whole.
+//! an unfinished render's checkpoint is continued only with `--resume`, and a
+//! render killed while writing leaves the previous file whole.
 
 mod common;
 
@@ -38,25 +38,6 @@ fn command_for(scene: &Path, out: &Path, spp: u32, extra: &[&str]) -> Command {
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     c
-}
-
-/// Every channel of an EXR as raw bits, by name.
-fn channel_bits(path: &Path) -> Vec<(String, Vec<u32>)> {
-    let image =
-        read_all_flat_layers_from_file(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut out = Vec::new();
-    for layer in &image.layer_data {
-        for channel in &layer.channel_data.list {
-            let bits: Vec<u32> = match &channel.sample_data {
-                FlatSamples::F16(v) => v.iter().map(|h| u32::from(h.to_bits())).collect(),
-                FlatSamples::F32(v) => v.iter().map(|f| f.to_bits()).collect(),
-                FlatSamples::U32(v) => v.clone(),
-            };
-            out.push((channel.name.to_string(), bits));
-        }
-    }
-    out.sort();
-    out
 }
 
 /// The text attribute `name` of an EXR's first layer.
@@ -144,7 +125,7 @@ fn interrupted_and_resumed_renders_are_bit_identical() {
         "checkpoint or partial EXR left behind after finishing"
     );
     assert_eq!(text_attribute(&exr, "cirrus/complete"), "true");
-    let (a, b) = (channel_bits(&whole), channel_bits(&exr));
+    let (a, b) = (common::channel_bits(&whole), common::channel_bits(&exr));
     assert_eq!(a.len(), b.len());
     for ((name, x), (_, y)) in a.iter().zip(&b) {
         assert!(x == y, "channel {name} differs after resuming");
@@ -233,35 +214,23 @@ fn foreign_and_damaged_checkpoints_are_refused() {
     assert!(!exr.exists(), "a refused resume wrote the output");
 }
 
-/// An existing output is kept unless `--force`; an unfinished render's
-/// checkpoint is neither overwritten nor ignored without `--resume` or
-/// `--force`.
+/// Without `--resume`, an unfinished render's checkpoint is dropped and the
+/// render starts over (as husk does without `--autoresume`), saying so.
 #[test]
-fn outputs_are_overwritten_only_with_force() {
-    let dir = common::scratch("reliability_force");
+fn a_stale_checkpoint_is_dropped_without_resume() {
+    let dir = common::scratch("reliability_stale");
     let exr = dir.join("out.exr");
-    succeeds(command(&exr, 1, &[]));
-    let before = std::fs::read(&exr).unwrap();
-    let stderr = fails(command(&exr, 2, &[]));
-    assert!(stderr.contains("out.exr exists; pass --force"), "{stderr}");
-    assert_eq!(std::fs::read(&exr).unwrap(), before, "output touched");
-    std::fs::remove_file(&exr).unwrap();
-    let stderr = fails(command(&exr, 2, &[]));
-    assert!(stderr.contains("out.png exists"), "{stderr}");
-    std::fs::remove_file(exr.with_extension("png")).unwrap();
-
     std::fs::write(dir.join("out.checkpoint"), b"stale").unwrap();
-    let stderr = fails(command(&exr, 2, &[]));
+    std::fs::write(dir.join("out.partial.exr"), b"stale").unwrap();
+    let out = command(&exr, 2, &[]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
     assert!(
-        stderr.contains("unfinished render") && stderr.contains("--resume"),
+        stderr.contains("out.checkpoint: starting over") && stderr.contains("--resume"),
         "{stderr}"
     );
-    succeeds(command(&exr, 2, &["--force"]));
-    assert!(
-        !dir.join("out.checkpoint").exists(),
-        "--force left the stale checkpoint"
-    );
-    assert_ne!(std::fs::read(&exr).unwrap(), before);
+    assert!(!dir.join("out.checkpoint").exists() && !dir.join("out.partial.exr").exists());
+    assert!(exr.exists());
 }
 
 /// SIGKILL while the EXR is being written (its temporary file exists): the
@@ -271,7 +240,7 @@ fn a_render_killed_while_writing_leaves_the_old_output_whole() {
     let dir = common::scratch("reliability_atomic");
     let exr = dir.join("out.exr");
     // Large and cheap: writing takes long enough to be caught in the act.
-    let big = ["--res", "1600x1200", "--force", "--compression", "zip"];
+    let big = ["--res", "1600x1200", "--compression", "zip"];
     succeeds(command(&exr, 1, &big));
     let before = std::fs::read(&exr).unwrap();
     let child = command(&exr, 1, &[&big[..], &["--seed", "9"]].concat())
@@ -286,5 +255,5 @@ fn a_render_killed_while_writing_leaves_the_old_output_whole() {
         before,
         "the output changed under a killed write"
     );
-    channel_bits(&exr);
+    common::channel_bits(&exr);
 }

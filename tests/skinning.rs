@@ -267,7 +267,6 @@ fn coverage(usda: &Path, frame: &str) -> (f64, Vec<f32>) {
         "7".as_ref(),
         "--aovs".as_ref(),
         "beauty".as_ref(),
-        "--force".as_ref(),
     ]);
     let alpha = Exr::read(&out).plane("A").to_vec();
     let mean = alpha.iter().map(|&a| f64::from(a)).sum::<f64>() / alpha.len() as f64;

@@ -1,4 +1,5 @@
-"""The render camera and resolution: UsdRender.Settings, else the first Camera, else a default.
+"""The render camera and resolution: --camera, else UsdRender.Settings' camera, else the first
+Camera, else a default.
 
 The default camera (path null) looks at the centre of the scene bounds from the front
 (along -Z for Y-up, +Y for Z-up) and DEFAULT_PITCH_DEG above, from far enough to see
@@ -8,9 +9,9 @@ all of them: a flat layout seen exactly edge-on would show nothing.
 import math
 
 import numpy as np
-from pxr import Usd, UsdGeom, UsdRender
+from pxr import Sdf, Usd, UsdGeom, UsdRender
 
-from .report import Report
+from .report import ExportError, Report
 from .xforms import as_array, to_3x4_list
 
 # UsdGeomCamera schema fallbacks (millimetre-style tenths of a scene unit).
@@ -33,6 +34,20 @@ def _render_settings(stage: Usd.Stage) -> UsdRender.Settings | None:
     return None
 
 
+def chosen_camera(stage: Usd.Stage, path: str | None) -> Usd.Prim | None:
+    """The Camera prim at `path` (--camera), None without one; raises ExportError, listing the
+    stage's cameras, when `path` is not a camera of the stage."""
+    if path is None:
+        return None
+    prim = stage.GetPrimAtPath(path) if Sdf.Path.IsValidPathString(path) else None
+    if prim and prim.IsA(UsdGeom.Camera):
+        return prim
+    cameras = [str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdGeom.Camera)]
+    what = "is not a camera" if prim else "is not a prim"
+    listed = ", ".join(cameras) if cameras else "none"
+    raise ExportError(f"--camera {path} {what} of the stage; its cameras: {listed}")
+
+
 def _camera_prim(stage: Usd.Stage, settings: UsdRender.Settings | None, report: Report) -> Usd.Prim | None:
     """The settings' camera, else the first Camera prim of the stage."""
     if settings:
@@ -49,12 +64,13 @@ def _camera_prim(stage: Usd.Stage, settings: UsdRender.Settings | None, report: 
 
 
 def export_render(stage: Usd.Stage, time: Usd.TimeCode, bounds: tuple[np.ndarray, np.ndarray],
-                  report: Report) -> tuple[dict, dict]:
-    """The manifest `camera` and `render` objects."""
+                  report: Report, chosen: Usd.Prim | None = None) -> tuple[dict, dict]:
+    """The manifest `camera` and `render` objects; `chosen` (see chosen_camera) overrides the
+    stage's camera."""
     settings = _render_settings(stage)
     resolution = settings.GetResolutionAttr().Get(time) if settings else None
     render = {"resolution": [int(resolution[0]), int(resolution[1])] if resolution else None}
-    prim = _camera_prim(stage, settings, report)
+    prim = chosen or _camera_prim(stage, settings, report)
     if prim is None:
         return _default_camera(bounds, UsdGeom.GetStageUpAxis(stage)), render
     return _usd_camera(prim, time), render

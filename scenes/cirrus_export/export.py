@@ -11,7 +11,7 @@ from pxr import Pcp, Tf, Usd, UsdGeom
 
 from .assets import AssetResolver
 from .binfile import BinWriter
-from .camera import export_render
+from .camera import chosen_camera, export_render
 from .instancing import Walker, instance_records
 from .lights import export_lights
 from .materials import MaterialTable
@@ -83,11 +83,12 @@ def world_bounds(prototype_boxes: list, prototype: np.ndarray, matrices: np.ndar
     return world.reshape(-1, 3).min(axis=0), world.reshape(-1, 3).max(axis=0)
 
 
-def export(path: Path, out_dir: Path, frame: float | None) -> list[str]:
-    """Exports `path` to `out_dir`; returns the warnings. Raises ExportError for unusable input."""
+def export(path: Path, out_dir: Path, frame: float | None, camera: str | None = None) -> list[str]:
+    """Exports `path` to `out_dir` as seen by the camera prim `camera` (default: the stage's);
+    returns the warnings. Raises ExportError for unusable input."""
     report = Report()
     with report.usd_diagnostics():
-        manifest, writer = collect(path, out_dir, frame, report)
+        manifest, writer = collect(path, out_dir, frame, report, camera)
     manifest["warnings"] = report.warnings
     bad = first_non_finite(manifest)
     if bad is not None:
@@ -118,9 +119,11 @@ def first_non_finite(value, field: str = "", prim: str | None = None):
     return None
 
 
-def collect(path: Path, out_dir: Path, frame: float | None, report: Report) -> tuple[dict, BinWriter]:
+def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
+            camera: str | None = None) -> tuple[dict, BinWriter]:
     """Reads the stage into the manifest (warnings not yet filled in) and the scene.bin arrays."""
     stage = open_stage(path, report)
+    chosen = chosen_camera(stage, camera)
     time = pick_time(stage, frame)
     frame_label = "default" if time.IsDefault() else f"{time.GetValue():g}"
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -139,7 +142,7 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report) -> t
         problems = "; ".join(report.warnings) or "the stage holds no visible mesh, gprim, volume or light"
         raise ExportError(f"{path}: nothing to export from /: {problems}")
     lo, hi = world_bounds(prototypes.boxes, prototype, matrices)
-    camera, render = export_render(stage, time, (lo, hi), report)
+    camera, render = export_render(stage, time, (lo, hi), report, chosen)
     manifest = {
         "format": "cirrus-scene",
         "version": FORMAT_VERSION,

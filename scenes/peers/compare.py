@@ -90,7 +90,7 @@ def main(argv=None):
     peer_spp = args.peer_spp or args.spp
     run([args.cirrus, "export", args.scene, "-o", exported])
     run([args.cirrus, "render", exported, "-o", cirrus_exr, "--spp", args.spp, "--res", args.res,
-         "--aovs", "beauty", "--filter", "box", "--force", "--seed", args.seed,
+         "--aovs", "beauty", "--filter", "box", "--seed", args.seed,
          "--threads", args.threads, "--max-depth", args.max_depth])
     run([sys.executable, RENDER_PEER, args.peer, exported, peer_exr, "--res", args.res,
          "--spp", peer_spp, "--seed", args.seed, "--threads", args.threads,

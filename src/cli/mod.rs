@@ -47,6 +47,9 @@ enum Command {
         /// USD time code to export (default: the stage's default time).
         #[arg(long)]
         frame: Option<f64>,
+        /// Camera prim to export (default: the render settings' camera, else the first).
+        #[arg(long)]
+        camera: Option<String>,
     },
     /// Render a scene to an EXR (and a PNG preview beside it).
     Render(render::RenderArgs),
@@ -80,7 +83,8 @@ pub fn run() -> ExitCode {
             input,
             output,
             frame,
-        } => export(&input, &output, frame),
+            camera,
+        } => export(&input, &output, frame, camera.as_deref()),
         Command::Render(args) => render::run(args),
         Command::Merge(args) => split::merge(args),
         Command::Farm(f) => farm::run(f),
@@ -112,8 +116,8 @@ fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Val
 
 /// `cirrus export`: runs the exporter, then loads the result so a scene that
 /// the renderer would refuse is reported now rather than at render time.
-fn export(input: &Path, output: &Path, frame: Option<f64>) -> Result<()> {
-    cirrus::scene::export(input, output, frame)?;
+fn export(input: &Path, output: &Path, frame: Option<f64>, camera: Option<&str>) -> Result<()> {
+    cirrus::scene::export(input, output, frame, camera)?;
     let scene = Scene::load(output)?;
     let m = &scene.manifest;
     println!(

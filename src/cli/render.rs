@@ -4,7 +4,7 @@
 //! (or one file per AOV) and a tone-mapped preview beside it (OUT.png).
 
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -15,8 +15,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use super::signal::{Interrupted, StopSignal};
 use super::split::PartArgs;
 use cirrus::farm::{
-    is_film_output, resume, write_snapshot, FarmError, Fingerprint, OutputFiles, PartInfo,
-    RenderIdentity,
+    is_film_output, resume, save_interrupted, write_finished, write_snapshot, Claim, Fingerprint,
+    ImageFormat, OutputFiles, PartInfo, RenderIdentity,
 };
 use cirrus::film::AovSet;
 use cirrus::film::Film;
@@ -27,8 +27,7 @@ use cirrus::integrator::{
     Snapshot, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH,
 };
 use cirrus::memory;
-use cirrus::output::write_preview;
-use cirrus::output::{write_film, AovFiles, ExrHeader};
+use cirrus::output::{AovFiles, ExrHeader};
 use cirrus::render_state::{self, RenderState, StateOptions};
 use cirrus::sampling::SamplerKind;
 use cirrus::volumes::MajorantKind;
@@ -107,11 +106,18 @@ pub struct RenderArgs {
     /// USD time code to export (USD input only).
     #[arg(long)]
     frame: Option<f64>,
+    /// Camera prim to render, e.g. /World/cam_side (USD input only; default:
+    /// the render settings' camera, else the stage's first).
+    #[arg(long, value_name = "PRIM_PATH")]
+    camera: Option<String>,
     #[command(flatten)]
     part: PartArgs,
-    /// Overwrite existing outputs (and drop an unfinished render's checkpoint).
+    /// Render nothing when the output is complete (it exists, no checkpoint beside it).
     #[arg(long)]
-    force: bool,
+    skip_existing: bool,
+    /// Accepted for old scripts; outputs are always overwritten.
+    #[arg(long = "force", hide = true)]
+    _force: bool,
     /// Save the film state to OUT.checkpoint every this many seconds (it is
     /// always saved when SIGINT or SIGTERM stops the render).
     #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
@@ -185,7 +191,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
     };
     let samples = part.samples(frame_spp)?;
     let files = OutputFiles::new(&args.output, args.aov_files, &settings.aovs);
-    files.claim(args.force, args.resume)?;
+    if files.claim(args.skip_existing, args.resume)? == Claim::Complete {
+        println!(
+            "{} is complete; --skip-existing renders nothing",
+            args.output.display()
+        );
+        return Ok(());
+    }
     let signal = StopSignal::install().context("cannot install the SIGINT/SIGTERM handlers")?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
@@ -193,7 +205,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     let pool = pool.build().context("cannot start worker threads")?;
     let start = Instant::now();
-    let scene = cirrus::scene::Scene::open(&args.scene, args.frame)?;
+    let scene = cirrus::scene::Scene::open(&args.scene, args.frame, args.camera.as_deref())?;
     let resolution = render_state::resolution_for(&scene, args.res);
     let window = part.window(resolution)?;
     let needs = pool.install(|| memory::estimate(&scene, window.size, &settings.aovs))?;
@@ -254,87 +266,29 @@ pub fn run(args: RenderArgs) -> Result<()> {
         pool.install(|| integrator::render_from(&state, &settings, resumed, &control));
     progress.finish();
     if !stats.complete {
-        let partial = Partial {
-            files: &files,
-            identity: &identity,
-            stats: &stats,
-            compression: args.compression,
+        let signal = signal.signal().unwrap_or(signal_hook::consts::SIGINT);
+        let spp = end.progress.samples_per_pixel();
+        let message = if end.progress.is_empty() {
+            "interrupted before the first sample; nothing written".into()
+        } else {
+            save_interrupted(&files, &identity, &end, &stats, args.compression)
+                .context("interrupted, and the checkpoint could not be saved")?;
+            let (c, p) = (files.checkpoint.display(), files.partial.display());
+            format!("interrupted at {spp} spp: saved {c} and {p}; run the same command with --resume to finish")
         };
-        return Err(partial.save(&end, &signal));
+        return Err(Interrupted { signal, message }.into());
     }
-    if film_output {
-        write_snapshot(&args.output, &identity, &end)?;
-        files.finish()?;
-        report(&[&args.output], &stats);
-        return Ok(());
-    }
-    write_film(
-        &args.output,
-        args.aov_files,
-        &end.film,
-        &identity.exr,
-        &stats,
-        args.compression,
-    )?;
-    let preview = args.output.with_extension("png");
-    let r = end.film.window.size;
-    write_preview(&preview, r.x, r.y, &end.film.rgb())?;
-    files.finish()?;
-    report(&[&args.output, &preview], &stats);
+    let format = ImageFormat {
+        aov_files: args.aov_files,
+        compression: args.compression,
+    };
+    let written = write_finished(&files, &identity, &end, &stats, format)?;
+    report(&written, &stats);
     Ok(())
 }
 
-/// What an interrupted render saves.
-struct Partial<'a> {
-    files: &'a OutputFiles,
-    identity: &'a RenderIdentity,
-    stats: &'a RenderStats,
-    compression: Compression,
-}
-
-impl Partial<'_> {
-    /// Saves the checkpoint and a partial EXR (when any sample was taken)
-    /// and returns the [`Interrupted`] error saying how to resume.
-    fn save(&self, end: &Snapshot, signal: &StopSignal) -> anyhow::Error {
-        let signal = signal.signal().unwrap_or(signal_hook::consts::SIGINT);
-        if end.progress.is_empty() {
-            return Interrupted {
-                signal,
-                message: "interrupted before the first sample; nothing written".into(),
-            }
-            .into();
-        }
-        let files = self.files;
-        let saved = write_snapshot(&files.checkpoint, self.identity, end).and_then(|()| {
-            write_film(
-                &files.partial,
-                AovFiles::Single,
-                &end.film,
-                &self.identity.exr,
-                self.stats,
-                self.compression,
-            )
-            .map_err(FarmError::from)
-        });
-        if let Err(e) = saved {
-            return anyhow::Error::from(e)
-                .context("interrupted, and the checkpoint could not be saved");
-        }
-        Interrupted {
-            signal,
-            message: format!(
-                "interrupted at {} spp: saved {} and {}; run the same command with --resume to finish",
-                end.progress.samples_per_pixel(),
-                files.checkpoint.display(),
-                files.partial.display()
-            ),
-        }
-        .into()
-    }
-}
-
 /// Prints what was written and how the render went; warns about dropped samples.
-fn report(written: &[&Path], stats: &RenderStats) {
+fn report(written: &[PathBuf], stats: &RenderStats) {
     let secs = stats.elapsed.as_secs_f64();
     let rays = stats.rays.closest + stats.rays.shadow;
     log::info!(

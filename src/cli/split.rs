@@ -89,20 +89,14 @@ pub struct MergeArgs {
     /// EXR compression.
     #[arg(long, value_parser = super::choice::<Compression>(), default_value_t)]
     compression: Compression,
-    /// Overwrite existing outputs.
-    #[arg(long)]
-    force: bool,
+    /// Accepted for old scripts; outputs are always overwritten.
+    #[arg(long = "force", hide = true)]
+    _force: bool,
 }
 
 /// Runs `cirrus merge`.
 pub fn merge(args: MergeArgs) -> Result<()> {
-    let merged = farm::merge(
-        &args.parts,
-        &args.output,
-        args.aov_files,
-        args.compression,
-        args.force,
-    )?;
+    let merged = farm::merge(&args.parts, &args.output, args.aov_files, args.compression)?;
     println!(
         "merged {} parts ({:.1} s of rendering) into {} and {}",
         merged.parts,

@@ -1,5 +1,7 @@
-//! The files a render of `-o OUT.exr` writes, and the refusal to overwrite
-//! a finished output or drop an unfinished render unless asked (`--force`).
+//! The files a render of `-o OUT.exr` writes, and what happens to earlier
+//! ones: a finished output is overwritten (atomically, when the new one is
+//! whole) unless `--skip-existing` keeps it; an unfinished render's
+//! checkpoint is continued with `--resume` and otherwise dropped.
 
 use std::path::{Path, PathBuf};
 
@@ -17,6 +19,15 @@ pub struct OutputFiles {
     pub checkpoint: PathBuf,
     /// `OUT.partial.exr`: the image so far of an interrupted render.
     pub partial: PathBuf,
+}
+
+/// What [`OutputFiles::claim`] decided.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Claim {
+    /// Render (over any finished output).
+    Render,
+    /// `--skip-existing` and the output is complete: render nothing.
+    Complete,
 }
 
 impl OutputFiles {
@@ -38,41 +49,43 @@ impl OutputFiles {
         }
     }
 
-    /// Refuses to overwrite a finished output unless `force`.
-    pub fn refuse_existing(&self, force: bool) -> Result<(), FarmError> {
-        match self.finals.iter().find(|p| p.exists()) {
-            Some(existing) if !force => Err(FarmError::Refused(format!(
-                "{} exists; pass --force to overwrite it",
-                existing.display()
-            ))),
-            _ => Ok(()),
-        }
+    /// The output: the EXR, or the film state of a part.
+    pub fn output(&self) -> &Path {
+        &self.finals[0]
     }
 
-    /// Refuses to start a render that would overwrite a finished output or
-    /// drop an unfinished one, unless `force`; `resume` needs the checkpoint.
-    /// With `force` and no `resume`, a stale checkpoint is removed.
-    pub fn claim(&self, force: bool, resume: bool) -> Result<(), FarmError> {
+    /// Whether the output is complete: it exists and no checkpoint of an
+    /// unfinished render lies beside it.
+    pub fn is_complete(&self) -> bool {
+        self.output().is_file() && !self.checkpoint.exists()
+    }
+
+    /// Decides, before anything is loaded, whether to render: not when
+    /// `skip_existing` and the output is complete. Otherwise checks that the
+    /// output can be written ([`prepare_folder`]) and, unless `resume` (which
+    /// needs the checkpoint), drops an unfinished render's checkpoint and
+    /// partial image: the render starts over, as husk does without
+    /// `--autoresume`.
+    pub fn claim(&self, skip_existing: bool, resume: bool) -> Result<Claim, FarmError> {
         if resume && !self.checkpoint.exists() {
             return Err(FarmError::Refused(format!(
                 "--resume: there is no checkpoint {} to continue",
                 self.checkpoint.display()
             )));
         }
-        if force {
-            if !resume {
-                remove_if_present(&self.checkpoint)?;
-            }
-            return Ok(());
+        if skip_existing && !resume && self.is_complete() {
+            return Ok(Claim::Complete);
         }
-        self.refuse_existing(force)?;
+        prepare_folder(self.output())?;
         if !resume && self.checkpoint.exists() {
-            return Err(FarmError::Refused(format!(
-                "{} holds an unfinished render: pass --resume to continue it, or --force to start over",
+            log::warn!(
+                "{}: starting over, dropping an unfinished render's checkpoint (--resume continues it)",
                 self.checkpoint.display()
-            )));
+            );
+            remove_if_present(&self.checkpoint)?;
+            remove_if_present(&self.partial)?;
         }
-        Ok(())
+        Ok(Claim::Render)
     }
 
     /// Removes the checkpoint and the partial image once the render is done.
@@ -82,7 +95,30 @@ impl OutputFiles {
     }
 }
 
-fn remove_if_present(path: &Path) -> Result<(), FarmError> {
+/// Makes `output` writable before a render spends any time on it: refuses a
+/// folder in its place, creates its missing folders (as husk does), and
+/// creates and removes a probe file there, so an unwritable folder fails at
+/// once with its name.
+pub fn prepare_folder(output: &Path) -> Result<(), FarmError> {
+    if output.is_dir() {
+        return Err(FarmError::Refused(format!(
+            "{} is a folder; -o names the file to write",
+            output.display()
+        )));
+    }
+    let folder = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    std::fs::create_dir_all(folder).map_err(|e| FileError::new("create the folder", folder, e))?;
+    let probe = folder.join(format!(".cirrus-probe.{}", std::process::id()));
+    std::fs::write(&probe, b"")
+        .and_then(|()| std::fs::remove_file(&probe))
+        .map_err(|e| FileError::new("write to the folder", folder, e))?;
+    Ok(())
+}
+
+pub(super) fn remove_if_present(path: &Path) -> Result<(), FarmError> {
     match std::fs::remove_file(path) {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
             Err(FileError::new("remove", path, e).into())

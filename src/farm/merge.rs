@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use super::{read_snapshot, FarmError, OutputFiles, SnapshotHeader};
+use super::{prepare_folder, read_snapshot, FarmError, OutputFiles, SnapshotHeader};
 use crate::film::{Film, Tile};
 use crate::image::Compression;
 use crate::integrator::{RayCounts, RenderStats};
@@ -32,14 +32,14 @@ pub struct Merged {
 /// `cirrus merge`: checks that the film-state files `paths` are parts of one
 /// frame (same scene and settings), finished, and cover every pixel's
 /// samples exactly once, listing every problem; then adds them and writes
-/// the frame to `output` (refusing to overwrite it unless `force`) with its
-/// PNG preview.
+/// the frame to `output` (overwriting it atomically) with its PNG preview.
+/// A rescued film state of a whole frame (see `rescue.rs`) is such a part
+/// alone; merging the output's own checkpoint finishes that render.
 pub fn merge(
     paths: &[PathBuf],
     output: &Path,
     aov_files: AovFiles,
     compression: Compression,
-    force: bool,
 ) -> Result<Merged, FarmError> {
     let mut parts = Vec::new();
     for path in paths {
@@ -60,7 +60,7 @@ pub fn merge(
     }
     let first = &parts[0];
     let files = OutputFiles::new(output, aov_files, first.film.aov_set());
-    files.refuse_existing(force)?;
+    prepare_folder(output)?;
     let mut frame = Film::new(first.film.resolution, first.film.aov_set().clone());
     let mut stats = RenderStats {
         samples_per_pixel: first.header.identity.part.frame_spp,
@@ -83,6 +83,9 @@ pub fn merge(
     let r = frame.resolution;
     let preview = output.with_extension("png");
     write_preview(&preview, r.x, r.y, &frame.rgb())?;
+    if paths.contains(&files.checkpoint) {
+        files.finish()?;
+    }
     Ok(Merged {
         parts: parts.len(),
         seconds: stats.elapsed.as_secs_f64(),

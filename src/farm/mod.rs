@@ -3,13 +3,16 @@
 //! (`snapshot.rs`): checkpoints (`--checkpoint-every`, SIGINT/SIGTERM) that
 //! `--resume` continues bit-identically, and parts of one frame (`--tile`,
 //! `--crop`, `--sample-range`, `part.rs`) that `cirrus merge` adds into the
-//! frame after checking they fit (`merge.rs`). The files a render writes and
-//! the refusal to overwrite them (`files.rs`); frame ranges split over a Slurm
-//! cluster as job arrays (`slurm.rs`).
+//! frame after checking they fit (`merge.rs`). The files a render writes,
+//! checked writable before it starts (`files.rs`), and written or, when that
+//! fails, rescued as a film state with the command that writes them
+//! (`rescue.rs`); frame ranges split over a Slurm cluster as job arrays
+//! (`slurm.rs`).
 
 mod files;
 mod merge;
 mod part;
+mod rescue;
 mod slurm;
 mod snapshot;
 
@@ -20,9 +23,10 @@ use crate::film::FilmStateError;
 use crate::image::ImageError;
 use crate::scene::{ExportError, SceneError};
 
-pub use files::{is_film_output, OutputFiles};
+pub use files::{is_film_output, prepare_folder, Claim, OutputFiles};
 pub use merge::{merge, Merged};
 pub use part::{PartInfo, PartRequest};
+pub use rescue::{save_interrupted, write_finished, ImageFormat};
 pub use slurm::{submit, SlurmJob, SplitBy, Submitted};
 pub use snapshot::{
     read_snapshot, resume, write_snapshot, Fingerprint, RenderIdentity, SnapshotHeader,
@@ -34,6 +38,17 @@ pub enum FarmError {
     /// What was asked cannot be done as asked; the message says how to fix it.
     #[error("{0}")]
     Refused(String),
+    /// A finished render's outputs could not be written; its film state was
+    /// saved at `state`, and `command` writes them from it.
+    #[error("{error}\nthe render is not lost: its film state is saved in {}; once the problem is fixed, write the image with:\n  {command}", state.display())]
+    Rescued {
+        /// Why the outputs could not be written, with its causes.
+        error: String,
+        /// The film state saved instead.
+        state: std::path::PathBuf,
+        /// The shell command that writes the outputs from `state`.
+        command: String,
+    },
     /// A file or folder operation failed.
     #[error(transparent)]
     File(#[from] FileError),

@@ -104,7 +104,8 @@ fn quote(s: &str) -> String {
     format!("'{}'", s.replace('\'', r"'\''"))
 }
 
-fn quote_path(p: &Path) -> String {
+/// A path quoted for bash.
+pub(super) fn quote_path(p: &Path) -> String {
     quote(&p.to_string_lossy())
 }
 
@@ -153,7 +154,7 @@ pub fn submit(job: &SlurmJob) -> Result<Submitted, FarmError> {
     for &frame in &frames {
         let scene = dir.join("scenes").join(label(frame));
         if crate::scene::is_usd(&args.scene) {
-            crate::scene::export(&args.scene, &scene, frame.map(|f| f as f64))?;
+            crate::scene::export(&args.scene, &scene, frame.map(|f| f as f64), None)?;
         } else if frame.is_some() {
             return Err(FarmError::Refused(format!(
                 "--frames needs a USD scene; {} is exported",
@@ -198,7 +199,7 @@ film={dir}/parts/"$frame.$part.film"
 resume=()
 if [ -e "${{film%.film}}.checkpoint" ]; then resume=(--resume); fi
 {cirrus} render {dir}/scenes/"$frame" -o "$film" {part_flag} --spp {spp}{res} \
-  --threads "${{SLURM_CPUS_PER_TASK:-1}}" --checkpoint-every 60 --force "${{resume[@]}}" {extra}
+  --threads "${{SLURM_CPUS_PER_TASK:-1}}" --checkpoint-every 60 "${{resume[@]}}" {extra}
 code=$?
 echo "$code" > {dir}/status/part-"$SLURM_ARRAY_TASK_ID"
 exit "$code"
@@ -224,7 +225,7 @@ outputs=({outputs})
 frame=${{frames[$SLURM_ARRAY_TASK_ID]}}
 parts=()
 for ((part = 0; part < {n}; part++)); do parts+=({dir}/parts/"$frame.$part.film"); done
-{cirrus} merge "${{parts[@]}}" -o "${{outputs[$SLURM_ARRAY_TASK_ID]}}" --force
+{cirrus} merge "${{parts[@]}}" -o "${{outputs[$SLURM_ARRAY_TASK_ID]}}"
 code=$?
 echo "$code" > {dir}/status/merge-"$SLURM_ARRAY_TASK_ID"
 exit "$code"

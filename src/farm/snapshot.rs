@@ -190,7 +190,7 @@ pub fn resume(
     }
     if !differences.is_empty() {
         return Err(FarmError::Refused(format!(
-            "{} was made by another render; resume with its settings or pass --force to start over:\n  {}",
+            "{} was made by another render; resume it with its settings, or run without --resume to start over:\n  {}",
             path.display(),
             differences.join("\n  ")
         )));

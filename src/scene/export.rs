@@ -42,12 +42,20 @@ pub enum ExportError {
 }
 
 /// Exports `input` (any USD file) to the scene folder `out_dir` at USD time
-/// `frame` (the stage's default time when `None`), replacing `out_dir` if it
-/// exists. The exporter's warnings go to stderr as it wrote them.
-pub fn export(input: &Path, out_dir: &Path, frame: Option<f64>) -> Result<(), ExportError> {
+/// `frame` (the stage's default time when `None`) as seen by the camera prim
+/// `camera` (the render settings' camera, else the first, when `None`; a
+/// path that is not a camera fails, listing the stage's cameras), replacing
+/// `out_dir` if it exists. The exporter's warnings go to stderr as it wrote
+/// them.
+pub fn export(
+    input: &Path,
+    out_dir: &Path,
+    frame: Option<f64>,
+    camera: Option<&str>,
+) -> Result<(), ExportError> {
     let tmp = beside(out_dir, "tmp");
     remove_dir(&tmp)?;
-    let result = run_exporter(input, &tmp, frame).and_then(|()| {
+    let result = run_exporter(input, &tmp, frame, camera).and_then(|()| {
         let old = beside(out_dir, "old");
         if out_dir.exists() {
             rename(out_dir, &old)?;
@@ -64,12 +72,16 @@ pub fn export(input: &Path, out_dir: &Path, frame: Option<f64>) -> Result<(), Ex
 
 /// Exports `input` into the cache (`$XDG_CACHE_HOME/cirrus`, else
 /// `~/.cache/cirrus`) unless an export of the same absolute path, modification
-/// time and frame, by the same exporter sources, is already there, and
+/// time, frame and camera, by the same exporter sources, is already there, and
 /// returns the scene folder and whether it was already there (its warnings
 /// were then printed by an earlier run; the manifest keeps them). (Layers the
 /// file references are not part of the key: after editing only a sublayer,
 /// touch the top file or run `cirrus export`.)
-pub fn export_cached(input: &Path, frame: Option<f64>) -> Result<CachedExport, ExportError> {
+pub fn export_cached(
+    input: &Path,
+    frame: Option<f64>,
+    camera: Option<&str>,
+) -> Result<CachedExport, ExportError> {
     let io = |path: &Path| {
         let path = path.to_owned();
         move |error| ExportError::Io { path, error }
@@ -79,7 +91,7 @@ pub fn export_cached(input: &Path, frame: Option<f64>) -> Result<CachedExport, E
         .and_then(|m| m.modified())
         .map_err(io(&abs))?;
     let mut hasher = DefaultHasher::new();
-    (&abs, mtime, frame.map(f64::to_bits)).hash(&mut hasher);
+    (&abs, mtime, frame.map(f64::to_bits), camera).hash(&mut hasher);
     exporter_sources().hash(&mut hasher);
     let stem = abs.file_stem().unwrap_or_default().to_string_lossy();
     let cache = cache_root();
@@ -88,7 +100,7 @@ pub fn export_cached(input: &Path, frame: Option<f64>) -> Result<CachedExport, E
         return Ok(CachedExport { dir, reused: true });
     }
     std::fs::create_dir_all(&cache).map_err(io(&cache))?;
-    match export(&abs, &dir, frame) {
+    match export(&abs, &dir, frame, camera) {
         // Another process may have exported the same file at the same time.
         Err(_) if dir.join(MANIFEST_FILE).is_file() => Ok(CachedExport { dir, reused: true }),
         result => result.map(|()| CachedExport { dir, reused: false }),
@@ -135,7 +147,9 @@ pub fn repo_root() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))
 }
 
-fn cache_root() -> PathBuf {
+/// Cirrus's cache folder: `$XDG_CACHE_HOME/cirrus`, else `~/.cache/cirrus`,
+/// else `cirrus` in the system temporary folder.
+pub fn cache_root() -> PathBuf {
     let base = std::env::var_os("XDG_CACHE_HOME")
         .filter(|v| !v.is_empty())
         .map(PathBuf::from)
@@ -144,7 +158,12 @@ fn cache_root() -> PathBuf {
     base.join("cirrus")
 }
 
-fn run_exporter(input: &Path, out_dir: &Path, frame: Option<f64>) -> Result<(), ExportError> {
+fn run_exporter(
+    input: &Path,
+    out_dir: &Path,
+    frame: Option<f64>,
+    camera: Option<&str>,
+) -> Result<(), ExportError> {
     let root = repo_root();
     let python = root.join(".venv/bin/python");
     let script = root.join("scenes/export_usd.py");
@@ -152,6 +171,9 @@ fn run_exporter(input: &Path, out_dir: &Path, frame: Option<f64>) -> Result<(), 
     cmd.arg(&script).arg(input).arg("-o").arg(out_dir);
     if let Some(f) = frame {
         cmd.arg("--frame").arg(f.to_string());
+    }
+    if let Some(c) = camera {
+        cmd.arg("--camera").arg(c);
     }
     let output = cmd.output().map_err(|error| ExportError::Spawn {
         python: python.clone(),

@@ -22,7 +22,7 @@ mod load;
 use std::path::{Path, PathBuf};
 
 pub use export::repo_root;
-pub use export::{export, export_cached, is_usd, CachedExport, ExportError};
+pub use export::{cache_root, export, export_cached, is_usd, CachedExport, ExportError};
 pub use format::{
     affine, Array, Bounds, Camera, Channel, ColorSpace, Element, Input, Instances, Light,
     LightShape, Manifest, Material, Mesh, MeshPart, Projection, Prototype, Render, Rgb, Scalar,
@@ -49,9 +49,14 @@ pub enum OpenError {
     /// The exported scene could not be read.
     #[error(transparent)]
     Load(#[from] SceneError),
-    /// A USD time code was asked of an exported scene.
-    #[error("--frame applies to USD input only; {} is an exported scene", .0.display())]
-    FrameOfExported(PathBuf),
+    /// A USD time code or camera (`flag`) was asked of an exported scene.
+    #[error("{flag} applies to USD input only; {} is an exported scene", path.display())]
+    UsdOnly {
+        /// `--frame` or `--camera`.
+        flag: &'static str,
+        /// The exported scene.
+        path: PathBuf,
+    },
 }
 
 /// Bytes of bulk data a scene holds, by what they describe.
@@ -64,18 +69,22 @@ pub struct ArrayBytes {
 }
 
 impl Scene {
-    /// A scene from a USD file (exported through the cache at `frame`; the
+    /// A scene from a USD file (exported through the cache at `frame`, seen
+    /// by the camera prim `camera`, see [`export`]; the
     /// export's warnings are printed to stderr again when the cache already
     /// held it, so a user sees them every time) or from an exported folder
     /// or its scene.json.
-    pub fn open(path: &Path, frame: Option<f64>) -> Result<Self, OpenError> {
+    pub fn open(path: &Path, frame: Option<f64>, camera: Option<&str>) -> Result<Self, OpenError> {
         if !is_usd(path) {
-            if frame.is_some() {
-                return Err(OpenError::FrameOfExported(path.to_path_buf()));
-            }
-            return Ok(Self::load(path)?);
+            let flag = match (frame, camera) {
+                (Some(_), _) => "--frame",
+                (_, Some(_)) => "--camera",
+                _ => return Ok(Self::load(path)?),
+            };
+            let path = path.to_path_buf();
+            return Err(OpenError::UsdOnly { flag, path });
         }
-        let export = export_cached(path, frame)?;
+        let export = export_cached(path, frame, camera)?;
         let scene = Self::load(&export.dir)?;
         if export.reused {
             for warning in &scene.manifest.warnings {

@@ -17,7 +17,7 @@ pub fn render_tiny(usda: &Path, dir: &Path) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_cirrus"))
         .args(["render".as_ref(), usda.as_os_str(), "-o".as_ref()])
         .arg(dir.join("out.exr"))
-        .args(["--res", "8x8", "--spp", "4", "--aovs", "beauty", "--force"])
+        .args(["--res", "8x8", "--spp", "4", "--aovs", "beauty"])
         .output()
         .unwrap()
 }
@@ -192,4 +192,24 @@ pub fn shared_scenes() -> Vec<SharedScene> {
         .collect();
     assert!(!scenes.is_empty(), "{} lists no scene", path.display());
     scenes
+}
+
+/// Every channel of an EXR as raw bits, by name.
+pub fn channel_bits(path: &Path) -> Vec<(String, Vec<u32>)> {
+    use exr::prelude::{read_all_flat_layers_from_file, FlatSamples};
+    let image =
+        read_all_flat_layers_from_file(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut out = Vec::new();
+    for layer in &image.layer_data {
+        for channel in &layer.channel_data.list {
+            let bits: Vec<u32> = match &channel.sample_data {
+                FlatSamples::F16(v) => v.iter().map(|h| u32::from(h.to_bits())).collect(),
+                FlatSamples::F32(v) => v.iter().map(|f| f.to_bits()).collect(),
+                FlatSamples::U32(v) => v.clone(),
+            };
+            out.push((channel.name.to_string(), bits));
+        }
+    }
+    out.sort();
+    out
 }

@@ -64,7 +64,7 @@ impl Render<'_> {
     pub fn run_logged(&self, dir: &Path) -> (RenderLog, Option<Image>) {
         let cropped = self.extra.contains(&"--crop");
         let out = self.output(dir, if cropped { "film" } else { "exr" });
-        let log = self.cirrus(&out, &["--aovs", "beauty", "--force"]);
+        let log = self.cirrus(&out, &["--aovs", "beauty"]);
         let image = (!cropped).then(|| Image::read(&out, self.res));
         (RenderLog::parse(log), image)
     }
