@@ -171,7 +171,14 @@ fn volumetric_white_furnace_is_one_everywhere() {
             res: (32, 32),
             spp: 128,
             seed: seed as u64 + 1,
-            extra: &[flags[0], flags[1], flags[2], flags[3], "--max-depth", UNBOUNDED_DEPTH],
+            extra: &[
+                flags[0],
+                flags[1],
+                flags[2],
+                flags[3],
+                "--max-depth",
+                UNBOUNDED_DEPTH,
+            ],
         }
         .run(&dir);
         assert_grey_image(&format!("volume furnace, {flags:?}"), &image, 1.0);

@@ -38,7 +38,7 @@ use crate::sampling::Pcg32;
 /// Comb points per unit of the ray's bound width `W = ∫ (sigma_maj - sigma_min) dt`
 /// (see [`Comb`]): about one lookup per unit of optical depth the majorant
 /// grid cannot pin down.
-const POINTS_PER_WIDTH: f32 = 1.0;
+const POINTS_PER_WIDTH: f64 = 1.0;
 
 /// The most points one comb takes; wider rays get a coarser comb (still
 /// unbiased; the orders then carry more of the estimate).
@@ -48,7 +48,7 @@ const MAX_POINTS: u32 = 64;
 /// control without a pilot comb: `|x| <= W / 2` already, so the series
 /// converges in a few orders, and a thin ray costs `W / 2` lookups on
 /// average instead of at least one.
-const PILOT_WIDTH: f32 = 2.0;
+const PILOT_WIDTH: f64 = 2.0;
 
 /// Below this control transmittance `exp(-tbar)` the correction orders are
 /// Russian-rouletted as a whole (survival `exp(-tbar) / threshold`), so rays
@@ -71,10 +71,11 @@ const CONTROL_ROULETTE_THRESHOLD: f32 = 0.05;
 ///   Where `W <= 2` ([`PILOT_WIDTH`]) the pilot is skipped: `tbar = ∫ sigma_mid dt`.
 /// - **Orders**: `Y_j` = pilot minus a fresh comb, `j = 1..N`; `N` is drawn
 ///   with continuation `P(N >= k | N >= k - 1) = min(1, a / k)`,
-///   `a = W / (2 sqrt M)` (the spread of a comb with independent points;
-///   `W / 2`, the bound on `|Y|`, for a one-point comb): `P(N >= k)` falls
-///   like `a^k / k!` past `a`, so the variance of the orders stays below
-///   about `exp(E[Y^2] / a)`.
+///   `a = W / (2M)` (the bound on one point's weight, and on `|Y|` for a
+///   one-point comb): `P(N >= k)` falls like `a^k / k!` past `a`, so the
+///   variance of the orders stays below about `exp(E[Y^2] / a)`: small where
+///   the comb resolves the density, large where it cannot (spikes narrower
+///   than its spacing; docs/stability.md).
 /// - Below [`CONTROL_ROULETTE_THRESHOLD`] the orders are rouletted as a whole.
 ///
 /// Single estimates can be negative or above 1 (the series alternates);
@@ -90,14 +91,16 @@ pub(super) fn ray_marching(
 ) -> Vec3 {
     let comb = Comb::new(segments);
     if comb.width <= 0.0 {
-        return Vec3::splat((-comb.depth_mid).exp());
+        return Vec3::splat((-comb.depth_mid).exp() as f32);
     }
     let pilot = if comb.width > PILOT_WIDTH {
         comb.estimate(&mut sigma_t, rng, stats)
     } else {
-        Vec3::ZERO
+        DVec3::ZERO
     };
-    let control = (-(Vec3::splat(comb.depth_mid) + pilot)).exp();
+    // In f64: tbar is a small difference of large depths on wide rays, and
+    // f32 rounding there is a bias (4e-5 on a teapot ray).
+    let control = (-(DVec3::splat(comb.depth_mid) + pilot)).exp().as_vec3();
     let mut weight = control;
     let largest = control.max_element();
     if largest < CONTROL_ROULETTE_THRESHOLD {
@@ -107,14 +110,14 @@ pub(super) fn ray_marching(
         }
         weight /= survive;
     }
-    let order = draw_order(comb.width / (2.0 * (comb.points as f32).sqrt()), rng);
+    let order = draw_order(comb.width / (2.0 * f64::from(comb.points)), rng);
     // e_k(Y_1..Y_N), built one Y at a time; then the k-th term is
     // e_k / (C(N, k) k! P(N >= k)) = e_k (N - k)! / (N! P(N >= k)). In f64:
     // the alternating terms of a wide ray's series cancel.
     let mut symmetric: SmallVec<[DVec3; 8]> = SmallVec::new();
     symmetric.push(DVec3::ONE);
     for _ in 0..order.len() {
-        let y = (pilot - comb.estimate(&mut sigma_t, rng, stats)).as_dvec3();
+        let y = pilot - comb.estimate(&mut sigma_t, rng, stats);
         symmetric.push(DVec3::ZERO);
         for k in (1..symmetric.len()).rev() {
             let below = symmetric[k - 1];
@@ -152,13 +155,13 @@ impl Order {
 /// Draws the order `N`: from `N >= k - 1` on to `N >= k` with probability
 /// `min(1, a / k)`, so the first `floor(a)` orders are always taken and
 /// the tail falls like a Poisson distribution's of mean `a`.
-fn draw_order(a: f32, rng: &mut Pcg32) -> Order {
+fn draw_order(a: f64, rng: &mut Pcg32) -> Order {
     let mut at_least = SmallVec::new();
     let mut p = 1.0f64;
     at_least.push(p);
     let mut k = 1.0f64;
     loop {
-        let go_on = (f64::from(a) / k).min(1.0);
+        let go_on = (a / k).min(1.0);
         if go_on < 1.0 && rng.next_f64() >= go_on {
             return Order { at_least };
         }
@@ -175,9 +178,9 @@ struct Comb {
     /// `[0, sigma_maj]`, and its width `sigma_maj - sigma_lo`.
     pieces: SmallVec<[(MajorantSegment, f32, f32); 16]>,
     /// `∫ sigma_mid dt` over all segments, `sigma_mid = (sigma_maj + sigma_lo) / 2`.
-    depth_mid: f32,
+    depth_mid: f64,
     /// `W = ∫ w dt`: the optical depth the bounds leave open.
-    width: f32,
+    width: f64,
     /// `M`, points per comb.
     points: u32,
 }
@@ -185,17 +188,19 @@ struct Comb {
 impl Comb {
     fn new(segments: impl IntoIterator<Item = MajorantSegment>) -> Self {
         let mut pieces = SmallVec::new();
-        let (mut depth_mid, mut width) = (0.0f32, 0.0f32);
+        let (mut depth_mid, mut width) = (0.0f64, 0.0f64);
         for segment in segments {
             let length = segment.t_max - segment.t_min;
             let sigma_maj = segment.sigma_maj.max(0.0);
             let sigma_lo = segment.sigma_min.clamp(0.0, sigma_maj);
             let w = sigma_maj - sigma_lo;
-            depth_mid += 0.5 * (sigma_maj + sigma_lo) * length;
-            width += w * length;
+            depth_mid += f64::from(0.5 * (sigma_maj + sigma_lo) * length);
+            width += f64::from(w * length);
             pieces.push((segment, sigma_lo, w));
         }
-        let points = (width * POINTS_PER_WIDTH).ceil().clamp(1.0, MAX_POINTS as f32) as u32;
+        let points = (width * POINTS_PER_WIDTH)
+            .ceil()
+            .clamp(1.0, f64::from(MAX_POINTS)) as u32;
         Self {
             pieces,
             depth_mid,
@@ -214,13 +219,13 @@ impl Comb {
         sigma_t: &mut impl FnMut(f32) -> Vec3,
         rng: &mut Pcg32,
         stats: &mut TrackingStats,
-    ) -> Vec3 {
-        let spacing = self.width / self.points as f32;
-        let jitter = rng.next_f32();
+    ) -> DVec3 {
+        let spacing = self.width / f64::from(self.points);
+        let jitter = rng.next_f64();
         let mut s = jitter * spacing;
-        let mut sum = Vec3::ZERO;
+        let mut sum = DVec3::ZERO;
         // Bound-width depth at the start of the current piece.
-        let mut start = 0.0f32;
+        let mut start = 0.0f64;
         let mut taken = 0;
         // The last piece takes every point left, should rounding put one past its end.
         let last = self.pieces.iter().rposition(|p| p.2 > 0.0);
@@ -228,15 +233,16 @@ impl Comb {
             if w <= 0.0 {
                 continue;
             }
-            let end = start + w * (segment.t_max - segment.t_min);
+            let w64 = f64::from(w);
+            let end = start + f64::from(w * (segment.t_max - segment.t_min));
             while taken < self.points && (s < end || Some(i) == last) {
-                let t = (segment.t_min + (s - start) / w).min(segment.t_max);
+                let t = (segment.t_min + ((s - start) / w64) as f32).min(segment.t_max);
                 let sigma = sigma_t(t);
                 stats.count_lookup(sigma, segment.sigma_maj);
                 let sigma_mid = sigma_lo + 0.5 * w;
-                sum += (sigma - Vec3::splat(sigma_mid)) * (spacing / w);
+                sum += (sigma - Vec3::splat(sigma_mid)).as_dvec3() * (spacing / w64);
                 taken += 1;
-                s = (taken as f32 + jitter) * spacing;
+                s = (f64::from(taken) + jitter) * spacing;
             }
             start = end;
         }
