@@ -15,11 +15,12 @@ use common::render::{Image, Render, PIXEL_ROUNDING, STRATEGIES, UNBOUNDED_DEPTH}
 use common::{assert_within_4_sigma, estimate, Estimate};
 
 /// Every `--volume-estimator` of shadow rays through media.
-const TRANSMITTANCE: [&str; 4] = [
+const TRANSMITTANCE: [&str; 5] = [
     "null-scattering-mis",
     "ratio",
     "residual-ratio",
     "track-length",
+    "ray-marching",
 ];
 
 /// Every `--majorant`: per-cell grid and the single global baseline.
@@ -152,35 +153,35 @@ fn shadow_rays_through_a_volume_follow_every_transmittance_estimator() {
 /// Volumetric white furnace (scenes/tests/volume_furnace.usda): a medium
 /// that scatters all it extinguishes (albedo 1, forward-scattering g = 0.6)
 /// inside a dome of radiance 1 has radiance 1 everywhere, whatever its
-/// density: through the box, around it, for every strategy and majorant.
+/// density: through the box, around it, for every strategy and majorant,
+/// and with ray-marching shadow rays (whose single estimates may pass 1).
 #[test]
 fn volumetric_white_furnace_is_one_everywhere() {
     let dir = common::scratch("render_volume_furnace");
-    let mut seed = 0;
+    let mut configs = Vec::new();
     for strategy in STRATEGIES {
         for majorant in MAJORANTS {
-            seed += 1;
-            let image = Render {
-                scene: "volume_furnace",
-                res: (32, 32),
-                spp: 128,
-                seed,
-                extra: &[
-                    "--strategy",
-                    strategy,
-                    "--majorant",
-                    majorant,
-                    "--max-depth",
-                    UNBOUNDED_DEPTH,
-                ],
-            }
-            .run(&dir);
-            assert_grey_image(
-                &format!("volume furnace, {strategy}, {majorant}"),
-                &image,
-                1.0,
-            );
+            configs.push(["--strategy", strategy, "--majorant", majorant]);
         }
+    }
+    configs.push(["--volume-estimator", "ray-marching", "--majorant", "grid"]);
+    for (seed, flags) in configs.into_iter().enumerate() {
+        let image = Render {
+            scene: "volume_furnace",
+            res: (32, 32),
+            spp: 128,
+            seed: seed as u64 + 1,
+            extra: &[
+                flags[0],
+                flags[1],
+                flags[2],
+                flags[3],
+                "--max-depth",
+                UNBOUNDED_DEPTH,
+            ],
+        }
+        .run(&dir);
+        assert_grey_image(&format!("volume furnace, {flags:?}"), &image, 1.0);
     }
 }
 
@@ -387,6 +388,7 @@ fn volume_estimators_agree_on_the_teapot_cloud() {
             &["--volume-estimator", "ratio"],
             &["--volume-estimator", "residual-ratio"],
             &["--volume-estimator", "track-length"],
+            &["--volume-estimator", "ray-marching"],
             &["--majorant", "global"],
         ],
     );

@@ -29,18 +29,20 @@ use common::{assert_within_4_sigma, estimate, Estimate};
 use glam::Vec3;
 
 /// Every shadow-ray transmittance estimator of the library.
-const ESTIMATORS: [TransmittanceEstimator; 3] = [
+const ESTIMATORS: [TransmittanceEstimator; 4] = [
     TransmittanceEstimator::TrackLength,
     TransmittanceEstimator::Ratio,
     TransmittanceEstimator::ResidualRatio,
+    TransmittanceEstimator::RayMarching,
 ];
 
 /// Every `--volume-estimator` of `cirrus render`.
-const VOLUME_ESTIMATORS: [&str; 4] = [
+const VOLUME_ESTIMATORS: [&str; 5] = [
     "null-scattering-mis",
     "ratio",
     "residual-ratio",
     "track-length",
+    "ray-marching",
 ];
 
 // ---------------------------------------------------------------------------

@@ -96,7 +96,7 @@ fn optical_depth(grid: &SparseGrid, ray: &IndexRay, scale: f32) -> (f64, f64) {
 /// estimator on the grid majorant, and ratio tracking on the global one
 /// (fewer samples: on the teapot it looks density up 5x as often, and its
 /// variance is lower).
-const CONFIGS: [(TransmittanceEstimator, MajorantKind, usize); 4] = [
+const CONFIGS: [(TransmittanceEstimator, MajorantKind, usize); 5] = [
     (
         TransmittanceEstimator::TrackLength,
         MajorantKind::Grid,
@@ -105,6 +105,11 @@ const CONFIGS: [(TransmittanceEstimator, MajorantKind, usize); 4] = [
     (TransmittanceEstimator::Ratio, MajorantKind::Grid, 2000),
     (
         TransmittanceEstimator::ResidualRatio,
+        MajorantKind::Grid,
+        2000,
+    ),
+    (
+        TransmittanceEstimator::RayMarching,
         MajorantKind::Grid,
         2000,
     ),
@@ -419,6 +424,7 @@ fn overlapping_volumes_add_their_extinctions() {
                 TransmittanceEstimator::TrackLength,
                 TransmittanceEstimator::Ratio,
                 TransmittanceEstimator::ResidualRatio,
+                TransmittanceEstimator::RayMarching,
             ]
             .into_iter()
             .enumerate()

@@ -95,6 +95,10 @@ pub enum VolumeEstimator {
     /// Track-length (delta tracking) transmittance on shadow rays (Novák et
     /// al. 2018, §4.1), MIS on directions only.
     TrackLength,
+    /// Unbiased ray-marching transmittance on shadow rays (Kettunen et al.
+    /// 2021), MIS on directions only: its lookups are not tentative
+    /// collisions, so it has no null-collision density to weigh by.
+    RayMarching,
 }
 
 crate::choice::choice!(VolumeEstimator {
@@ -102,6 +106,7 @@ crate::choice::choice!(VolumeEstimator {
     Ratio => "ratio",
     ResidualRatio => "residual-ratio",
     TrackLength => "track-length",
+    RayMarching => "ray-marching",
 });
 
 impl VolumeEstimator {
@@ -111,6 +116,7 @@ impl VolumeEstimator {
             Self::NullScatteringMis | Self::Ratio => TransmittanceEstimator::Ratio,
             Self::ResidualRatio => TransmittanceEstimator::ResidualRatio,
             Self::TrackLength => TransmittanceEstimator::TrackLength,
+            Self::RayMarching => TransmittanceEstimator::RayMarching,
         }
     }
 }

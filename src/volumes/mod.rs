@@ -25,6 +25,7 @@ mod lookup;
 mod majorant;
 mod medium;
 mod phase;
+mod ray_marching;
 mod tracking;
 mod vdb;
 
