@@ -26,6 +26,7 @@ mod majorant;
 mod medium;
 mod phase;
 mod ray_marching;
+mod stats;
 mod tracking;
 mod vdb;
 
@@ -36,8 +37,9 @@ pub use lookup::GridAccessor;
 pub use majorant::{MajorantGrid, MajorantKind};
 pub use medium::{Emitter, Media, MediaRay, MediumPoint, RaySegments};
 pub use phase::{HenyeyGreenstein, PhaseSample};
+pub use stats::TrackingStats;
 pub use tracking::{
     channel_mean, ratio_tracking_with_null_ratio, transmittance, walk_tentative_collisions,
-    TrackingStats, TransmittanceEstimator, RUSSIAN_ROULETTE_THRESHOLD,
+    TransmittanceEstimator, RUSSIAN_ROULETTE_THRESHOLD,
 };
 pub use vdb::{GridInfo, Space, VdbFile, VolumeError};

@@ -31,7 +31,7 @@
 use glam::{DVec3, Vec3};
 use smallvec::SmallVec;
 
-use super::tracking::TrackingStats;
+use super::stats::TrackingStats;
 use super::MajorantSegment;
 use crate::sampling::Pcg32;
 

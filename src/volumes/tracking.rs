@@ -17,6 +17,7 @@
 use glam::Vec3;
 
 use super::ray_marching::ray_marching;
+use super::stats::TrackingStats;
 use super::MajorantSegment;
 use crate::sampling::Pcg32;
 
@@ -25,43 +26,6 @@ use crate::sampling::Pcg32;
 /// `±RUSSIAN_ROULETTE_THRESHOLD`, so the expectation is unchanged while long
 /// rays through dense media stop after a few lookups.
 pub const RUSSIAN_ROULETTE_THRESHOLD: f32 = 0.1;
-
-/// Per-render counters of the tracking estimators, summed over threads by
-/// the caller and reported beside the film (in `RenderStats`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct TrackingStats {
-    /// Evaluations of `sigma_t`, one per tentative collision.
-    pub density_lookups: u64,
-    /// Tentative collisions that delta tracking accepted as real.
-    pub real_collisions: u64,
-    /// Tentative collisions that delta tracking rejected as null.
-    pub null_collisions: u64,
-    /// Lookups where `sigma_t` exceeded the segment's `sigma_maj`: delta
-    /// tracking is biased then (its acceptance probability is clamped to 1);
-    /// ratio tracking stays unbiased but its weights turn negative.
-    pub majorant_violations: u64,
-}
-
-impl TrackingStats {
-    /// Counts one density lookup that found `sigma` (per RGB channel) under
-    /// the grey majorant `sigma_maj`, and a violation when any channel
-    /// exceeds it.
-    #[inline]
-    pub fn count_lookup(&mut self, sigma: Vec3, sigma_maj: f32) {
-        self.density_lookups += 1;
-        if sigma.max_element() > sigma_maj {
-            self.majorant_violations += 1;
-        }
-    }
-
-    /// Adds another thread's counters to these.
-    pub fn merge(&mut self, other: &TrackingStats) {
-        self.density_lookups += other.density_lookups;
-        self.real_collisions += other.real_collisions;
-        self.null_collisions += other.null_collisions;
-        self.majorant_violations += other.majorant_violations;
-    }
-}
 
 /// How [`transmittance`] estimates `T = exp(-∫ sigma_t dt)`; the
 /// `--volume-estimator` choice for shadow rays.
