@@ -626,6 +626,34 @@ fn export_failure_is_one_clear_error() {
     assert!(!dir.join("out").exists(), "a failed export left its output");
 }
 
+/// An export that fails names the input once in its error line (the
+/// exporter's message and each warning it repeats used to name it again):
+/// a stage whose only content is in a missing layer.
+#[test]
+fn a_failed_export_names_the_input_once() {
+    let dir = common::scratch("scene_export_once");
+    let input = dir.join("hollow.usda");
+    std::fs::write(
+        &input,
+        "#usda 1.0\ndef Xform \"W\" (\n  references = @gone.usda@\n)\n{\n}\n",
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .arg("export")
+        .arg(&input)
+        .arg("-o")
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let error = stderr.lines().find(|l| l.starts_with("error:")).unwrap();
+    assert!(
+        error.contains("gone.usda") && error.contains("/W"),
+        "{error}"
+    );
+    assert_eq!(error.matches("hollow.usda").count(), 1, "{error}");
+}
+
 /// `cirrus info IN.usda` exports into the cache once and reuses it, leaving
 /// no temporary folders behind.
 #[test]

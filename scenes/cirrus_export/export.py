@@ -139,7 +139,10 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     instances, prototype, matrices = instance_records(sink, writer)
     lights = export_lights(stage, time, resolver, report)
     if instances["count"] == 0 and not lights:
-        problems = "; ".join(report.warnings) or "the stage holds no visible mesh, gprim, volume or light"
+        # Each warning names the stage; the error does so once.
+        named = f"{path}: "
+        problems = "; ".join(w.removeprefix(named) for w in report.warnings) or \
+            "the stage holds no visible mesh, gprim, volume or light"
         raise ExportError(f"{path}: nothing to export from /: {problems}")
     lo, hi = world_bounds(prototypes.boxes, prototype, matrices)
     camera, render = export_render(stage, time, (lo, hi), report, chosen)

@@ -187,6 +187,9 @@ fn run_exporter(
     }
     let (warnings, message) = split_failure(&stderr);
     eprint!("{warnings}");
+    // The exporter's messages open with the input, which ours names already.
+    let named = format!("{}: ", input.display());
+    let message = message.map(|m| m.strip_prefix(&named).map_or(m.clone(), str::to_owned));
     Err(ExportError::Failed {
         input: input.to_owned(),
         message: message.unwrap_or_else(|| format!("the exporter exited with {}", output.status)),
