@@ -607,11 +607,16 @@ fn exported_point_instancer_loads_and_intersects() {
     assert!(hits > 0, "no ray hit the exported instances");
 }
 
-#[test]
-fn export_failure_is_one_clear_error() {
-    let dir = common::scratch("scene_export_bad");
-    let input = dir.join("broken.usda");
-    std::fs::write(&input, "#usda 1.0\n(\n  this is not usda\n").unwrap();
+/// `cirrus export` of the stage `text`, written as `name` into the scratch
+/// folder `scratch`, to `out` there: the folder and the command's output.
+fn export_stage(
+    scratch: &str,
+    name: &str,
+    text: &str,
+) -> (std::path::PathBuf, std::process::Output) {
+    let dir = common::scratch(scratch);
+    let input = dir.join(name);
+    std::fs::write(&input, text).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_cirrus"))
         .arg("export")
         .arg(&input)
@@ -619,6 +624,16 @@ fn export_failure_is_one_clear_error() {
         .arg(dir.join("out"))
         .output()
         .unwrap();
+    (dir, out)
+}
+
+#[test]
+fn export_failure_is_one_clear_error() {
+    let (dir, out) = export_stage(
+        "scene_export_bad",
+        "broken.usda",
+        "#usda 1.0\n(\n  this is not usda\n",
+    );
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(stderr.contains("broken.usda: export failed: "), "{stderr}");
@@ -631,20 +646,11 @@ fn export_failure_is_one_clear_error() {
 /// a stage whose only content is in a missing layer.
 #[test]
 fn a_failed_export_names_the_input_once() {
-    let dir = common::scratch("scene_export_once");
-    let input = dir.join("hollow.usda");
-    std::fs::write(
-        &input,
+    let (_, out) = export_stage(
+        "scene_export_once",
+        "hollow.usda",
         "#usda 1.0\ndef Xform \"W\" (\n  references = @gone.usda@\n)\n{\n}\n",
-    )
-    .unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_cirrus"))
-        .arg("export")
-        .arg(&input)
-        .arg("-o")
-        .arg(dir.join("out"))
-        .output()
-        .unwrap();
+    );
     let stderr = String::from_utf8_lossy(&out.stderr);
     let error = stderr.lines().find(|l| l.starts_with("error:")).unwrap();
     assert!(

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{DAffine3, DMat4, DVec3, IVec3, U64Vec3};
 
-use super::grid::{GridTransform, SparseGrid, Tile};
+use super::grid::{blocks_spanned, GridTransform, SparseGrid, Tile};
 use bridge::ffi;
 
 /// Why a VDB file or grid could not be used.
@@ -140,14 +140,8 @@ impl GridInfo {
     /// the active box can touch and at least the active voxels over 512.
     pub fn leaves(&self) -> u64 {
         const TREE_BYTES_PER_LEAF: u64 = 2112;
-        let spanned: u64 = self
-            .dims()
-            .to_array()
-            .map(|d| d.div_ceil(8) + 1)
-            .iter()
-            .product();
         (self.tree_bytes / TREE_BYTES_PER_LEAF)
-            .min(spanned)
+            .min(blocks_spanned(self.dims(), 8))
             .max(self.active_voxel_count.div_ceil(512))
     }
 
