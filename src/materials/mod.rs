@@ -17,6 +17,7 @@ mod bsdf_sample;
 mod fresnel;
 mod lobes;
 mod microfacet;
+mod open_pbr;
 mod preview_surface;
 mod texture;
 
