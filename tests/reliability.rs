@@ -257,3 +257,25 @@ fn a_render_killed_while_writing_leaves_the_old_output_whole() {
     );
     common::channel_bits(&exr);
 }
+
+/// `--preview-every`: the PNG preview appears while the render runs (an
+/// interrupted render writes none of its own), rewritten whole each time:
+/// a PNG of the render's size.
+#[test]
+fn the_preview_is_rewritten_while_rendering() {
+    let dir = common::scratch("reliability_preview");
+    let exr = dir.join("out.exr");
+    let png = exr.with_extension("png");
+    let child = command(&exr, 1 << 20, &["--preview-every", "0.1"])
+        .spawn()
+        .unwrap();
+    wait_for("the first preview", || png.exists());
+    let first = modified(&png);
+    wait_for("a rewritten preview", || modified(&png) != first);
+    let (status, stderr) = signal_and_wait(child, "INT");
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "not a PNG");
+    let size = |at: usize| u32::from_be_bytes(bytes[at..at + 4].try_into().unwrap());
+    assert_eq!((size(16), size(20)), (96, 64), "IHDR width and height");
+}

@@ -23,11 +23,11 @@ use cirrus::film::Film;
 use cirrus::film::FilterKind;
 use cirrus::image::Compression;
 use cirrus::integrator::{
-    self, Budget, Checkpointing, PathSettings, RenderControl, RenderSettings, RenderStats,
-    Snapshot, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH,
+    self, Budget, PathSettings, Periodic, RenderControl, RenderSettings, RenderStats, Snapshot,
+    Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH,
 };
 use cirrus::memory;
-use cirrus::output::{AovFiles, ExrHeader};
+use cirrus::output::{write_film_preview, AovFiles, ExrHeader};
 use cirrus::render_state::{self, RenderState, StateOptions};
 use cirrus::sampling::SamplerKind;
 use cirrus::volumes::MajorantKind;
@@ -122,6 +122,9 @@ pub struct RenderArgs {
     /// always saved when SIGINT or SIGTERM stops the render).
     #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
     checkpoint_every: Option<Duration>,
+    /// Rewrite the PNG preview (OUT.png) every this many seconds while rendering.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    preview_every: Option<Duration>,
     /// Continue the render saved in OUT.checkpoint (same scene and settings;
     /// the result is bit-identical to an uninterrupted render).
     #[arg(long)]
@@ -146,7 +149,8 @@ pub(super) fn parse_resolution(s: &str) -> Result<UVec2, String> {
     Ok(UVec2::new(side(w)?, side(h)?))
 }
 
-/// Parses a positive, finite number of seconds (`--time`, `--checkpoint-every`).
+/// Parses a positive, finite number of seconds (`--time`, `--checkpoint-every`,
+/// `--preview-every`).
 fn parse_seconds(s: &str) -> Result<Duration, String> {
     s.parse::<f64>()
         .ok()
@@ -181,6 +185,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     };
     let film_output = is_film_output(&args.output);
     let part = args.part.request();
+    if film_output && args.preview_every.is_some() {
+        bail!("--preview-every: a film state (-o *.film) has no preview; write an EXR");
+    }
     if part.is_part() && !film_output {
         bail!("--tile, --crop and --sample-range render a part of a frame: write it with -o PART.film and join the parts with cirrus merge");
     }
@@ -255,12 +262,22 @@ pub fn run(args: RenderArgs) -> Result<()> {
             log::warn!("checkpoint not saved: {e:#}");
         }
     };
+    let preview = |s: &Snapshot| {
+        if let Err(e) = write_film_preview(&args.output.with_extension("png"), &s.film) {
+            log::warn!("preview not written: {e}");
+        }
+    };
+    let periodic: Vec<Periodic> = [
+        (args.checkpoint_every, &save as &(dyn Fn(&Snapshot) + Sync)),
+        (args.preview_every, &preview),
+    ]
+    .into_iter()
+    .filter_map(|(every, save)| every.map(|every| Periodic { every, save }))
+    .collect();
     let control = RenderControl {
         progress: &|f| progress.update(f),
         stop: &|| signal.requested(),
-        checkpoint: args
-            .checkpoint_every
-            .map(|every| Checkpointing { every, save: &save }),
+        periodic: &periodic,
     };
     let (end, stats) =
         pool.install(|| integrator::render_from(&state, &settings, resumed, &control));

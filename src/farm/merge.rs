@@ -9,7 +9,7 @@ use super::{prepare_folder, read_snapshot, FarmError, OutputFiles, SnapshotHeade
 use crate::film::{Film, Tile};
 use crate::image::Compression;
 use crate::integrator::{RayCounts, RenderStats};
-use crate::output::{write_film, write_preview, AovFiles};
+use crate::output::{write_film, write_film_preview, AovFiles};
 use crate::volumes::TrackingStats;
 
 /// One part read back.
@@ -80,9 +80,8 @@ pub fn merge(
     stats.non_finite = frame.non_finite;
     let header = &first.header.identity.exr;
     write_film(output, aov_files, &frame, header, &stats, compression)?;
-    let r = frame.resolution;
     let preview = output.with_extension("png");
-    write_preview(&preview, r.x, r.y, &frame.rgb())?;
+    write_film_preview(&preview, &frame)?;
     if paths.contains(&files.checkpoint) {
         files.finish()?;
     }

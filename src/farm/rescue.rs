@@ -11,7 +11,7 @@ use super::slurm::quote_path;
 use super::{write_snapshot, FarmError, OutputFiles, RenderIdentity};
 use crate::image::Compression;
 use crate::integrator::{RenderStats, Snapshot};
-use crate::output::{write_film, write_preview, AovFiles};
+use crate::output::{write_film, write_film_preview, AovFiles};
 
 /// How the image of a render is written.
 #[derive(Clone, Copy, Debug)]
@@ -47,14 +47,7 @@ pub fn write_finished(
             stats,
             format.compression,
         )
-        .and_then(|()| {
-            write_preview(
-                &preview,
-                film.window.size.x,
-                film.window.size.y,
-                &film.rgb(),
-            )
-        })
+        .and_then(|()| write_film_preview(&preview, film))
         .map(|()| vec![output.to_path_buf(), preview])
         .map_err(FarmError::from)
     };

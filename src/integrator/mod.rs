@@ -28,7 +28,7 @@ use crate::render_state::RenderState;
 use crate::sampling::{Pcg32, Sampler, SamplerKind};
 use crate::volumes::{TrackingStats, TransmittanceEstimator};
 use progress::{next_pass_end, TILE_SIZE};
-pub use progress::{Checkpointing, RenderControl, RenderProgress, Snapshot};
+pub use progress::{Periodic, RenderControl, RenderProgress, Snapshot};
 
 /// How light is found, for comparing the estimators (`--strategy`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -206,7 +206,7 @@ pub fn render(
     let control = RenderControl {
         progress,
         stop: &|| false,
-        checkpoint: None,
+        periodic: &[],
     };
     let (end, stats) = render_from(state, settings, start, &control);
     (end.film, stats)
@@ -248,7 +248,7 @@ pub fn render_from(
         Budget::Time(limit) => seconds() / limit.as_secs_f64(),
     };
     let shared = Mutex::new(start);
-    let last_checkpoint = Mutex::new(Instant::now());
+    let last_saves = Mutex::new(vec![Instant::now(); control.periodic.len()]);
     loop {
         let done = lock(&shared).progress.next_sample();
         let end = next_pass_end(done, target);
@@ -286,11 +286,11 @@ pub fn render_from(
             now.progress.tracking.merge(&tracking);
             taken.fetch_add(pixels(&tiles[i]) * u64::from(end - done), Ordering::Relaxed);
             (control.progress)(fraction());
-            if let Some(checkpoint) = &control.checkpoint {
-                let mut last = lock(&last_checkpoint);
-                if last.elapsed() >= checkpoint.every {
+            let mut last_saves = lock(&last_saves);
+            for (periodic, last) in control.periodic.iter().zip(last_saves.iter_mut()) {
+                if last.elapsed() >= periodic.every {
                     now.progress.seconds = seconds();
-                    (checkpoint.save)(&now);
+                    (periodic.save)(&now);
                     *last = Instant::now();
                 }
             }

@@ -146,15 +146,17 @@ pub struct RenderControl<'a> {
     /// Polled before every tile: true stops the render once the tiles in
     /// flight are done (their samples are kept).
     pub stop: &'a (dyn Fn() -> bool + Sync),
-    /// Periodic saving of the state, if asked.
-    pub checkpoint: Option<Checkpointing<'a>>,
+    /// What is done with the state while it runs, each at its own
+    /// interval (checkpoints, previews).
+    pub periodic: &'a [Periodic<'a>],
 }
 
-/// When and how a render's state is saved while it runs.
-pub struct Checkpointing<'a> {
-    /// Wall-clock time between saves.
+/// Something done with a running render's state at a fixed interval.
+pub struct Periodic<'a> {
+    /// Wall-clock time between calls.
     pub every: Duration,
-    /// Saves a consistent snapshot (called between tiles, with the film locked).
+    /// Reads a consistent snapshot (called between tiles, with the film
+    /// locked), e.g. to save a checkpoint or rewrite the preview.
     pub save: &'a (dyn Fn(&Snapshot) + Sync),
 }
 

@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use crate::film::Film;
 use crate::image::{write_exr, Channel, Compression, ExrImage, ImageError, PixelType};
 
 /// Writes `rgb` (linear Rec.709, row-major from the top, interleaved) as an
@@ -30,6 +31,12 @@ pub fn write_preview(path: &Path, width: u32, height: u32, rgb: &[f32]) -> Resul
             matrices: Vec::new(),
         },
     )
+}
+
+/// Writes the preview of `film` (its window's pixels) to `path`.
+pub fn write_film_preview(path: &Path, film: &Film) -> Result<(), ImageError> {
+    let size = film.window.size;
+    write_preview(path, size.x, size.y, &film.rgb())
 }
 
 /// Khronos PBR Neutral tone mapping of a linear colour (non-finite and
