@@ -232,3 +232,88 @@ def Xform "cams"
         );
     }
 }
+
+/// `--frames 1-3`: one EXR per frame of an animated stage, named by the `#`
+/// run of -o, each rendering its own frame (the same image as `--frame N`);
+/// `--skip-existing` leaves the complete frames alone; an empty or reversed
+/// range and a sequence without `#` in -o are refused before rendering.
+#[test]
+fn frames_render_a_sequence() {
+    let dir = common::scratch("outputs_frames");
+    let usda = dir.join("moving_ball.usda");
+    std::fs::write(
+        &usda,
+        r#"#usda 1.0
+(
+    upAxis = "Y"
+    startTimeCode = 1
+    endTimeCode = 3
+)
+def Sphere "ball"
+{
+    double3 xformOp:translate.timeSamples = { 1: (-1, 0, 0), 3: (1, 0, 0) }
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def DistantLight "sun"
+{
+    float inputs:intensity = 3
+}
+def Camera "cam"
+{
+    double3 xformOp:translate = (0, 0, 6)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"#,
+    )
+    .unwrap();
+    let run = |out: &str, extra: &[&str]| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_cirrus"));
+        c.arg("render").arg(&usda).arg("-o").arg(dir.join(out));
+        c.args(["--res", "16x12", "--spp", "2", "--aovs", "beauty"]);
+        c.args(extra).env("XDG_CACHE_HOME", dir.join("cache"));
+        c.stdout(Stdio::piped()).stderr(Stdio::piped());
+        c
+    };
+    succeeds(run("seq/shot.####.exr", &["--frames", "1-3"]));
+    succeeds(run("two.exr", &["--frame", "2"]));
+    let bits = |name: &str| common::channel_bits(&dir.join(name));
+    let frames: Vec<_> = (1..=3)
+        .map(|f| bits(&format!("seq/shot.{f:04}.exr")))
+        .collect();
+    assert!(
+        frames[0] != frames[1] && frames[1] != frames[2],
+        "the frames are alike"
+    );
+    assert_eq!(
+        frames[1],
+        bits("two.exr"),
+        "frame 2 of the sequence is not --frame 2"
+    );
+
+    let first = modified(&dir.join("seq/shot.0001.exr"));
+    std::fs::remove_file(dir.join("seq/shot.0003.exr")).unwrap();
+    succeeds(run(
+        "seq/shot.####.exr",
+        &["--frames", "1-3x2", "--skip-existing"],
+    ));
+    assert_eq!(
+        modified(&dir.join("seq/shot.0001.exr")),
+        first,
+        "a complete frame was rendered again"
+    );
+    assert_eq!(bits("seq/shot.0003.exr"), frames[2]);
+
+    for (frames, out, why) in [
+        ("3-1", "r.####.exr", "expected frames A-B[xSTEP]"),
+        ("1-3x0", "r.####.exr", "expected frames A-B[xSTEP]"),
+        ("1-3", "r.exr", "has no run of # for the frame number"),
+    ] {
+        let mut c = run(out, &["--frames", frames]);
+        let out = c.output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && stderr.contains(why),
+            "--frames {frames}: {stderr}"
+        );
+    }
+}

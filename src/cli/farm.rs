@@ -2,13 +2,12 @@
 //! array, and a merge job array that runs when every part succeeded (the
 //! work is `farm::submit`).
 
-use std::ops::RangeInclusive;
 use std::path::PathBuf;
 
 use anyhow::Result;
 use glam::UVec2;
 
-use cirrus::farm::{self, SlurmJob, SplitBy};
+use cirrus::farm::{self, FrameRange, SlurmJob, SplitBy};
 
 /// `cirrus farm` subcommands.
 #[derive(clap::Subcommand, Debug)]
@@ -27,9 +26,9 @@ pub struct SubmitArgs {
     /// number (e.g. out/shot.####.exr).
     #[arg(short, long)]
     output: PathBuf,
-    /// Frames (USD time codes) A-B, inclusive (default: the stage's default time).
-    #[arg(long, value_name = "A-B", value_parser = parse_frames)]
-    frames: Option<RangeInclusive<i64>>,
+    /// Frames (USD time codes) A-B[xSTEP], inclusive (default: the stage's default time).
+    #[arg(long, value_name = "A-B[xSTEP]")]
+    frames: Option<FrameRange>,
     /// Parts per frame.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     split: u32,
@@ -55,18 +54,6 @@ pub struct SubmitArgs {
     /// Write the job scripts and print the sbatch commands, submitting nothing.
     #[arg(long)]
     dry_run: bool,
-}
-
-/// Parses `A-B` (or a single frame `A`) with A <= B.
-fn parse_frames(s: &str) -> Result<RangeInclusive<i64>, String> {
-    let (a, b) = match s.trim().split_once('-').filter(|(a, _)| !a.is_empty()) {
-        Some((a, b)) => (a, b),
-        None => (s, s),
-    };
-    match (a.trim().parse::<i64>(), b.trim().parse::<i64>()) {
-        (Ok(a), Ok(b)) if a <= b => Ok(a..=b),
-        _ => Err(format!("{s:?}: expected frames A-B with A <= B, e.g. 1-24")),
-    }
 }
 
 /// Runs `cirrus farm`.
@@ -108,16 +95,4 @@ fn submit(args: SubmitArgs) -> Result<()> {
         ),
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn frame_ranges_parse() {
-        assert_eq!(parse_frames("1-24"), Ok(1..=24));
-        assert_eq!(parse_frames("5"), Ok(5..=5));
-        assert!(parse_frames("9-2").is_err() && parse_frames("x").is_err());
-    }
 }

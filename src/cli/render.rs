@@ -15,8 +15,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use super::signal::{Interrupted, StopSignal};
 use super::split::PartArgs;
 use cirrus::farm::{
-    is_film_output, resume, save_interrupted, write_finished, write_snapshot, Claim, Fingerprint,
-    ImageFormat, OutputFiles, PartInfo, RenderIdentity,
+    frame_output, has_frame_number, is_film_output, resume, save_interrupted, write_finished,
+    write_snapshot, Claim, Fingerprint, FrameRange, ImageFormat, OutputFiles, PartInfo,
+    RenderIdentity,
 };
 use cirrus::film::AovSet;
 use cirrus::film::Film;
@@ -36,7 +37,7 @@ use cirrus::volumes::MajorantKind;
 const DEFAULT_SPP: u32 = 64;
 
 /// `cirrus render` arguments.
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Clone, Debug)]
 pub struct RenderArgs {
     /// A USD file (.usd/.usda/.usdc/.usdz), a scene folder, or its scene.json.
     scene: PathBuf,
@@ -106,6 +107,10 @@ pub struct RenderArgs {
     /// USD time code to export (USD input only).
     #[arg(long)]
     frame: Option<f64>,
+    /// Render frames A-B[xSTEP] (USD time codes) one after the other, one
+    /// export each; a run of `#` in -o becomes the frame number (out/shot.####.exr).
+    #[arg(long, value_name = "A-B[xSTEP]", conflicts_with = "frame")]
+    frames: Option<FrameRange>,
     /// Camera prim to render, e.g. /World/cam_side (USD input only; default:
     /// the render settings' camera, else the stage's first).
     #[arg(long, value_name = "PRIM_PATH")]
@@ -159,8 +164,42 @@ fn parse_seconds(s: &str) -> Result<Duration, String> {
         .ok_or_else(|| format!("{s:?}: must be a positive number of seconds"))
 }
 
-/// Runs `cirrus render`.
+/// Runs `cirrus render`: one frame, or each of `--frames` in turn.
 pub fn run(args: RenderArgs) -> Result<()> {
+    let signal = StopSignal::install().context("cannot install the SIGINT/SIGTERM handlers")?;
+    let Some(range) = args.frames else {
+        return render_frame(args, &signal);
+    };
+    let frames: Vec<i64> = range.frames().collect();
+    if frames.len() > 1 && !has_frame_number(&args.output) {
+        bail!(
+            "--frames: -o {} has no run of # for the frame number (e.g. out/shot.####.exr)",
+            args.output.display()
+        );
+    }
+    if !cirrus::scene::is_usd(&args.scene) {
+        bail!(
+            "--frames needs a USD scene; {} is exported",
+            args.scene.display()
+        );
+    }
+    for (i, &frame) in frames.iter().enumerate() {
+        log::info!("frame {frame} ({} of {})", i + 1, frames.len());
+        let output = frame_output(&args.output, Some(frame));
+        render_frame(
+            RenderArgs {
+                frame: Some(frame as f64),
+                output,
+                ..args.clone()
+            },
+            &signal,
+        )?;
+    }
+    Ok(())
+}
+
+/// Renders one frame: `args.frame` to `args.output`.
+fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
     let budget = match (args.spp, args.time) {
         (_, Some(t)) => Budget::Time(t),
         (Some(0), _) => bail!("--spp 0: at least one sample per pixel"),
@@ -205,7 +244,6 @@ pub fn run(args: RenderArgs) -> Result<()> {
         );
         return Ok(());
     }
-    let signal = StopSignal::install().context("cannot install the SIGINT/SIGTERM handlers")?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
         pool = pool.num_threads(n.into());

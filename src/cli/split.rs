@@ -12,7 +12,7 @@ use cirrus::image::Compression;
 use cirrus::output::AovFiles;
 
 /// Which part of a frame `cirrus render` takes (all of it by default).
-#[derive(clap::Args, Debug, Default)]
+#[derive(clap::Args, Clone, Debug, Default)]
 pub struct PartArgs {
     /// Render only horizontal band I of N (0-based, e.g. 2/4: the third of
     /// four bands of rows) into a film state (-o PART.film).

@@ -6,10 +6,11 @@
 //! frame after checking they fit (`merge.rs`). The files a render writes,
 //! checked writable before it starts (`files.rs`), and written or, when that
 //! fails, rescued as a film state with the command that writes them
-//! (`rescue.rs`); frame ranges split over a Slurm cluster as job arrays
+//! (`rescue.rs`); frame sequences and their file names (`frames.rs`), split over a Slurm cluster as job arrays
 //! (`slurm.rs`).
 
 mod files;
+mod frames;
 mod merge;
 mod part;
 mod rescue;
@@ -24,6 +25,7 @@ use crate::image::ImageError;
 use crate::scene::{ExportError, SceneError};
 
 pub use files::{is_film_output, prepare_folder, Claim, OutputFiles};
+pub use frames::{frame_output, has_frame_number, FrameRange};
 pub use merge::{merge, Merged};
 pub use part::{PartInfo, PartRequest};
 pub use rescue::{save_interrupted, write_finished, ImageFormat};

@@ -11,7 +11,7 @@
 //! `sbatch --array=K parts.sbatch`, then its frame's merge with
 //! `sbatch --array=F merge.sbatch`.
 
-use std::ops::RangeInclusive;
+use super::frames::{frame_output, FrameRange};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -46,7 +46,7 @@ pub struct SlurmJob {
     /// number (e.g. out/shot.####.exr).
     pub output: PathBuf,
     /// Frames (USD time codes), inclusive; `None`: the stage's default time.
-    pub frames: Option<RangeInclusive<i64>>,
+    pub frames: Option<FrameRange>,
     /// Parts per frame (at least 1).
     pub split: u32,
     /// How each frame is split.
@@ -79,24 +79,6 @@ pub struct Submitted {
     pub scripts: [PathBuf; 2],
     /// The parts and merge job ids; `None` for a dry run.
     pub jobs: Option<[String; 2]>,
-}
-
-/// The output path of `frame`: runs of `#` replaced by the zero-padded number.
-fn frame_output(pattern: &Path, frame: Option<i64>) -> PathBuf {
-    let text = pattern.to_string_lossy();
-    let Some(frame) = frame else {
-        return pattern.to_path_buf();
-    };
-    let Some(start) = text.find('#') else {
-        return pattern.to_path_buf();
-    };
-    let width = text[start..].chars().take_while(|&c| c == '#').count();
-    let number = format!("{frame:0width$}");
-    PathBuf::from(format!(
-        "{}{number}{}",
-        &text[..start],
-        &text[start + width..]
-    ))
 }
 
 /// `s` quoted for bash.
@@ -147,7 +129,7 @@ pub fn submit(job: &SlurmJob) -> Result<Submitted, FarmError> {
         std::fs::create_dir_all(&path).map_err(|e| FileError::new("create", &path, e))?;
     }
     let frames: Vec<Option<i64>> = match &args.frames {
-        Some(r) => r.clone().map(Some).collect(),
+        Some(r) => r.frames().map(Some).collect(),
         None => vec![None],
     };
     let label = |f: Option<i64>| f.map_or("default".to_string(), |f| f.to_string());
@@ -291,14 +273,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn frame_patterns_fill_and_quotes_escape() {
-        let p = Path::new("/o/shot.####.exr");
-        assert_eq!(frame_output(p, Some(7)), Path::new("/o/shot.0007.exr"));
-        assert_eq!(frame_output(p, None), p);
-        assert_eq!(
-            frame_output(Path::new("/o/a.exr"), Some(3)),
-            Path::new("/o/a.exr")
-        );
+    fn quotes_escape() {
         assert_eq!(quote("it's"), r"'it'\''s'");
     }
 }
