@@ -18,18 +18,22 @@
 mod export;
 mod format;
 mod load;
+mod material;
 
 use std::path::{Path, PathBuf};
 
 pub use export::repo_root;
 pub use export::{cache_root, export, export_cached, is_usd, CachedExport, ExportError};
 pub use format::{
-    affine, Array, Bounds, Camera, Channel, ColorSpace, Element, Input, Instances, Light,
-    LightShape, Manifest, Material, Mesh, MeshPart, Projection, Prototype, Render, Rgb, Scalar,
-    Source, StTransform, Stage, Texture, TextureInput, Transform, UpAxis, Volume, VolumeField,
-    VolumePart, Wrap, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+    affine, Array, Bounds, Camera, Element, Instances, Light, LightShape, Manifest, Mesh, MeshPart,
+    Projection, Prototype, Render, Scalar, Source, Stage, Transform, UpAxis, Volume, VolumeField,
+    VolumePart, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
+pub use material::{
+    Channel, ColorSpace, Input, InputValue, Material, Model, NormalMap, Op, OpInput, OpenPbr,
+    PrimvarInput, Rgb, StTransform, Texture, TextureInput, Wrap,
+};
 
 /// A loaded, validated scene: the manifest records and the bulk data they reference.
 pub struct Scene {
