@@ -90,9 +90,19 @@ impl<'a> From<&'a [Texture]> for Lookups<'a> {
 }
 
 impl<T: Value> Param<T> {
-    /// The input's value at `site`.
-    #[inline]
+    /// The input's value at `site`. A constant is read inline, at the
+    /// cost of a constant-only input.
+    #[inline(always)]
     pub(crate) fn eval(&self, lookups: &Lookups, site: &MeshSite) -> T {
+        match self {
+            Param::Constant(v) => *v,
+            varying => varying.eval_varying(lookups, site),
+        }
+    }
+
+    /// [`Self::eval`] of a texture, primvar or operation (recursive, so
+    /// kept out of line).
+    fn eval_varying(&self, lookups: &Lookups, site: &MeshSite) -> T {
         match self {
             Param::Constant(v) => *v,
             Param::Texture { texture, channel } => {
