@@ -173,7 +173,6 @@ impl<T: Value> Param<T> {
 mod tests {
     use glam::Vec2;
 
-    use super::super::preview_surface::tests::constant_texture;
     use super::*;
     use crate::scene::{OpInput, PrimvarInput, TextureInput};
 
@@ -217,7 +216,7 @@ mod tests {
 
     #[test]
     fn constants_textures_and_channels() {
-        let textures = [constant_texture([0.1, 0.2, 0.3, 0.4])];
+        let textures = [Texture::constant([0.1, 0.2, 0.3, 0.4])];
         let lookups = Lookups::from(&textures[..]);
         let names = &mut PrimvarNames::default();
         let c = color(Input::Constant([1.0, 2.0, 3.0]), names);
@@ -289,7 +288,7 @@ mod tests {
 
     #[test]
     fn ops_broadcast_scalars_and_mix_in_materialx_order() {
-        let textures = [constant_texture([0.5, 0.25, 1.0, 0.75])];
+        let textures = [Texture::constant([0.5, 0.25, 1.0, 0.75])];
         let lookups = Lookups::from(&textures[..]);
         let names = &mut PrimvarNames::default();
         let grey = |v: f32| Input::Constant([v; 3]);

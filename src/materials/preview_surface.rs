@@ -227,21 +227,11 @@ fn bend_normal(n: Vec3, ng: Vec3, wo: Vec3) -> Vec3 {
 pub(super) mod tests {
     use super::super::texture::Texture;
     use super::*;
-    use crate::scene::{Channel, ColorSpace, Wrap};
+    use crate::scene::Channel;
 
     /// A texture without an image: every lookup reads its fallback `value`.
     pub(crate) fn constant_texture(value: [f32; 4]) -> Texture {
-        let record = scene::Texture {
-            file: "absent.exr".into(),
-            wrap_s: Wrap::Repeat,
-            wrap_t: Wrap::Repeat,
-            scale: [1.0; 4],
-            bias: [0.0; 4],
-            fallback: value,
-            color_space: ColorSpace::Raw,
-            st_transform: None,
-        };
-        Texture::new(&record, None)
+        Texture::constant(value)
     }
 
     #[test]

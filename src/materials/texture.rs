@@ -73,6 +73,22 @@ impl Texture {
 }
 
 impl Texture {
+    /// A texture without an image: every lookup reads its fallback `value`.
+    #[cfg(test)]
+    pub(crate) fn constant(value: [f32; 4]) -> Self {
+        let record = scene::Texture {
+            file: "absent.exr".into(),
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+            scale: [1.0; 4],
+            bias: [0.0; 4],
+            fallback: value,
+            color_space: ColorSpace::Raw,
+            st_transform: None,
+        };
+        Self::new(&record, None)
+    }
+
     /// True when `scale` is 1 and `bias` 0 on r, g and b: lookups return the
     /// stored [0, 1] values (a normal map then still needs `2 v - 1`).
     pub(crate) fn keeps_stored_range(&self) -> bool {
