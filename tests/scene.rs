@@ -10,7 +10,7 @@ use std::process::Command;
 
 use cirrus::geometry::{Geometry, Ray};
 use cirrus::sampling::Pcg32;
-use cirrus::scene::{Scene, SceneError};
+use cirrus::scene::{Input, Model, Scene, SceneError, Wrap};
 use glam::{vec3a, Vec2};
 use serde_json::{json, Value};
 
@@ -179,6 +179,62 @@ fn valid_scene_loads_with_its_counts() {
     }
 }
 
+/// The production-look records (issue 21) load: an OpenPBR material with
+/// primvar, operation and normal-map inputs, a mesh primvar, wrap `constant`;
+/// absent fields take their defaults.
+#[test]
+fn production_look_records_load_with_their_defaults() {
+    let mut files = scene_files(1, 1);
+    let tint = files.array(
+        "f32",
+        3,
+        &[[1f32, 0., 0.], [0., 1., 0.], [0., 0., 1.], [1., 1., 1.]],
+    );
+    set(&mut files, "/meshes/0/primvars", json!({"tint": tint}));
+    set(&mut files, "/textures/0/wrap_s", json!("constant"));
+    let tinted = json!({"op": "multiply", "args": [
+        {"primvar": "tint", "channel": "rgb", "fallback": [0.5, 0.5, 0.5]},
+        {"texture": 0, "channel": "rgb"}]});
+    let open_pbr = json!({
+        "path": "/Looks/King", "model": "open_pbr", "shader": "ND_standard_surface_surfaceshader",
+        "skipped": ["subsurface rendered as its diffuse fallback"],
+        "open_pbr": {"base_color": tinted, "specular_roughness": 0.2, "emission_luminance": 0},
+        "geometry_thin_walled": true,
+        "geometry_normal": {"texture": 0, "channel": "rgb", "scale": 0.5}
+    });
+    files.json["materials"]
+        .as_array_mut()
+        .unwrap()
+        .push(open_pbr);
+    let dir = write_scene("scene_looks", &files);
+    let info = common::cirrus_ok(&["info".as_ref(), dir.as_os_str()]);
+    for expected in [
+        "materials    2 (1 open_pbr, 1 preview_surface); 0 fell back, 1 skipped a richer look",
+        "/Looks/King: subsurface rendered as its diffuse fallback",
+    ] {
+        assert!(info.contains(expected), "missing {expected:?} in:\n{info}");
+    }
+    let scene = Scene::load(&dir).unwrap();
+    let m = &scene.manifest;
+    assert_eq!(m.textures[0].wrap_s, Wrap::Constant);
+    assert_eq!(scene.view(&m.meshes[0].primvars["tint"]).len(), 12);
+    let (preview, king) = (&m.materials[0], &m.materials[1]);
+    assert_eq!(
+        (preview.model, preview.shader.as_str()),
+        (Model::PreviewSurface, "")
+    );
+    assert!(preview.skipped.is_empty() && preview.open_pbr.base_color.is_none());
+    assert_eq!(king.model, Model::OpenPbr);
+    assert_eq!(king.skipped.len(), 1);
+    assert_eq!(king.open_pbr.specular_roughness, Some(Input::Constant(0.2)));
+    assert!(matches!(&king.open_pbr.base_color, Some(Input::Op(op)) if op.args.len() == 2));
+    assert!(king.geometry_thin_walled && king.geometry_coat_normal.is_none());
+    assert_eq!(king.geometry_normal.as_ref().map(|n| n.scale), Some(0.5));
+    // UsdPreviewSurface's defaults where the record is silent.
+    assert_eq!(king.roughness, Input::Constant(0.5));
+    assert_eq!(king.diffuse_color, Input::Constant([0.18; 3]));
+}
+
 #[test]
 fn info_prints_scene_counts() {
     let dir = write_scene("scene_info", &scene_files(2, 6));
@@ -188,7 +244,7 @@ fn info_prints_scene_counts() {
         "instances    6 from 1 source prim(s)",
         "triangles    4 unique, 12 instanced",
         "lights       2 (1 distant, 1 dome)",
-        "materials    1 (0 fell back)",
+        "materials    1 (1 preview_surface); 0 fell back, 0 skipped a richer look",
         "/World/Cloud: density = /abs/cloud.vdb:density[0]",
         "warnings     1",
     ] {
@@ -214,8 +270,16 @@ struct Corruption {
     expect: &'static [&'static str],
 }
 
+/// Sets the value at JSON pointer `pointer`, adding the last key to its
+/// object if absent.
 fn set(f: &mut SceneFiles, pointer: &str, value: Value) {
-    *f.json.pointer_mut(pointer).unwrap() = value;
+    let (parent, key) = pointer.rsplit_once('/').unwrap();
+    match f.json.pointer_mut(parent).unwrap() {
+        Value::Object(fields) => {
+            fields.insert(key.to_owned(), value);
+        }
+        array => array[key.parse::<usize>().unwrap()] = value,
+    }
 }
 
 const CORRUPTIONS: &[Corruption] = &[
@@ -419,6 +483,92 @@ const CORRUPTIONS: &[Corruption] = &[
             "scene.json: instances.source_index:",
             "past the end of scene.bin",
         ],
+    },
+    Corruption {
+        name: "unknown open_pbr input",
+        apply: Apply::Content(|f| {
+            set(f, "/materials/0/model", json!("open_pbr"));
+            set(f, "/materials/0/open_pbr", json!({"base_colr": [1, 0, 0]}));
+        }),
+        expect: &["scene.json: materials[0].open_pbr", "unknown field `base_colr`"],
+    },
+    Corruption {
+        name: "unknown material model",
+        apply: Apply::Content(|f| set(f, "/materials/0/model", json!("standard_surface"))),
+        expect: &[
+            "scene.json: materials[0].model:",
+            "unknown variant `standard_surface`",
+        ],
+    },
+    Corruption {
+        name: "colour for a scalar input",
+        apply: Apply::Content(|f| {
+            set(f, "/materials/0/open_pbr", json!({"base_metalness": [1, 0, 0]}))
+        }),
+        expect: &["scene.json: materials[0].open_pbr.base_metalness: expected a number, found [1,0,0]"],
+    },
+    Corruption {
+        name: "texture index inside an operation",
+        apply: Apply::Content(|f| {
+            let input = json!({"op": "multiply", "args": [2, {"texture": 3, "channel": "rgb"}]});
+            set(f, "/materials/0/diffuse_color", input)
+        }),
+        expect: &["scene.json: materials[0].diffuse_color.args[1].texture: index 3 >= 1 textures"],
+    },
+    Corruption {
+        name: "operation with the wrong arity",
+        apply: Apply::Content(|f| {
+            set(f, "/materials/0/diffuse_color", json!({"op": "mix", "args": [1, 0]}))
+        }),
+        expect: &["scene.json: materials[0].diffuse_color: args: mix takes 3 arguments, found 2"],
+    },
+    Corruption {
+        name: "unknown operation",
+        apply: Apply::Content(|f| {
+            let input = json!({"op": "add", "args": [1, {"op": "divide", "args": [1, 2]}]});
+            set(f, "/materials/0/roughness", input)
+        }),
+        expect: &[
+            "scene.json: materials[0].roughness: args[1]: op: unknown variant `divide`",
+        ],
+    },
+    Corruption {
+        name: "primvar input without a fallback",
+        apply: Apply::Content(|f| {
+            set(f, "/materials/0/opacity", json!({"primvar": "mask", "channel": "r"}))
+        }),
+        expect: &["scene.json: materials[0].opacity: missing field `fallback`"],
+    },
+    Corruption {
+        name: "normal map texture index",
+        apply: Apply::Content(|f| {
+            set(f, "/materials/0/geometry_coat_normal", json!({"texture": 5}))
+        }),
+        expect: &["scene.json: materials[0].geometry_coat_normal.texture: index 5 >= 1 textures"],
+    },
+    Corruption {
+        name: "primvar width",
+        apply: Apply::Content(|f| {
+            let tint = f.array("f32", 5, &[0f32; 20]);
+            set(f, "/meshes/0/primvars", json!({"tint": tint}))
+        }),
+        expect: &["scene.json: meshes[0].primvars.tint: width 5, expected 1 to 4"],
+    },
+    Corruption {
+        name: "primvar count",
+        apply: Apply::Content(|f| {
+            let tint = f.array("f32", 3, &[0f32; 9]);
+            set(f, "/meshes/0/primvars", json!({"tint": tint}))
+        }),
+        expect: &["scene.json: meshes[0].primvars.tint: count 3, expected one per points (4)"],
+    },
+    Corruption {
+        name: "NaN primvar",
+        apply: Apply::Content(|f| {
+            let mask = f.array("f32", 1, &[0.0, 1.0, f32::NAN, 1.0]);
+            set(f, "/meshes/0/primvars", json!({"mask": mask}))
+        }),
+        expect: &["scene.json: meshes[0].primvars.mask: value NaN at scalar 2 is not finite"],
     },
     Corruption {
         name: "missing scene.bin",

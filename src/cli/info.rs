@@ -74,11 +74,19 @@ fn scene_summary(scene: &Scene) -> String {
         "lights",
         counted(m.lights.len(), m.lights.iter().map(|l| l.shape.type_name())),
     );
-    let fallbacks = m.materials.iter().filter(|mat| mat.fallback).count();
+    let skipped: Vec<&scene::Material> = m.skipped_looks().collect();
     line(
         "materials",
-        format!("{} ({fallbacks} fell back)", m.materials.len()),
+        format!(
+            "{}; {} fell back, {} skipped a richer look",
+            counted(m.materials.len(), m.material_models()),
+            m.fallback_count(),
+            skipped.len()
+        ),
     );
+    for mat in skipped {
+        line("", format!("{}: {}", mat.path, mat.skipped.join("; ")));
+    }
     line("textures", m.textures.len().to_string());
     line("volumes", m.volumes.len().to_string());
     for v in &m.volumes {

@@ -296,7 +296,7 @@ impl Geometry {
             &leaf.mesh_from_world,
             hit.triangle,
             hit.barycentrics,
-            [hit.instance, hit.prototype_mesh],
+            [hit.instance, hit.prototype_mesh, leaf.mesh],
         )
     }
 

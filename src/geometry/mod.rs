@@ -25,4 +25,4 @@ mod surface;
 pub use bvh::{Geometry, Hit};
 pub use frame::Frame;
 pub use obvhs::ray::Ray;
-pub use surface::{shadow_ray, SurfacePoint};
+pub use surface::{shadow_ray, MeshSite, SurfacePoint};

@@ -33,6 +33,9 @@ pub struct SurfacePoint {
     pub dpdu: Vec3,
     /// Texture coordinates (`primvars:st`), zero when the mesh has none.
     pub uv: Vec2,
+    /// Barycentric weights of the triangle's second and third vertices (the
+    /// first has 1 minus both): where the mesh's primvars are interpolated.
+    pub barycentrics: Vec2,
     /// Bound material index, or `scene::NO_MATERIAL`.
     pub material: u32,
     /// The mesh's `doubleSided`: emission and thin transmission from both sides.
@@ -41,11 +44,37 @@ pub struct SurfacePoint {
     pub instance: u32,
     /// Mesh index within the instance's prototype.
     pub prototype_mesh: u32,
+    /// Index of the mesh in the scene's meshes.
+    pub mesh: u32,
     /// Triangle index within the mesh.
     pub triangle: u32,
 }
 
+/// Where on a mesh a material input is read (a hit, or a point sampled on
+/// an emissive triangle): what texture and primvar lookups need.
+#[derive(Clone, Copy, Debug)]
+pub struct MeshSite {
+    /// Index of the mesh in the scene's meshes.
+    pub mesh: u32,
+    /// Triangle index within the mesh.
+    pub triangle: u32,
+    /// Barycentric weights of the triangle's second and third vertices.
+    pub barycentrics: Vec2,
+    /// Texture coordinates there.
+    pub uv: Vec2,
+}
+
 impl SurfacePoint {
+    /// Where on its mesh the point lies, for material lookups.
+    pub fn site(&self) -> MeshSite {
+        MeshSite {
+            mesh: self.mesh,
+            triangle: self.triangle,
+            barycentrics: self.barycentrics,
+            uv: self.uv,
+        }
+    }
+
     /// A ray leaving the surface along unit `direction`, its origin pushed off
     /// the surface to `direction`'s side of `ng` (see [`offset_origin`]).
     pub fn spawn_ray(&self, direction: Vec3) -> Ray {
@@ -137,13 +166,14 @@ impl MeshShading {
     }
 
     /// The surface point at `barycentrics` on `triangle`, placed by the
-    /// inverse of `mesh_from_world`; `ids` = (instance, prototype mesh).
+    /// inverse of `mesh_from_world`; `ids` = (instance, prototype mesh,
+    /// scene mesh).
     pub(super) fn surface_point(
         &self,
         mesh_from_world: &Affine3A,
         triangle: u32,
         barycentrics: Vec2,
-        [instance, prototype_mesh]: [u32; 2],
+        [instance, prototype_mesh, mesh]: [u32; 3],
     ) -> SurfacePoint {
         let [a, b, c] = self.triangles[triangle as usize].map(|i| i as usize);
         let w = Vec3::new(
@@ -187,10 +217,12 @@ impl MeshShading {
             ns,
             dpdu,
             uv,
+            barycentrics,
             material: self.materials[triangle as usize],
             double_sided: self.double_sided,
             instance,
             prototype_mesh,
+            mesh,
             triangle,
         }
     }

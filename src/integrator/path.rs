@@ -361,7 +361,7 @@ impl Path<'_, '_> {
         if materials.is_emissive(sp.material) && (sp.double_sided || wo.dot(sp.ng) > 0.0) {
             let weight = self.emission_weight(state.lights.mesh_pdf(sp, origin), null_ratio);
             self.gathered.add(
-                self.throughput * materials.emission(sp.material, sp.uv) * weight,
+                self.throughput * materials.emission(sp.material, &sp.site()) * weight,
                 depth,
             );
         }

@@ -430,10 +430,12 @@ mod tests {
                 ns: -Vec3::Z,
                 dpdu: Vec3::X,
                 uv: Vec2::ZERO,
+                barycentrics: Vec2::ZERO,
                 material: 0,
                 double_sided: false,
                 instance: 0,
                 prototype_mesh: 0,
+                mesh: 0,
                 triangle: if p.x > -p.y { 0 } else { 1 },
             };
             assert_eq!(sp.triangle, 0);

@@ -11,7 +11,7 @@ use glam::{Affine3A, Vec2, Vec3, Vec3A};
 use super::bvh::{cone_union, LightBounds};
 use super::LightSample;
 use crate::color::luminance;
-use crate::geometry::SurfacePoint;
+use crate::geometry::{MeshSite, SurfacePoint};
 use crate::materials::Materials;
 use crate::sampling::warp::{area_to_solid_angle, square_to_uniform_triangle};
 use crate::sampling::Distribution1D;
@@ -29,6 +29,8 @@ pub(crate) struct MeshLight {
     area: f32,
     /// The mesh's `doubleSided`: both faces emit.
     double_sided: bool,
+    /// Index of the mesh in the scene's meshes (for its primvars).
+    mesh: u32,
     /// Luminance of the emitted power (see [`MeshLight::power`]).
     power: f32,
     /// Box and normal cone of the emissive triangles, for the light BVH.
@@ -69,8 +71,8 @@ impl MeshLight {
         if cos_light == 0.0 || !(self.double_sided || cos_light > 0.0) {
             return None;
         }
-        let uv = (1.0 - b.x - b.y) * tri.uv[0] + b.x * tri.uv[1] + b.y * tri.uv[2];
-        let radiance = materials.emission(tri.material, uv);
+        let site = self.site(tri, b);
+        let radiance = materials.emission(tri.material, &site);
         let pdf = area_to_solid_angle(1.0 / self.area, distance, cos_light);
         (radiance != Vec3::ZERO && pdf.is_finite()).then_some(LightSample {
             radiance,
@@ -98,6 +100,17 @@ impl MeshLight {
             return 0.0;
         }
         area_to_solid_angle(1.0 / self.area, distance, cos_light)
+    }
+
+    /// The point of `tri` with barycentric weights `b` (of its second and
+    /// third vertices), for material lookups.
+    fn site(&self, tri: &EmissiveTriangle, b: Vec2) -> MeshSite {
+        MeshSite {
+            mesh: self.mesh,
+            triangle: tri.index,
+            barycentrics: b,
+            uv: (1.0 - b.x - b.y) * tri.uv[0] + b.x * tri.uv[1] + b.y * tri.uv[2],
+        }
     }
 
     /// Where and how it emits, for the light BVH.
@@ -154,10 +167,10 @@ impl MeshLight {
     fn build(
         scene: &Scene,
         materials: &Materials,
-        mesh: usize,
+        mesh_index: usize,
         world_from_mesh: Affine3A,
     ) -> Option<Self> {
-        let mesh = &scene.manifest.meshes[mesh];
+        let mesh = &scene.manifest.meshes[mesh_index];
         let points = scene.view(&mesh.points);
         let uvs = mesh.uvs.as_ref().map(|uvs| scene.view(uvs));
         let flip = if world_from_mesh.matrix3.determinant() < 0.0 {
@@ -192,8 +205,13 @@ impl MeshLight {
                 Some(uvs) => [a, b, c].map(|i| Vec2::from(uvs[i as usize])),
                 None => [Vec2::ZERO; 3],
             };
-            let centroid_uv = (uv[0] + uv[1] + uv[2]) / 3.0;
-            power += f64::from(area * luminance(materials.emission(material, centroid_uv)));
+            let centroid = MeshSite {
+                mesh: mesh_index as u32,
+                triangle: index as u32,
+                barycentrics: Vec2::splat(1.0 / 3.0),
+                uv: (uv[0] + uv[1] + uv[2]) / 3.0,
+            };
+            power += f64::from(area * luminance(materials.emission(material, &centroid)));
             triangles.push(EmissiveTriangle {
                 index: index as u32,
                 p0,
@@ -231,6 +249,7 @@ impl MeshLight {
             area: areas.iter().map(|&a| f64::from(a)).sum::<f64>() as f32,
             triangles,
             double_sided: mesh.double_sided,
+            mesh: mesh_index as u32,
             power,
             bounds,
         })

@@ -1,16 +1,21 @@
-//! UsdPreviewSurface materials and their textures
-//! (<https://openusd.org/release/spec_usdpreviewsurface.html>).
+//! UsdPreviewSurface
+//! (<https://openusd.org/release/spec_usdpreviewsurface.html>) and OpenPBR
+//! Surface materials, their textures and the mesh primvars they read.
 //!
 //! [`Materials::build`] reads every `UsdUVTexture` image once (texture.rs:
-//! bilinear, wrap modes, `st` transform, scale and bias) and resolves every
-//! material's inputs; [`Materials::bsdf`] evaluates them at a hit
-//! (preview_surface.rs) into a layered [`Bsdf`] (bsdf.rs, sampled in
+//! bilinear, wrap modes, `st` transform, scale and bias), copies the mesh
+//! primvars material inputs name (primvars.rs) and resolves every
+//! material's inputs (param.rs: constants, textures, primvars and per-hit
+//! maths); [`Materials::bsdf`] evaluates them at a hit, for a
+//! UsdPreviewSurface (preview_surface.rs) into a layered [`Bsdf`] (bsdf.rs, sampled in
 //! bsdf_sample.rs): clearcoat over GGX specular over Lambert, plus a rough
 //! dielectric where opacity < 1 (the lobes: lobes.rs). GGX uses Smith
 //! height-correlated masking-shadowing (Heitz 2014) and visible-normal
 //! sampling through spherical caps (Dupuy and Benyoub 2023); refraction
 //! follows Walter et al. 2007; shading normals that face away from `wo` are
-//! bent as in Iray (Keller et al. 2017).
+//! bent as in Iray (Keller et al. 2017). An OpenPBR record
+//! (open_pbr_surface.rs) evaluates to `OpenPbrInputs` and shading frames,
+//! and `Bsdf::from_open_pbr` (open_pbr/) builds its BSDF.
 
 mod bsdf;
 mod bsdf_sample;
@@ -18,7 +23,10 @@ mod fresnel;
 mod lobes;
 mod microfacet;
 mod open_pbr;
+mod open_pbr_surface;
+mod param;
 mod preview_surface;
+mod primvars;
 mod texture;
 
 #[cfg(test)]
@@ -28,20 +36,32 @@ pub use bsdf::Bsdf;
 pub use bsdf_sample::BsdfSample;
 pub use lobes::LobeValues;
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use thiserror::Error;
 
-use crate::geometry::SurfacePoint;
-use crate::scene::{Scene, NO_MATERIAL};
+use crate::geometry::{MeshSite, SurfacePoint};
+use crate::scene::{Model, Scene, NO_MATERIAL};
+use open_pbr_surface::OpenPbrSurface;
+use param::Lookups;
 use preview_surface::PreviewSurface;
+use primvars::{MeshPrimvars, PrimvarNames};
 use texture::Texture;
 
 /// Every material and texture of a scene, ready to build BSDFs at hits.
 pub struct Materials {
-    surfaces: Vec<PreviewSurface>,
+    surfaces: Vec<Surface>,
     /// What a surface with [`NO_MATERIAL`] looks like.
-    unbound: PreviewSurface,
+    unbound: Surface,
     textures: Vec<Texture>,
+    /// By scene mesh: the primvars material inputs read.
+    primvars: Vec<MeshPrimvars>,
+}
+
+/// A material's surface model.
+#[derive(Clone, Debug)]
+enum Surface {
+    Preview(PreviewSurface),
+    OpenPbr(Box<OpenPbrSurface>),
 }
 
 /// A material that cannot be used.
@@ -74,14 +94,24 @@ impl Materials {
                 ior: bad.ior,
             });
         }
+        let mut names = PrimvarNames::default();
+        let surfaces = m
+            .materials
+            .iter()
+            .map(|record| match record.model {
+                Model::PreviewSurface => {
+                    Surface::Preview(PreviewSurface::from_record(record, &mut names))
+                }
+                Model::OpenPbr => {
+                    Surface::OpenPbr(Box::new(OpenPbrSurface::from_record(record, &mut names)))
+                }
+            })
+            .collect();
         Ok(Self {
-            surfaces: m
-                .materials
-                .iter()
-                .map(PreviewSurface::from_record)
-                .collect(),
-            unbound: PreviewSurface::default_surface(),
+            surfaces,
+            unbound: Surface::Preview(PreviewSurface::default_surface()),
             textures: Texture::load_all(&m.textures),
+            primvars: MeshPrimvars::build_all(scene, &names),
         })
     }
 
@@ -90,30 +120,44 @@ impl Materials {
     /// surface, the shading normal's correction and the lobe probabilities,
     /// so the returned BSDF is for this `wo` only.
     pub fn bsdf(&self, sp: &SurfacePoint, wo: Vec3) -> Bsdf {
-        Bsdf::new(
-            self.surface(sp.material).shading(&self.textures, sp, wo),
-            wo,
-        )
+        let lookups = self.lookups();
+        match self.surface(sp.material) {
+            Surface::Preview(s) => Bsdf::new(s.shading(lookups, sp, wo), wo),
+            Surface::OpenPbr(s) => s.bsdf(&lookups, sp, wo),
+        }
     }
 
-    /// `emissiveColor` of `material` at texture coordinates `uv`: radiance in
-    /// W/(m^2 sr), linear Rec.709, leaving the front side (the caller decides
-    /// sidedness). Black for [`NO_MATERIAL`].
-    pub fn emission(&self, material: u32, uv: Vec2) -> Vec3 {
-        self.surface(material)
-            .emissive_color
-            .eval(&self.textures, uv)
-            .max(Vec3::ZERO)
+    /// What `material` emits at `site`: radiance in W/(m^2 sr), linear
+    /// Rec.709, leaving the front side (the caller decides sidedness):
+    /// UsdPreviewSurface's `emissiveColor`, OpenPBR's `emission_luminance`
+    /// times `emission_color`. Black for [`NO_MATERIAL`].
+    pub fn emission(&self, material: u32, site: &MeshSite) -> Vec3 {
+        let lookups = &self.lookups();
+        match self.surface(material) {
+            Surface::Preview(s) => s.emissive_color.eval(lookups, site).max(Vec3::ZERO),
+            Surface::OpenPbr(s) => s.emission(lookups, site),
+        }
     }
 
-    /// Whether `material` can emit: its `emissiveColor` is textured or a
-    /// non-black constant.
+    /// Whether `material` can emit: its emission varies (texture, primvar,
+    /// maths) or is a non-black constant.
     pub fn is_emissive(&self, material: u32) -> bool {
-        self.surface(material).is_emissive()
+        match self.surface(material) {
+            Surface::Preview(s) => s.is_emissive(),
+            Surface::OpenPbr(s) => s.is_emissive(),
+        }
+    }
+
+    /// What inputs read besides their constants.
+    fn lookups(&self) -> Lookups<'_> {
+        Lookups {
+            textures: &self.textures,
+            primvars: &self.primvars,
+        }
     }
 
     /// The surface for a material index ([`NO_MATERIAL`] = the defaults).
-    fn surface(&self, material: u32) -> &PreviewSurface {
+    fn surface(&self, material: u32) -> &Surface {
         if material == NO_MATERIAL {
             &self.unbound
         } else {
@@ -124,8 +168,38 @@ impl Materials {
 
 #[cfg(test)]
 mod tests {
-    use super::preview_surface::Param;
+    use glam::Vec2;
+
+    use super::param::Param;
     use super::*;
+    use crate::scene::{self, Input, Material, PrimvarInput};
+
+    const SITE: MeshSite = MeshSite {
+        mesh: 0,
+        triangle: 0,
+        barycentrics: Vec2::ZERO,
+        uv: Vec2::new(0.3, 0.4),
+    };
+
+    fn materials(surfaces: Vec<Surface>) -> Materials {
+        Materials {
+            surfaces,
+            unbound: Surface::Preview(PreviewSurface::default_surface()),
+            textures: Vec::new(),
+            primvars: Vec::new(),
+        }
+    }
+
+    /// An OpenPBR record with `edit` applied to its inputs.
+    fn open_pbr(edit: impl FnOnce(&mut scene::OpenPbr)) -> Surface {
+        let mut record = Material {
+            model: Model::OpenPbr,
+            ..Material::default()
+        };
+        edit(&mut record.open_pbr);
+        let names = &mut PrimvarNames::default();
+        Surface::OpenPbr(Box::new(OpenPbrSurface::from_record(&record, names)))
+    }
 
     #[test]
     fn unbound_surfaces_are_grey_and_dark_and_emitters_emit() {
@@ -133,17 +207,42 @@ mod tests {
             emissive_color: Param::Constant(Vec3::new(1.0, 2.0, 3.0)),
             ..PreviewSurface::default_surface()
         };
-        let materials = Materials {
-            surfaces: vec![PreviewSurface::default_surface(), lamp],
-            unbound: PreviewSurface::default_surface(),
-            textures: Vec::new(),
-        };
+        let materials = materials(vec![
+            Surface::Preview(PreviewSurface::default_surface()),
+            Surface::Preview(lamp),
+        ]);
         assert!(!materials.is_emissive(NO_MATERIAL) && !materials.is_emissive(0));
-        assert_eq!(materials.emission(NO_MATERIAL, Vec2::ZERO), Vec3::ZERO);
+        assert_eq!(materials.emission(NO_MATERIAL, &SITE), Vec3::ZERO);
         assert!(materials.is_emissive(1));
-        assert_eq!(
-            materials.emission(1, Vec2::new(0.3, 0.4)),
-            Vec3::new(1.0, 2.0, 3.0)
-        );
+        assert_eq!(materials.emission(1, &SITE), Vec3::new(1.0, 2.0, 3.0));
+    }
+
+    /// OpenPBR emits luminance times colour, and only when neither is a
+    /// constant zero; a primvar-driven colour (here its fallback) emits.
+    #[test]
+    fn open_pbr_emission_is_luminance_times_colour() {
+        let materials = materials(vec![
+            open_pbr(|_| {}),
+            open_pbr(|r| {
+                r.emission_luminance = Some(Input::Constant(2.0));
+                r.emission_color = Some(Input::Constant([0.5, 0.25, 1.0]));
+            }),
+            open_pbr(|r| {
+                r.emission_luminance = Some(Input::Constant(2.0));
+                r.emission_color = Some(Input::Constant([0.0; 3]));
+            }),
+            open_pbr(|r| {
+                r.emission_luminance = Some(Input::Constant(3.0));
+                r.emission_color = Some(Input::Primvar(PrimvarInput {
+                    primvar: "glow".to_owned(),
+                    channel: scene::Channel::Rgb,
+                    fallback: [0.0, 1.0, 0.0],
+                }));
+            }),
+        ]);
+        let emissive: Vec<bool> = (0..4).map(|m| materials.is_emissive(m)).collect();
+        assert_eq!(emissive, [false, true, false, true]);
+        assert_eq!(materials.emission(1, &SITE), Vec3::new(1.0, 0.5, 2.0));
+        assert_eq!(materials.emission(3, &SITE), Vec3::new(0.0, 3.0, 0.0));
     }
 }

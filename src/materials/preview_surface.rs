@@ -1,16 +1,18 @@
-//! A `UsdPreviewSurface` record with its inputs resolved to constants or
-//! texture lookups, evaluated at a hit into the [`Shading`] a
-//! [`Bsdf`](super::Bsdf) is built from: workflow (metallic or specular),
-//! normal map, and the shading normal's correction.
+//! A `UsdPreviewSurface` record with its inputs resolved to [`Param`]s,
+//! evaluated at a hit into the [`Shading`] a [`Bsdf`](super::Bsdf) is built
+//! from: workflow (metallic or specular), normal map, and the shading
+//! normal's correction (shared with OpenPBR: [`wo_frame`]).
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 use super::fresnel;
 use super::lobes::Layers;
 use super::microfacet::Ggx;
-use super::texture::Texture;
+use super::param::Lookups;
+pub(crate) use super::param::Param;
+use super::primvars::PrimvarNames;
 use crate::geometry::{Frame, SurfacePoint};
-use crate::scene::{self, Channel, Input};
+use crate::scene;
 
 /// How far above the geometric surface (as a cosine) the mirror direction of
 /// `wo` about a corrected shading normal is lifted (see [`bend_normal`]).
@@ -21,15 +23,6 @@ const MIN_REFLECTION_COS: f32 = 0.01;
 /// thin sheet's straight pass-through (UsdPreviewSurface's common "opacity
 /// as presence" use, ior 1).
 const INDEX_MATCHED: f32 = 1e-3;
-
-/// An input of a material: a constant, or one output of a texture.
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum Param<T> {
-    /// The authored (or default) value.
-    Constant(T),
-    /// Index into [`Materials`](super::Materials)' textures and the output read.
-    Texture { texture: u32, channel: Channel },
-}
 
 /// One `UsdPreviewSurface`: every input the BSDF and emission read.
 #[derive(Clone, Debug)]
@@ -61,28 +54,6 @@ pub(crate) struct Shading {
     pub(crate) layers: Layers,
 }
 
-impl Param<Vec3> {
-    /// The colour at `uv`.
-    pub(crate) fn eval(&self, textures: &[Texture], uv: Vec2) -> Vec3 {
-        match *self {
-            Param::Constant(v) => v,
-            Param::Texture { texture, channel } => textures[texture as usize].eval_rgb(uv, channel),
-        }
-    }
-}
-
-impl Param<f32> {
-    /// The scalar at `uv`.
-    pub(crate) fn eval(&self, textures: &[Texture], uv: Vec2) -> f32 {
-        match *self {
-            Param::Constant(v) => v,
-            Param::Texture { texture, channel } => {
-                textures[texture as usize].eval_scalar(uv, channel)
-            }
-        }
-    }
-}
-
 impl PreviewSurface {
     /// The surface at `sp` seen from `wo`: inputs evaluated at `sp.uv`, the
     /// normal map applied, the shading frame turned to `wo`'s side of the
@@ -101,19 +72,25 @@ impl PreviewSurface {
     /// meshes (the same from both sides) and a solid interface otherwise,
     /// entered when `wo` is on the front side of `ng` (eta = ior) and left
     /// from the back (eta = 1 / ior).
-    pub(crate) fn shading(&self, textures: &[Texture], sp: &SurfacePoint, wo: Vec3) -> Shading {
-        let uv = sp.uv;
-        let diffuse_color = self.diffuse_color.eval(textures, uv).max(Vec3::ZERO);
+    pub(crate) fn shading<'a>(
+        &self,
+        lookups: impl Into<Lookups<'a>>,
+        sp: &SurfacePoint,
+        wo: Vec3,
+    ) -> Shading {
+        let lookups = &lookups.into();
+        let site = &sp.site();
+        let diffuse_color = self.diffuse_color.eval(lookups, site).max(Vec3::ZERO);
         let fade = |f0: Vec3| Vec3::splat((50.0 * (f0.x + f0.y + f0.z) / 3.0).min(1.0));
         // `base`: the albedo AOV's colour, diffuse blended towards F0 by metallic.
         let (diffuse, f0, f90, base) = if self.use_specular_workflow {
             let f0 = self
                 .specular_color
-                .eval(textures, uv)
+                .eval(lookups, site)
                 .clamp(Vec3::ZERO, Vec3::ONE);
             (diffuse_color, f0, fade(f0), diffuse_color)
         } else {
-            let metallic = self.metallic.eval(textures, uv).clamp(0.0, 1.0);
+            let metallic = self.metallic.eval(lookups, site).clamp(0.0, 1.0);
             let dielectric = Vec3::splat(fresnel::f0_from_ior(self.ior));
             let albedo = diffuse_color.min(Vec3::ONE);
             let f0 = dielectric.lerp(albedo, metallic);
@@ -124,18 +101,17 @@ impl PreviewSurface {
                 diffuse_color.lerp(f0, metallic),
             )
         };
-        let opacity = self.opacity.eval(textures, uv).clamp(0.0, 1.0);
+        let opacity = self.opacity.eval(lookups, site).clamp(0.0, 1.0);
         let index_matched = (self.ior - 1.0).abs() < INDEX_MATCHED;
 
-        let side = if sp.ng.dot(wo) >= 0.0 { 1.0 } else { -1.0 };
+        let side = side(sp, wo);
         let ng = sp.ng * side;
-        let n = self.mapped_normal(textures, sp) * side;
-        let frame = Frame::from_normal_tangent(bend_normal(n, ng, wo), sp.dpdu);
+        let frame = wo_frame(sp, self.mapped_normal(lookups, sp), side, wo);
         let layers = Layers {
             diffuse,
             specular_f0: f0,
             specular_f90: f90,
-            specular: Ggx::from_roughness(self.roughness.eval(textures, uv)),
+            specular: Ggx::from_roughness(self.roughness.eval(lookups, site)),
             clearcoat: self.clearcoat.clamp(0.0, 1.0),
             clearcoat_f0: fresnel::f0_from_ior(self.ior),
             clearcoat_ggx: Ggx::from_roughness(self.clearcoat_roughness),
@@ -159,66 +135,75 @@ impl PreviewSurface {
     /// map applied (x along `dpdu`, z along `ns`). UsdPreviewSurface expects
     /// the texture's scale and bias to map texels to [-1, 1]; when they are
     /// left at 1 and 0 (a common authoring slip), `2 v - 1` is applied here.
-    fn mapped_normal(&self, textures: &[Texture], sp: &SurfacePoint) -> Vec3 {
+    fn mapped_normal(&self, lookups: &Lookups, sp: &SurfacePoint) -> Vec3 {
         let Some(texture) = self.normal else {
             return sp.ns;
         };
-        let texture = &textures[texture as usize];
-        let mut v = texture.eval_rgb(sp.uv, Channel::Rgb);
+        let texture = &lookups.textures[texture as usize];
+        let mut v = texture.eval(sp.uv).truncate();
         if texture.keeps_stored_range() {
             v = 2.0 * v - Vec3::ONE;
         }
-        let tangent_space = Frame::from_normal_tangent(sp.ns, sp.dpdu);
-        let n = tangent_space.to_world(v).normalize_or_zero();
-        if n == Vec3::ZERO {
-            sp.ns
-        } else {
-            n
-        }
+        tangent_space_normal(sp, v)
     }
 
-    /// Whether the surface emits: `emissiveColor` is textured or non-black.
+    /// Whether the surface emits: `emissiveColor` varies or is non-black.
     pub(crate) fn is_emissive(&self) -> bool {
-        match self.emissive_color {
-            Param::Constant(c) => c.max_element() > 0.0,
-            Param::Texture { .. } => true,
-        }
+        self.emissive_color
+            .constant()
+            .is_none_or(|c| c.max_element() > 0.0)
     }
 
-    /// UsdPreviewSurface's defaults: grey 0.18 diffuse, roughness 0.5,
-    /// dielectric with ior 1.5, opaque, no emission: the look of a surface
-    /// without a bound material.
+    /// UsdPreviewSurface's defaults ([`scene::Material::default`]): the look
+    /// of a surface without a bound material.
     pub(crate) fn default_surface() -> Self {
-        Self {
-            diffuse_color: Param::Constant(Vec3::splat(0.18)),
-            emissive_color: Param::Constant(Vec3::ZERO),
-            metallic: Param::Constant(0.0),
-            roughness: Param::Constant(0.5),
-            specular_color: Param::Constant(Vec3::ZERO),
-            use_specular_workflow: false,
-            ior: 1.5,
-            opacity: Param::Constant(1.0),
-            clearcoat: 0.0,
-            clearcoat_roughness: 0.01,
-            normal: None,
-        }
+        Self::from_record(&scene::Material::default(), &mut PrimvarNames::default())
     }
 
-    /// The record's inputs (texture indices were validated by the scene loader).
-    pub(crate) fn from_record(record: &scene::Material) -> Self {
+    /// The record's inputs (texture indices were validated by the scene
+    /// loader), primvar names given ids in `names`.
+    pub(crate) fn from_record(record: &scene::Material, names: &mut PrimvarNames) -> Self {
         Self {
-            diffuse_color: color(&record.diffuse_color),
-            emissive_color: color(&record.emissive_color),
-            metallic: scalar(&record.metallic),
-            roughness: scalar(&record.roughness),
-            specular_color: color(&record.specular_color),
+            diffuse_color: Param::from_input(&record.diffuse_color, names),
+            emissive_color: Param::from_input(&record.emissive_color, names),
+            metallic: Param::from_input(&record.metallic, names),
+            roughness: Param::from_input(&record.roughness, names),
+            specular_color: Param::from_input(&record.specular_color, names),
             use_specular_workflow: record.use_specular_workflow,
             ior: record.ior,
-            opacity: scalar(&record.opacity),
+            opacity: Param::from_input(&record.opacity, names),
             clearcoat: record.clearcoat,
             clearcoat_roughness: record.clearcoat_roughness,
             normal: record.normal.as_ref().map(|t| t.texture),
         }
+    }
+}
+
+/// +1 when `wo` is on the front side of `sp`'s geometric normal, else -1.
+pub(crate) fn side(sp: &SurfacePoint, wo: Vec3) -> f32 {
+    if sp.ng.dot(wo) >= 0.0 {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+/// The shading frame of the front-side normal `n` at `sp`, seen from `wo`
+/// on `side` ([`side`]): the normal turned to `wo`'s side and bent so that
+/// `wo` lies above it ([`bend_normal`]), x along `dpdu`.
+pub(crate) fn wo_frame(sp: &SurfacePoint, n: Vec3, side: f32, wo: Vec3) -> Frame {
+    Frame::from_normal_tangent(bend_normal(n * side, sp.ng * side, wo), sp.dpdu)
+}
+
+/// The tangent-space vector `v` (x along `dpdu`, z along the shading
+/// normal) as a unit world normal; the shading normal where `v` is zero.
+pub(crate) fn tangent_space_normal(sp: &SurfacePoint, v: Vec3) -> Vec3 {
+    let tangent_space = Frame::from_normal_tangent(sp.ns, sp.dpdu);
+    let n = tangent_space.to_world(v).normalize_or_zero();
+    if n == Vec3::ZERO {
+        sp.ns
+    } else {
+        n
     }
 }
 
@@ -238,49 +223,19 @@ fn bend_normal(n: Vec3, ng: Vec3, wo: Vec3) -> Vec3 {
     (wo + lifted).normalize_or(ng)
 }
 
-fn color(input: &Input<scene::Rgb>) -> Param<Vec3> {
-    match input {
-        Input::Constant(c) => Param::Constant(Vec3::from(*c)),
-        Input::Texture(t) => Param::Texture {
-            texture: t.texture,
-            channel: t.channel,
-        },
-    }
-}
-
-fn scalar(input: &Input<f32>) -> Param<f32> {
-    match input {
-        Input::Constant(v) => Param::Constant(*v),
-        Input::Texture(t) => Param::Texture {
-            texture: t.texture,
-            channel: t.channel,
-        },
-    }
-}
-
 #[cfg(test)]
 pub(super) mod tests {
+    use super::super::texture::Texture;
     use super::*;
-    use crate::scene::{ColorSpace, Wrap};
+    use crate::scene::Channel;
 
     /// A texture without an image: every lookup reads its fallback `value`.
     pub(crate) fn constant_texture(value: [f32; 4]) -> Texture {
-        let record = scene::Texture {
-            file: "absent.exr".into(),
-            wrap_s: Wrap::Repeat,
-            wrap_t: Wrap::Repeat,
-            scale: [1.0; 4],
-            bias: [0.0; 4],
-            fallback: value,
-            color_space: ColorSpace::Raw,
-            st_transform: None,
-        };
-        Texture::new(&record, None)
+        Texture::constant(value)
     }
 
     #[test]
     fn emission_is_constant_or_textured() {
-        let textures = [constant_texture([2.0, 3.0, 4.0, 1.0])];
         let lamp = PreviewSurface {
             emissive_color: Param::Texture {
                 texture: 0,
@@ -289,10 +244,6 @@ pub(super) mod tests {
             ..PreviewSurface::default_surface()
         };
         assert!(lamp.is_emissive());
-        assert_eq!(
-            lamp.emissive_color.eval(&textures, Vec2::ZERO),
-            Vec3::new(2.0, 3.0, 4.0)
-        );
         assert!(!PreviewSurface::default_surface().is_emissive());
         let glow = PreviewSurface {
             emissive_color: Param::Constant(Vec3::new(0.0, 0.5, 0.0)),

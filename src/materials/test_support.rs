@@ -3,7 +3,8 @@
 
 use glam::{Vec2, Vec3};
 
-use super::preview_surface::{Param, PreviewSurface};
+use super::param::Param;
+use super::preview_surface::PreviewSurface;
 use crate::geometry::SurfacePoint;
 use crate::sampling::Pcg32;
 
@@ -16,10 +17,12 @@ pub(crate) fn point(double_sided: bool) -> SurfacePoint {
         ns: Vec3::Z,
         dpdu: Vec3::X,
         uv: Vec2::ZERO,
+        barycentrics: Vec2::ZERO,
         material: 0,
         double_sided,
         instance: 0,
         prototype_mesh: 0,
+        mesh: 0,
         triangle: 0,
     }
 }

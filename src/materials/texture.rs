@@ -8,7 +8,9 @@
 //!   `s = (i + 0.5) / width`.
 //! - Wrap modes act per axis on texel indices (so `repeat` tiles seamlessly
 //!   and `clamp` holds the edge texel); `black` reads 0 in every channel
-//!   outside the image, before scale and bias.
+//!   outside the image, before scale and bias; `constant` (MaterialX) reads
+//!   `fallback` wherever that axis's coordinate leaves [0, 1], and clamps
+//!   the bilinear footprint inside.
 //! - The value is `texel * scale + bias`; a missing file yields `fallback`
 //!   unchanged (the exporter already warned; we warn once more naming it).
 
@@ -19,7 +21,7 @@ use std::sync::Arc;
 use glam::{Mat2, Vec2, Vec3, Vec4};
 
 use crate::image::read_image;
-use crate::scene::{self, Channel, ColorSpace, StTransform, Wrap};
+use crate::scene::{self, ColorSpace, StTransform, Wrap};
 
 /// One texture ready for lookups: its texels (or none when the file could
 /// not be read) and its `UsdUVTexture` parameters.
@@ -51,8 +53,9 @@ struct StAffine {
 
 impl Texture {
     /// The texture's four output channels (r, g, b, a) at texture coordinates
-    /// `uv`: `fallback` when the image is missing, else the bilinearly
-    /// filtered texel times `scale` plus `bias`.
+    /// `uv`: `fallback` when the image is missing (or outside [0, 1] on a
+    /// `constant` axis), else the bilinearly filtered texel times `scale`
+    /// plus `bias`.
     pub(crate) fn eval(&self, uv: Vec2) -> Vec4 {
         let Some(image) = &self.image else {
             return self.fallback;
@@ -61,35 +64,31 @@ impl Texture {
             Some(t) => t.linear * uv + t.translation,
             None => uv,
         };
+        let outside = |wrap: Wrap, x: f32| wrap == Wrap::Constant && !(0.0..=1.0).contains(&x);
+        if outside(self.wrap[0], st.x) || outside(self.wrap[1], st.y) {
+            return self.fallback;
+        }
         image.bilinear(st, self.wrap) * self.scale + self.bias
-    }
-
-    /// The value of output `channel` as a colour: `rgb` as is, a single
-    /// channel splatted to grey.
-    pub(crate) fn eval_rgb(&self, uv: Vec2, channel: Channel) -> Vec3 {
-        let v = self.eval(uv);
-        match channel {
-            Channel::Rgb => v.truncate(),
-            Channel::R => Vec3::splat(v.x),
-            Channel::G => Vec3::splat(v.y),
-            Channel::B => Vec3::splat(v.z),
-            Channel::A => Vec3::splat(v.w),
-        }
-    }
-
-    /// The value of output `channel` as a scalar (`rgb` reads r).
-    pub(crate) fn eval_scalar(&self, uv: Vec2, channel: Channel) -> f32 {
-        let v = self.eval(uv);
-        match channel {
-            Channel::Rgb | Channel::R => v.x,
-            Channel::G => v.y,
-            Channel::B => v.z,
-            Channel::A => v.w,
-        }
     }
 }
 
 impl Texture {
+    /// A texture without an image: every lookup reads its fallback `value`.
+    #[cfg(test)]
+    pub(crate) fn constant(value: [f32; 4]) -> Self {
+        let record = scene::Texture {
+            file: "absent.exr".into(),
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+            scale: [1.0; 4],
+            bias: [0.0; 4],
+            fallback: value,
+            color_space: ColorSpace::Raw,
+            st_transform: None,
+        };
+        Self::new(&record, None)
+    }
+
     /// True when `scale` is 1 and `bias` 0 on r, g and b: lookups return the
     /// stored [0, 1] values (a normal map then still needs `2 v - 1`).
     pub(crate) fn keeps_stored_range(&self) -> bool {
@@ -145,7 +144,8 @@ fn wrap_index(i: i64, n: u32, wrap: Wrap) -> Option<u32> {
     let n = i64::from(n);
     let i = match wrap {
         Wrap::Repeat => i.rem_euclid(n),
-        Wrap::Clamp => i.clamp(0, n - 1),
+        // A constant axis only gets here inside [0, 1] (see `Texture::eval`).
+        Wrap::Clamp | Wrap::Constant => i.clamp(0, n - 1),
         Wrap::Mirror => {
             let k = i.rem_euclid(2 * n);
             if k < n {
@@ -325,11 +325,6 @@ mod tests {
             tex.eval(Vec2::new(0.5 / W as f32, 0.0)).x,
             texel_r(0, 1)
         ));
-        // Channel outputs.
-        let uv = centre(2.0, 0.0);
-        assert!(close(tex.eval_scalar(uv, Channel::G), 2.0 * texel_r(2, 0)));
-        assert!(close(tex.eval_scalar(uv, Channel::A), 1.0));
-        assert_eq!(tex.eval_rgb(uv, Channel::B), Vec3::splat(-texel_r(2, 0)));
     }
 
     #[test]
@@ -361,6 +356,14 @@ mod tests {
             assert!(close(tex.eval(two_left).x, at_two), "{wrap:?}");
             assert!(close(tex.eval(quarter_left).x, at_quarter), "{wrap:?}");
         }
+        // Constant: the fallback anywhere outside [0, 1], clamped inside.
+        let tex = load(&record(file.clone(), Wrap::Constant));
+        assert_eq!(tex.eval(two_left), Vec4::new(0.1, 0.2, 0.3, 0.4));
+        assert_eq!(
+            tex.eval(Vec2::new(0.5, 1.01)),
+            Vec4::new(0.1, 0.2, 0.3, 0.4)
+        );
+        assert!(close(tex.eval(Vec2::new(0.0, centre(0.0, 0.0).y)).x, r(0)));
         // Wrap modes are per axis: black along t only.
         let mut rec = record(file, Wrap::Repeat);
         rec.wrap_t = Wrap::Black;
@@ -415,6 +418,6 @@ mod tests {
         rec.scale = [2.0; 4];
         let tex = load(&rec);
         assert_eq!(tex.eval(Vec2::new(0.3, 0.8)), Vec4::new(0.1, 0.2, 0.3, 0.4));
-        assert_eq!(tex.eval_scalar(Vec2::ZERO, Channel::B), 0.3);
+        assert_eq!(tex.eval(Vec2::ZERO).z, 0.3);
     }
 }

@@ -10,6 +10,8 @@ use std::path::PathBuf;
 
 use serde::Deserialize;
 
+use super::material::{unit_scale, Material, Rgb, Texture};
+
 /// The only manifest version this loader reads.
 pub const FORMAT_VERSION: u32 = 1;
 
@@ -34,9 +36,6 @@ pub fn affine(m: &Transform) -> glam::Affine3A {
     }
 }
 
-/// Linear Rec.709 RGB.
-pub type Rgb = [f32; 3];
-
 /// The whole manifest: everything the renderer models, bulk data as [`Array`]s.
 #[derive(Clone, Debug, Deserialize)]
 pub struct Manifest {
@@ -56,9 +55,9 @@ pub struct Manifest {
     pub prototypes: Vec<Prototype>,
     /// Every placed copy, plain prims included, as structure of arrays.
     pub instances: Instances,
-    /// UsdPreviewSurface materials, indexed by `Mesh::triangle_materials`.
+    /// Materials, indexed by `Mesh::triangle_materials`.
     pub materials: Vec<Material>,
-    /// Image files, indexed by [`TextureInput::texture`].
+    /// Image files, indexed by [`TextureInput::texture`](super::TextureInput::texture).
     pub textures: Vec<Texture>,
     /// UsdLux lights.
     pub lights: Vec<Light>,
@@ -138,6 +137,8 @@ macro_rules! element {
     };
 }
 element!(u32, U32, 1);
+// A primvar: `width` (1 to 4) floats per element, viewed as flat scalars.
+element!(f32, F32, 1);
 element!([u32; 3], U32, 3);
 element!([f32; 2], F32, 2);
 element!([f32; 3], F32, 3);
@@ -187,6 +188,10 @@ pub struct Mesh {
     pub triangle_materials: Array<u32>,
     /// `doubleSided` (default false).
     pub double_sided: bool,
+    /// The primvars some bound material reads, by name (default none): f32,
+    /// `width` 1 to 4, one element per point (unwelded like `uvs`).
+    #[serde(default)]
+    pub primvars: BTreeMap<String, Array<f32>>,
 }
 
 /// `triangle_materials` entry for a triangle with no bound material (grey default).
@@ -239,144 +244,6 @@ pub struct Instances {
     pub source_index: Array<u32>,
     /// Prim paths of instancers, instanceable prims and plain prims.
     pub instance_sources: Vec<String>,
-}
-
-/// A `UsdPreviewSurface` material; defaults are UsdPreviewSurface's.
-#[derive(Clone, Debug, Deserialize)]
-pub struct Material {
-    /// Prim path of the Material.
-    pub path: String,
-    /// True when the material could not be read (MaterialX-only, glslfx, ...)
-    /// and holds UsdPreviewSurface's defaults (grey 0.18 plastic); the
-    /// exporter warned once naming it.
-    pub fallback: bool,
-    /// `inputs:diffuseColor` (default 0.18 grey), linear RGB.
-    pub diffuse_color: Input<Rgb>,
-    /// `inputs:emissiveColor` (default black), linear RGB radiance scale.
-    pub emissive_color: Input<Rgb>,
-    /// `inputs:metallic` (default 0), in [0, 1].
-    pub metallic: Input<f32>,
-    /// `inputs:roughness` (default 0.5), perceptual, in [0, 1].
-    pub roughness: Input<f32>,
-    /// `inputs:specularColor` (default black), used with the specular workflow.
-    pub specular_color: Input<Rgb>,
-    /// `inputs:useSpecularWorkflow` (default 0).
-    pub use_specular_workflow: bool,
-    /// `inputs:ior` (default 1.5).
-    pub ior: f32,
-    /// `inputs:opacity` (default 1), in [0, 1].
-    pub opacity: Input<f32>,
-    /// `inputs:clearcoat` (default 0), weight in [0, 1].
-    pub clearcoat: f32,
-    /// `inputs:clearcoatRoughness` (default 0.01).
-    pub clearcoat_roughness: f32,
-    /// `inputs:normal` texture (tangent space); `null` = none.
-    pub normal: Option<TextureInput>,
-}
-
-/// A material input: a constant or a texture lookup.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(untagged)]
-pub enum Input<T> {
-    /// The authored (or default) value.
-    Constant(T),
-    /// A `UsdUVTexture` connected to the input.
-    Texture(TextureInput),
-}
-
-impl<T> Input<T> {
-    /// The texture connection, if the input is not a constant.
-    pub fn texture(&self) -> Option<&TextureInput> {
-        match self {
-            Self::Constant(_) => None,
-            Self::Texture(t) => Some(t),
-        }
-    }
-}
-
-/// A connection from a material input to a texture's output channel(s).
-#[derive(Clone, Debug, Deserialize)]
-pub struct TextureInput {
-    /// Index into `Manifest::textures`.
-    pub texture: u32,
-    /// `UsdUVTexture` output used: `outputs:rgb`, `:r`, `:g`, `:b` or `:a`.
-    pub channel: Channel,
-}
-
-/// A `UsdUVTexture` output.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Channel {
-    /// `outputs:rgb`.
-    Rgb,
-    /// `outputs:r`.
-    R,
-    /// `outputs:g`.
-    G,
-    /// `outputs:b`.
-    B,
-    /// `outputs:a`.
-    A,
-}
-
-/// A `UsdUVTexture` shader.
-#[derive(Clone, Debug, Deserialize)]
-pub struct Texture {
-    /// `inputs:file`, resolved to an absolute path (kept even when missing).
-    pub file: PathBuf,
-    /// `inputs:wrapS` (default `useMetadata`, resolved by the exporter).
-    pub wrap_s: Wrap,
-    /// `inputs:wrapT`.
-    pub wrap_t: Wrap,
-    /// `inputs:scale` (default 1,1,1,1), multiplies the texel.
-    pub scale: [f32; 4],
-    /// `inputs:bias` (default 0,0,0,0), added after `scale`.
-    pub bias: [f32; 4],
-    /// `inputs:fallback` (default 0,0,0,1), used when the file is missing.
-    pub fallback: [f32; 4],
-    /// `inputs:sourceColorSpace` (default auto).
-    pub color_space: ColorSpace,
-    /// A `UsdTransform2d` feeding `inputs:st`; `null` = identity.
-    pub st_transform: Option<StTransform>,
-}
-
-/// `UsdUVTexture` wrap modes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Wrap {
-    /// Tile.
-    Repeat,
-    /// Clamp to the edge texel.
-    Clamp,
-    /// Tile, every other copy mirrored.
-    Mirror,
-    /// Outside [0, 1] reads black.
-    Black,
-}
-
-/// `inputs:sourceColorSpace`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
-pub enum ColorSpace {
-    /// sRGB for 8-bit images, linear otherwise.
-    #[serde(rename = "auto")]
-    Auto,
-    /// sRGB-encoded.
-    #[serde(rename = "sRGB")]
-    Srgb,
-    /// Linear data (normals, roughness).
-    #[serde(rename = "raw")]
-    Raw,
-}
-
-/// A `UsdTransform2d` applied to texture coordinates: scale, then rotate, then translate.
-#[derive(Clone, Copy, Debug, Deserialize)]
-pub struct StTransform {
-    /// `inputs:translation` (default 0,0).
-    pub translation: [f32; 2],
-    /// `inputs:rotation` (default 0), degrees counter-clockwise.
-    pub rotation_deg: f32,
-    /// `inputs:scale` (default 1,1).
-    pub scale: [f32; 2],
 }
 
 /// A UsdLux light: what every type shares, plus its [`LightShape`].
@@ -543,10 +410,6 @@ impl Volume {
             _ => false,
         }
     }
-}
-
-fn unit_scale() -> f32 {
-    1.0
 }
 
 fn white() -> Rgb {

@@ -12,6 +12,7 @@ use bytemuck::{Pod, Zeroable};
 use super::format::{
     Array, Element, LightShape, Manifest, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
 };
+use super::material::{Input, Material};
 
 /// Largest magnitude of a position, normal, UV or transform entry: a point
 /// at 1e9 scene units under a transform entry of 1e9 stays below 1e19, whose
@@ -262,26 +263,73 @@ impl Checker<'_> {
         }
         self.instances()?;
         for (i, mat) in m.materials.iter().enumerate() {
-            let inputs = [
-                ("diffuse_color", mat.diffuse_color.texture()),
-                ("emissive_color", mat.emissive_color.texture()),
-                ("metallic", mat.metallic.texture()),
-                ("roughness", mat.roughness.texture()),
-                ("specular_color", mat.specular_color.texture()),
-                ("opacity", mat.opacity.texture()),
-                ("normal", mat.normal.as_ref()),
-            ];
-            for (name, input) in inputs {
-                if let Some(t) = input {
-                    let field = format!("materials[{i}].{name}.texture");
-                    self.index(&field, t.texture, m.textures.len(), "textures")?;
-                }
-            }
+            self.material(&format!("materials[{i}]"), mat)?;
         }
         for (i, light) in m.lights.iter().enumerate() {
             self.finite(&format!("lights[{i}].transform"), &light.transform)?;
         }
         self.finite("camera.transform", &m.camera.transform)
+    }
+
+    /// Every texture index a material's inputs name, at any depth.
+    fn material(&self, field: &str, mat: &Material) -> Result<(), SceneError> {
+        let colors = [
+            ("diffuse_color", &mat.diffuse_color),
+            ("emissive_color", &mat.emissive_color),
+            ("specular_color", &mat.specular_color),
+        ];
+        let scalars = [
+            ("metallic", &mat.metallic),
+            ("roughness", &mat.roughness),
+            ("opacity", &mat.opacity),
+        ];
+        let open_pbr = format!("{field}.open_pbr");
+        for (name, input) in colors {
+            self.input(&format!("{field}.{name}"), input)?;
+        }
+        for (name, input) in mat.open_pbr.colors() {
+            self.input(&format!("{open_pbr}.{name}"), input)?;
+        }
+        for (name, input) in scalars {
+            self.input(&format!("{field}.{name}"), input)?;
+        }
+        for (name, input) in mat.open_pbr.scalars() {
+            self.input(&format!("{open_pbr}.{name}"), input)?;
+        }
+        let maps = [
+            ("normal", mat.normal.as_ref().map(|t| t.texture)),
+            (
+                "geometry_normal",
+                mat.geometry_normal.as_ref().map(|n| n.texture),
+            ),
+            (
+                "geometry_coat_normal",
+                mat.geometry_coat_normal.as_ref().map(|n| n.texture),
+            ),
+        ];
+        for (name, texture) in maps {
+            if let Some(t) = texture {
+                self.texture(&format!("{field}.{name}.texture"), t)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// An input's texture indices, through its operations' arguments.
+    fn input<T>(&self, field: &str, input: &Input<T>) -> Result<(), SceneError> {
+        match input {
+            Input::Constant(_) | Input::Primvar(_) => Ok(()),
+            Input::Texture(t) => self.texture(&format!("{field}.texture"), t.texture),
+            Input::Op(op) => op
+                .args
+                .iter()
+                .enumerate()
+                .try_for_each(|(i, arg)| self.input(&format!("{field}.args[{i}]"), arg)),
+        }
+    }
+
+    fn texture(&self, field: &str, texture: u32) -> Result<(), SceneError> {
+        self.index(field, texture, self.manifest.textures.len(), "textures")
     }
 
     fn mesh(&self, i: usize, mesh: &super::format::Mesh) -> Result<(), SceneError> {
@@ -305,6 +353,12 @@ impl Checker<'_> {
             let uvs = self.array(&field("uvs"), uvs)?;
             self.count(&field("uvs"), uvs.len(), points.len(), "points")?;
             self.finite(&field("uvs"), bytemuck::cast_slice(uvs))?;
+        }
+        for (name, primvar) in &mesh.primvars {
+            let field = field(&format!("primvars.{name}"));
+            let values = self.array_of_width(&field, primvar, 1..=4)?;
+            self.count(&field, primvar.count as usize, points.len(), "points")?;
+            self.finite(&field, values)?;
         }
         let materials = self.array(&field("triangle_materials"), &mesh.triangle_materials)?;
         self.count(
@@ -353,17 +407,31 @@ impl Checker<'_> {
 
     /// Checks an array reference (type, width, alignment, extent) and views it.
     fn array<T: Element>(&self, field: &str, array: &Array<T>) -> Result<&[T], SceneError> {
+        self.array_of_width(field, array, T::WIDTH..=T::WIDTH)
+    }
+
+    /// [`Self::array`] for an array whose width may be any of `widths`
+    /// (its elements then viewed as `width` scalars each).
+    fn array_of_width<T: Element>(
+        &self,
+        field: &str,
+        array: &Array<T>,
+        widths: std::ops::RangeInclusive<u32>,
+    ) -> Result<&[T], SceneError> {
         if array.scalar != T::SCALAR {
             return Err(self.invalid(
                 field,
                 format!("type {:?}, expected {:?}", array.scalar, T::SCALAR).to_lowercase(),
             ));
         }
-        if array.width != T::WIDTH {
-            return Err(self.invalid(
-                field,
-                format!("width {}, expected {}", array.width, T::WIDTH),
-            ));
+        if !widths.contains(&array.width) {
+            let (low, high) = (widths.start(), widths.end());
+            let expected = if low == high {
+                low.to_string()
+            } else {
+                format!("{low} to {high}")
+            };
+            return Err(self.invalid(field, format!("width {}, expected {expected}", array.width)));
         }
         if !array.offset.is_multiple_of(16) {
             return Err(self.invalid(

@@ -18,18 +18,22 @@
 mod export;
 mod format;
 mod load;
+mod material;
 
 use std::path::{Path, PathBuf};
 
 pub use export::repo_root;
 pub use export::{cache_root, export, export_cached, is_usd, CachedExport, ExportError};
 pub use format::{
-    affine, Array, Bounds, Camera, Channel, ColorSpace, Element, Input, Instances, Light,
-    LightShape, Manifest, Material, Mesh, MeshPart, Projection, Prototype, Render, Rgb, Scalar,
-    Source, StTransform, Stage, Texture, TextureInput, Transform, UpAxis, Volume, VolumeField,
-    VolumePart, Wrap, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+    affine, Array, Bounds, Camera, Element, Instances, Light, LightShape, Manifest, Mesh, MeshPart,
+    Projection, Prototype, Render, Scalar, Source, Stage, Transform, UpAxis, Volume, VolumeField,
+    VolumePart, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
+pub use material::{
+    Channel, ColorSpace, Input, InputValue, Material, Model, NormalMap, Op, OpInput, OpenPbr,
+    PrimvarInput, Rgb, StTransform, Texture, TextureInput, Wrap,
+};
 
 /// A loaded, validated scene: the manifest records and the bulk data they reference.
 pub struct Scene {
@@ -62,10 +66,29 @@ pub enum OpenError {
 /// Bytes of bulk data a scene holds, by what they describe.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ArrayBytes {
-    /// Mesh points, triangles, normals, UVs and per-triangle materials.
+    /// Mesh points, triangles, normals, UVs, primvars and per-triangle materials.
     pub meshes: u64,
     /// Instance transforms, prototype, source and source-index arrays.
     pub instances: u64,
+}
+
+impl Manifest {
+    /// Each material's model name (`preview_surface`, `open_pbr`).
+    pub fn material_models(&self) -> impl Iterator<Item = &'static str> + '_ {
+        self.materials.iter().map(|m| m.model.name())
+    }
+
+    /// How many materials could not be read and hold UsdPreviewSurface's defaults.
+    pub fn fallback_count(&self) -> usize {
+        self.materials.iter().filter(|m| m.fallback).count()
+    }
+
+    /// The materials read through a simpler look because the exporter
+    /// skipped a richer one (a non-empty [`Material::skipped`]): not fallbacks,
+    /// but not the whole look either.
+    pub fn skipped_looks(&self) -> impl Iterator<Item = &Material> {
+        self.materials.iter().filter(|m| !m.skipped.is_empty())
+    }
 }
 
 impl Scene {
@@ -137,6 +160,7 @@ impl Scene {
                     + bytes(m.triangles.bytes())
                     + m.normals.as_ref().map_or(0, |a| bytes(a.bytes()))
                     + m.uvs.as_ref().map_or(0, |a| bytes(a.bytes()))
+                    + m.primvars.values().map(|a| bytes(a.bytes())).sum::<u64>()
                     + bytes(m.triangle_materials.bytes())
             })
             .sum();

@@ -1,0 +1,111 @@
+//! Mesh primvars as material inputs read them: the names material inputs
+//! name, each given a small id once at build time, and per mesh the arrays
+//! of those it has (one element of 1 to 4 floats per point), interpolated
+//! barycentrically at a hit like `uvs`.
+
+use glam::{Vec2, Vec3, Vec4};
+
+use crate::scene::Scene;
+
+/// The primvar names material inputs read, in the order first met: a
+/// name's position is its id.
+#[derive(Debug, Default)]
+pub(crate) struct PrimvarNames {
+    names: Vec<String>,
+}
+
+impl PrimvarNames {
+    /// The id of `name`, given one if it has none yet.
+    pub(crate) fn id(&mut self, name: &str) -> u32 {
+        let at = match self.names.iter().position(|n| n == name) {
+            Some(at) => at,
+            None => {
+                self.names.push(name.to_owned());
+                self.names.len() - 1
+            }
+        };
+        at as u32
+    }
+}
+
+/// One mesh's primvars that material inputs read, by id (empty for a mesh
+/// with none of them, the usual case: then it keeps no triangles either).
+#[derive(Debug, Default)]
+pub(crate) struct MeshPrimvars {
+    /// The mesh's triangles (indices into its points).
+    triangles: Vec<[u32; 3]>,
+    /// By primvar id; `None` where the mesh lacks that primvar.
+    arrays: Vec<Option<PrimvarArray>>,
+}
+
+/// One primvar's values: `width` floats per point.
+#[derive(Debug)]
+struct PrimvarArray {
+    width: usize,
+    values: Vec<f32>,
+}
+
+impl MeshPrimvars {
+    /// Every scene mesh's primvars among `names`, by scene mesh index.
+    pub(crate) fn build_all(scene: &Scene, names: &PrimvarNames) -> Vec<Self> {
+        scene
+            .manifest
+            .meshes
+            .iter()
+            .map(|mesh| {
+                let arrays = names.names.iter().enumerate().filter_map(|(id, name)| {
+                    let array = mesh.primvars.get(name)?;
+                    let values = scene.view(array).to_vec();
+                    Some((id as u32, array.width as usize, values))
+                });
+                let arrays: Vec<_> = arrays.collect();
+                if arrays.is_empty() {
+                    Self::default()
+                } else {
+                    Self::new(scene.view(&mesh.triangles).to_vec(), arrays.into_iter())
+                }
+            })
+            .collect()
+    }
+
+    /// A mesh of `triangles` with `(id, width, values)` primvars
+    /// (validated by the scene loader: width 1 to 4, one element per point).
+    pub(crate) fn new(
+        triangles: Vec<[u32; 3]>,
+        arrays: impl Iterator<Item = (u32, usize, Vec<f32>)>,
+    ) -> Self {
+        let mut by_id: Vec<Option<PrimvarArray>> = Vec::new();
+        for (id, width, values) in arrays {
+            let id = id as usize;
+            if by_id.len() <= id {
+                by_id.resize_with(id + 1, || None);
+            }
+            by_id[id] = Some(PrimvarArray { width, values });
+        }
+        Self {
+            triangles,
+            arrays: by_id,
+        }
+    }
+
+    /// Primvar `id` on `triangle` at `barycentrics` (weights of its second
+    /// and third vertices) as rgba: width 1 grey (v, v, v, 1), width 2
+    /// (x, y, 0, 1), width 3 (x, y, z, 1); `None` when the mesh lacks it.
+    pub(crate) fn eval(&self, id: u32, triangle: u32, barycentrics: Vec2) -> Option<Vec4> {
+        let array = self.arrays.get(id as usize)?.as_ref()?;
+        let w = Vec3::new(
+            1.0 - barycentrics.x - barycentrics.y,
+            barycentrics.x,
+            barycentrics.y,
+        );
+        let [a, b, c] = self.triangles[triangle as usize].map(|i| i as usize * array.width);
+        let v = &array.values;
+        let component = |k: usize| v[a + k] * w.x + v[b + k] * w.y + v[c + k] * w.z;
+        Some(match array.width {
+            1 => Vec3::splat(component(0)).extend(1.0),
+            2 => Vec4::new(component(0), component(1), 0.0, 1.0),
+            3 => Vec4::new(component(0), component(1), component(2), 1.0),
+            _ => Vec4::new(component(0), component(1), component(2), component(3)),
+        })
+    }
+}
