@@ -181,6 +181,33 @@ fn lambert_plane_under_a_dome_reflects_albedo_times_radiance() {
     }
 }
 
+/// A small lamp 0.3 above a large floor (scenes/tests/lamp_near_floor.usda):
+/// light sampling and BSDF sampling are both unbiased, so per pixel their
+/// renders differ only by noise. Light sampling used to see the lamp as
+/// occluded by itself there (the floor's ray offset, which grows with its
+/// triangles' size, pushed every shadow ray's origin past the shortening
+/// towards the light) and rendered the floor black.
+#[test]
+fn light_sampling_reaches_a_floor_close_under_a_lamp() {
+    let dir = common::scratch("render_lamp_near_floor");
+    let render = |strategy: &str, seed: u64| {
+        Render {
+            scene: "lamp_near_floor",
+            res: (32, 32),
+            spp: 64,
+            seed,
+            extra: &["--strategy", strategy],
+        }
+        .run(&dir.join(strategy))
+    };
+    let (nee, bsdf) = (render("nee", 1), render("bsdf", 2));
+    let lit = estimate(nee.pixels(0, |x, _| x >= 12));
+    assert!(lit.mean > 10.0 * lit.sigma, "the floor is dark: {lit:?}");
+    let (a, b) = (nee.pixels(0, |_, _| true), bsdf.pixels(0, |_, _| true));
+    let difference = estimate(a.iter().zip(&b).map(|(a, b)| a - b));
+    assert_within_4_sigma("light minus BSDF sampling", difference, 0.0, PIXEL_ROUNDING);
+}
+
 /// Form factor from a differential area to a parallel rectangle `a` x `b`
 /// centred above it at distance `c` (four corner rectangles of the classic
 /// formula, e.g. Howell's catalogue, configuration B-3).

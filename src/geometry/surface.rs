@@ -82,16 +82,25 @@ impl SurfacePoint {
         Ray::new(origin.into(), direction.into(), 0.0, f32::INFINITY)
     }
 
-    /// A shadow ray towards a point `distance` away along unit `direction`
+    /// A shadow ray towards the point `distance` away along unit `direction`
     /// (infinite for infinite lights), stopping just short of it so the
     /// light's own surface does not shadow it: by a relative 1e-4, far above
     /// the rounding of `distance` (about 1e-7 relative).
+    ///
+    /// The ray runs from the offset origin to that point itself (as pbrt-v4's
+    /// `SpawnRayTo`), not along `direction` for `distance`: the offset grows
+    /// with this triangle's size, and a large receiver under a near emitter
+    /// (a 20-unit floor 0.5 below a lamp) moved the origin further towards
+    /// the light than the shortening, so every shadow ray hit the lamp
+    /// itself and light sampling saw it as occluded.
     pub fn shadow_ray(&self, direction: Vec3, distance: f32) -> Ray {
-        shadow_ray(
-            offset_origin(self.p, self.ng, direction, self.offset),
-            direction,
-            distance,
-        )
+        let origin = offset_origin(self.p, self.ng, direction, self.offset);
+        if !distance.is_finite() {
+            return shadow_ray(origin, direction, distance);
+        }
+        let to_light = self.p + direction * distance - origin;
+        let length = to_light.length();
+        shadow_ray(origin, to_light / length, length)
     }
 }
 
