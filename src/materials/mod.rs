@@ -19,14 +19,17 @@ mod lobes;
 mod microfacet;
 mod open_pbr;
 mod preview_surface;
+mod scatter;
 mod texture;
 
+#[cfg(test)]
+mod open_pbr_tests;
 #[cfg(test)]
 mod test_support;
 
 pub use bsdf::Bsdf;
-pub use bsdf_sample::BsdfSample;
 pub use lobes::LobeValues;
+pub use scatter::BsdfSample;
 
 use glam::{Vec2, Vec3};
 use thiserror::Error;
