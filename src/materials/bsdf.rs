@@ -32,8 +32,9 @@ pub struct Bsdf {
 pub(super) enum Model {
     /// UsdPreviewSurface's layers (lobes.rs).
     Preview(Preview),
-    /// OpenPBR Surface 1.1 (open_pbr/).
-    OpenPbr(OpenPbr),
+    /// OpenPBR Surface 1.1 (open_pbr/), boxed: it is several times the
+    /// size of the preview model, which would otherwise pay for copying it.
+    OpenPbr(Box<OpenPbr>),
 }
 
 /// UsdPreviewSurface's layers with their lobes' selection probabilities.
@@ -188,7 +189,7 @@ impl Bsdf {
         Bsdf {
             frame: frames.base,
             ng: frames.ng,
-            model: Model::OpenPbr(OpenPbr::new(inputs, frames, wo)),
+            model: Model::OpenPbr(Box::new(OpenPbr::new(inputs, frames, wo))),
         }
     }
 }

@@ -74,7 +74,7 @@ impl Fuzz {
 
     /// The LTC density D(wi) per steradian (0 below the surface).
     pub(super) fn pdf(&self, wi: Vec3) -> f32 {
-        let local = self.to_ltc(wi);
+        let local = self.ltc_local(wi);
         let w = Vec3::new(
             self.a * local.x + self.b * local.z,
             self.a * local.y,
@@ -94,10 +94,10 @@ impl Fuzz {
     pub(super) fn sample(&self, u: Vec2) -> Vec3 {
         let c = warp::square_to_cosine_hemisphere(u);
         let w = Vec3::new((c.x - self.b * c.z) / self.a, c.y / self.a, c.z).normalize_or(Vec3::Z);
-        self.from_ltc(w)
+        self.shading_local(w)
     }
 
-    fn to_ltc(&self, v: Vec3) -> Vec3 {
+    fn ltc_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(
             v.x * self.x.x + v.y * self.x.y,
             -v.x * self.x.y + v.y * self.x.x,
@@ -105,7 +105,7 @@ impl Fuzz {
         )
     }
 
-    fn from_ltc(&self, v: Vec3) -> Vec3 {
+    fn shading_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(
             v.x * self.x.x - v.y * self.x.y,
             v.x * self.x.y + v.y * self.x.x,
@@ -147,7 +147,7 @@ mod tests {
                 sum2 += v * v;
                 let s = fuzz.sample(Vec2::new(rng.next_f32(), rng.next_f32()));
                 assert!(s.z >= 0.0 && (s.length() - 1.0).abs() < 1e-4);
-                assert!((fuzz.to_ltc(fuzz.from_ltc(s)) - s).length() < 1e-5);
+                assert!((fuzz.ltc_local(fuzz.shading_local(s)) - s).length() < 1e-5);
             }
             let mean = sum / n as f64;
             let sigma = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
