@@ -342,11 +342,11 @@ fn sampled_pdf_and_weight_match_pdf_and_eval() {
 
 /// Chi-square test of each lobe's sampling against its density (pbrt-v4's
 /// bsdfs_test): 10 x 20 bins in (cos theta, phi) over the sphere, expected
-/// counts from the pdf integrated on 8 x 8 points per bin, bins expecting
+/// counts from the pdf integrated on 16 x 16 points per bin, bins expecting
 /// fewer than 5 pooled; the statistic must stay below df + 5 sqrt(2 df).
 #[test]
 fn each_lobe_samples_its_density() {
-    let (nt, np, sub) = (10usize, 20usize, 8usize);
+    let (nt, np, sub) = (10usize, 20usize, 16usize);
     let mut rng = Pcg32::new(24, 0);
     let lobes = [
         (
