@@ -140,23 +140,24 @@ impl OpenPbr {
     pub(crate) fn sample(&self, wo: Vec3, frame: &Frame, u_lobe: f32, u: Vec2) -> Option<Drawn> {
         let wo_l = frame.to_local(wo);
         let (lobe, u_lobe) = pick_lobe(&self.lobe_pdf, u_lobe)?;
-        let wi_l = match ALL[lobe] {
-            OpenPbrLobe::Diffuse => warp::square_to_cosine_hemisphere(u),
-            OpenPbrLobe::Specular => reflect(wo_l, self.ggx.sample_visible_normal(wo_l, u)),
+        // Each arm's direction and whether it was reflected.
+        let (wi_l, reflected) = match ALL[lobe] {
+            OpenPbrLobe::Diffuse => (warp::square_to_cosine_hemisphere(u), true),
+            OpenPbrLobe::Specular => (reflect(wo_l, self.ggx.sample_visible_normal(wo_l, u)), true),
             OpenPbrLobe::Translucent => {
                 let h = self.ggx.sample_visible_normal(wo_l, u);
                 if u_lobe < fresnel::dielectric(wo_l.dot(h), self.transmission_eta) {
-                    reflect(wo_l, h)
+                    (reflect(wo_l, h), true)
                 } else {
-                    refract(wo_l, h, self.transmission_eta)?
+                    (refract(wo_l, h, self.transmission_eta)?, false)
                 }
             }
             OpenPbrLobe::Coat => {
                 let wo_c = self.coat_frame.to_local(wo);
                 let wi_c = reflect(wo_c, self.coat_ggx.sample_visible_normal(wo_c, u));
-                frame.to_local(self.coat_frame.to_world(wi_c))
+                (frame.to_local(self.coat_frame.to_world(wi_c)), true)
             }
-            OpenPbrLobe::Fuzz => self.fuzz.sample(u),
+            OpenPbrLobe::Fuzz => (self.fuzz.sample(u), true),
             OpenPbrLobe::Pass => {
                 let p = self.lobe_pdf[lobe];
                 return Some(Drawn::Dirac(BsdfSample {
@@ -167,6 +168,12 @@ impl OpenPbr {
                 }));
             }
         };
+        // A reflection that ends below the surface (or a refraction above
+        // it) scatters nothing: scoring it on the other side, with that
+        // side's density, would not match the density it was drawn with.
+        if (wi_l.z > 0.0) != reflected {
+            return None;
+        }
         Some(Drawn::Direction(wi_l))
     }
 }
