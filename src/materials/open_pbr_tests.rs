@@ -340,6 +340,43 @@ fn sampled_pdf_and_weight_match_pdf_and_eval() {
     }
 }
 
+/// The pdf integrates (uniform-sphere estimate) to the fraction of
+/// `sample` calls that return a non-Dirac direction, and eval_split's
+/// categories land where they belong: no transmission on the reflection
+/// side, nothing but transmission across.
+#[test]
+fn pdf_integrates_to_the_sampled_fraction() {
+    let mut rng = Pcg32::new(27, 0);
+    let n = 100_000;
+    for (name, i, f) in configurations() {
+        let wo = directions(&[0.7])[0];
+        let bsdf = Bsdf::from_open_pbr(&i, &f, wo);
+        let (mut sum, mut sum2, mut hits) = (0.0f64, 0.0f64, 0usize);
+        for _ in 0..n {
+            let wi = warp::square_to_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let v = f64::from(bsdf.pdf(wo, wi)) * 4.0 * std::f64::consts::PI;
+            sum += v;
+            sum2 += v * v;
+            let split = bsdf.eval_split(wo, wi);
+            if wi.z > 0.0 {
+                assert_eq!(split.transmission, Vec3::ZERO, "{name}");
+            } else {
+                assert_eq!(split.diffuse + split.specular, Vec3::ZERO, "{name}");
+            }
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            hits += usize::from(bsdf.sample(wo, rng.next_f32(), u).is_some_and(|s| !s.delta));
+        }
+        let integral = sum / n as f64;
+        let sigma_i = ((sum2 / n as f64 - integral * integral) / n as f64).sqrt();
+        let fraction = hits as f64 / n as f64;
+        let sigma = (sigma_i * sigma_i + fraction * (1.0 - fraction) / n as f64).sqrt();
+        assert!(
+            (integral - fraction).abs() <= 4.0 * sigma + 1e-4,
+            "{name}: integral {integral} +- {sigma_i}, sampled {fraction}"
+        );
+    }
+}
+
 /// Chi-square test of each lobe's sampling against its density (pbrt-v4's
 /// bsdfs_test): 10 x 20 bins in (cos theta, phi) over the sphere, expected
 /// counts from the pdf integrated on 16 x 16 points per bin, bins expecting
