@@ -1,8 +1,8 @@
-//! The layered UsdPreviewSurface BSDF at one shading point: eval and pdf
-//! over its lobes, in the shading frame, and the probability of sampling
-//! each lobe for the `wo` it was built for. The lobes themselves (what each
-//! layer reflects and transmits) are in lobes.rs, drawing a direction in
-//! bsdf_sample.rs.
+//! The BSDF at one shading point: eval and pdf over its lobes, in the
+//! shading frame, and the probability of sampling each lobe for the `wo` it
+//! was built for. Two models share this interface, as a closed enum: the
+//! layered UsdPreviewSurface (its lobes in lobes.rs) and OpenPBR Surface
+//! (open_pbr/). Drawing a direction is in bsdf_sample.rs.
 //!
 //! Light leaks: a reflected `wi` must lie on `wo`'s side of the geometric
 //! normal and above the shading normal; a transmitted `wi` must cross both.
@@ -11,17 +11,35 @@ use glam::Vec3;
 
 use super::fresnel;
 use super::lobes::{Layers, LobeValues, ALL_LOBES, LOBES};
+use super::open_pbr::{OpenPbr, OpenPbrInputs, ShadingFrames};
 use super::preview_surface::Shading;
+use super::scatter::{normalized, Side};
 use crate::geometry::Frame;
 
-/// The BSDF at one surface point: UsdPreviewSurface's lobes with their inputs
-/// evaluated, in the (possibly normal-mapped) shading frame.
+/// The BSDF at one surface point: a material model's lobes with their
+/// inputs evaluated, in the (possibly normal-mapped) shading frame.
 #[derive(Clone, Debug)]
 pub struct Bsdf {
     /// Shading frame with its normal on `wo`'s side of the surface.
     pub(super) frame: Frame,
     /// Unit geometric normal on `wo`'s side.
     pub(super) ng: Vec3,
+    pub(super) model: Model,
+}
+
+/// The material model behind a [`Bsdf`].
+#[derive(Clone, Debug)]
+pub(super) enum Model {
+    /// UsdPreviewSurface's layers (lobes.rs).
+    Preview(Preview),
+    /// OpenPBR Surface 1.1 (open_pbr/), boxed: it is several times the
+    /// size of the preview model, which would otherwise pay for copying it.
+    OpenPbr(Box<OpenPbr>),
+}
+
+/// UsdPreviewSurface's layers with their lobes' selection probabilities.
+#[derive(Clone, Debug)]
+pub(super) struct Preview {
     pub(super) layers: Layers,
     /// Probability of sampling each [`Lobe`](super::lobes::Lobe) for the `wo`
     /// the BSDF was built for: proportional to the lobe's estimated albedo.
@@ -43,18 +61,12 @@ impl Bsdf {
         if wo_l.z <= 0.0 {
             return LobeValues::default();
         }
-        let t = 1.0 - self.layers.opacity;
-        if self.reflects(wi, wi_l) {
-            let mut values = self.layers.opaque_reflection(wo_l, wi_l);
-            values.specular += t * self.layers.dielectric_reflection(wo_l, wi_l);
-            values
-        } else if self.transmits(wi, wi_l) && !self.layers.thin && t > 0.0 {
-            LobeValues {
-                transmission: Vec3::splat(t * self.layers.refraction(wo_l, wi_l)),
-                ..LobeValues::default()
-            }
-        } else {
-            LobeValues::default()
+        let Some(side) = self.side(wi, wi_l) else {
+            return LobeValues::default();
+        };
+        match &self.model {
+            Model::Preview(p) => p.eval_split(wo_l, wi_l, side),
+            Model::OpenPbr(o) => o.eval_split(wo, wi, wo_l, wi_l, side),
         }
     }
 
@@ -65,40 +77,79 @@ impl Bsdf {
         if wo_l.z <= 0.0 {
             return 0.0;
         }
-        let reflect = self.reflects(wi, wi_l);
-        if !reflect && !self.transmits(wi, wi_l) {
+        let Some(side) = self.side(wi, wi_l) else {
             return 0.0;
+        };
+        match &self.model {
+            Model::Preview(p) => p.pdf(wo_l, wi_l, side),
+            Model::OpenPbr(o) => o.pdf(wo, wi, wo_l, wi_l, side),
         }
+    }
+
+    /// Reflectance for the albedo AOV: for UsdPreviewSurface diffuseColor
+    /// blended towards F0 by metallic where the surface is opaque, white
+    /// where it transmits; for OpenPBR see [`OpenPbr::albedo`].
+    pub fn albedo(&self) -> Vec3 {
+        match &self.model {
+            Model::Preview(p) => p.layers.albedo,
+            Model::OpenPbr(o) => o.albedo(),
+        }
+    }
+
+    /// True when every lobe with weight is a Dirac lobe (a surface that
+    /// passes everything straight through), which light sampling can never
+    /// hit: a UsdPreviewSurface thin sheet with opacity 0 and ior 1, or an
+    /// OpenPBR surface with geometry_opacity 0 (or a thin wall that only
+    /// passes light straight through).
+    pub fn is_delta(&self) -> bool {
+        match &self.model {
+            Model::Preview(p) => {
+                let l = &p.layers;
+                l.opacity <= 0.0 && l.thin && l.eta == 1.0
+            }
+            Model::OpenPbr(o) => o.is_delta(),
+        }
+    }
+
+    /// Where `wi` leaves relative to `wo`; `None` when it is above one of
+    /// the geometric and shading surfaces and below the other.
+    fn side(&self, wi: Vec3, wi_l: Vec3) -> Option<Side> {
+        let g = wi.dot(self.ng);
+        if g > 0.0 && wi_l.z > 0.0 {
+            Some(Side::Reflect)
+        } else if g < 0.0 && wi_l.z < 0.0 {
+            Some(Side::Transmit)
+        } else {
+            None
+        }
+    }
+}
+
+impl Preview {
+    fn eval_split(&self, wo_l: Vec3, wi_l: Vec3, side: Side) -> LobeValues {
+        let t = 1.0 - self.layers.opacity;
+        if side == Side::Reflect {
+            let mut values = self.layers.opaque_reflection(wo_l, wi_l);
+            values.specular += t * self.layers.dielectric_reflection(wo_l, wi_l);
+            values
+        } else if !self.layers.thin && t > 0.0 {
+            LobeValues {
+                transmission: Vec3::splat(t * self.layers.refraction(wo_l, wi_l)),
+                ..LobeValues::default()
+            }
+        } else {
+            LobeValues::default()
+        }
+    }
+
+    fn pdf(&self, wo_l: Vec3, wi_l: Vec3, side: Side) -> f32 {
+        let reflect = side == Side::Reflect;
         ALL_LOBES
             .iter()
             .zip(self.lobe_pdf)
             .filter(|(_, p)| *p > 0.0)
             .map(|(lobe, p)| p * self.layers.lobe_density(*lobe, wo_l, wi_l, reflect))
             .sum()
-    }
-
-    /// Reflectance for the albedo AOV: diffuseColor blended towards F0 by
-    /// metallic where the surface is opaque, white where it transmits.
-    pub fn albedo(&self) -> Vec3 {
-        self.layers.albedo
-    }
-
-    /// True when every lobe with weight is a Dirac lobe: only a thin sheet
-    /// that transmits everything straight through (opacity 0, ior 1), which
-    /// light sampling can never hit.
-    pub fn is_delta(&self) -> bool {
-        let l = &self.layers;
-        l.opacity <= 0.0 && l.thin && l.eta == 1.0
-    }
-
-    /// `wi` leaves on `wo`'s side of both the geometric and shading normals.
-    fn reflects(&self, wi: Vec3, wi_l: Vec3) -> bool {
-        wi.dot(self.ng) > 0.0 && wi_l.z > 0.0
-    }
-
-    /// `wi` crosses both the geometric and the shading surface.
-    fn transmits(&self, wi: Vec3, wi_l: Vec3) -> bool {
-        wi.dot(self.ng) < 0.0 && wi_l.z < 0.0
     }
 }
 
@@ -113,25 +164,29 @@ impl Bsdf {
         let mean = |v: Vec3| (v.x + v.y + v.z) / 3.0;
         let cc = l.clearcoat_fresnel(cos_o);
         let spec = fresnel::schlick(l.specular_f0, l.specular_f90, cos_o);
-        let mut lobe_pdf = [
+        let lobe_pdf = normalized([
             l.opacity * (1.0 - cc) * mean((Vec3::ONE - spec) * l.diffuse),
             l.opacity * (1.0 - cc) * mean(spec),
             l.opacity * cc,
             1.0 - l.opacity,
-        ];
-        let total: f32 = lobe_pdf.iter().sum();
-        for p in &mut lobe_pdf {
-            *p = if total > 0.0 {
-                (*p / total).max(0.0)
-            } else {
-                0.0
-            };
-        }
+        ]);
         Self {
             frame,
             ng,
-            layers,
-            lobe_pdf,
+            model: Model::Preview(Preview { layers, lobe_pdf }),
+        }
+    }
+}
+
+impl Bsdf {
+    /// The BSDF of an OpenPBR surface with `inputs` in `frames` (base and
+    /// coat frames, geometric normal, all on `wo`'s side), for the outgoing
+    /// direction `wo` (world, unit).
+    pub(crate) fn from_open_pbr(inputs: &OpenPbrInputs, frames: &ShadingFrames, wo: Vec3) -> Bsdf {
+        Bsdf {
+            frame: frames.base,
+            ng: frames.ng,
+            model: Model::OpenPbr(Box::new(OpenPbr::new(inputs, frames, wo))),
         }
     }
 }
@@ -273,7 +328,9 @@ pub(super) mod tests {
             s.clearcoat = 0.0;
             let wo = directions(&[0.05 + 0.95 * rng.next_f32()])[0];
             let bsdf = s.bsdf(&[], &point(false), wo);
-            let l = &bsdf.layers;
+            let Model::Preview(Preview { layers: l, .. }) = &bsdf.model else {
+                unreachable!("a PreviewSurface builds a Preview model")
+            };
             let expected = l.opacity
                 * l.diffuse
                 * (Vec3::ONE - fresnel::schlick(l.specular_f0, l.specular_f90, wo.z));

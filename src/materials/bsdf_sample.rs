@@ -6,25 +6,11 @@
 
 use glam::{Vec2, Vec3};
 
-use super::bsdf::Bsdf;
+use super::bsdf::{Bsdf, Model, Preview};
 use super::fresnel;
 use super::lobes::{Lobe, ALL_LOBES};
+use super::scatter::{pick_lobe, reflect, refract, BsdfSample, Drawn};
 use crate::sampling::warp;
-
-/// A direction drawn from a [`Bsdf`].
-#[derive(Clone, Copy, Debug)]
-pub struct BsdfSample {
-    /// Unit world direction towards the light (away from the surface).
-    pub wi: Vec3,
-    /// f(wo, wi) |cos theta_i| / pdf.
-    pub weight: Vec3,
-    /// Solid-angle density of `wi` (for a Dirac lobe: the discrete
-    /// probability of having chosen it).
-    pub pdf: f32,
-    /// Drawn from a Dirac lobe (a thin sheet's straight-through
-    /// transmission): no MIS.
-    pub delta: bool,
-}
 
 impl Bsdf {
     /// Draws `wi` for `wo`: `u_lobe` picks a lobe by the lobes' albedos (and,
@@ -36,37 +22,13 @@ impl Bsdf {
         if wo_l.z <= 0.0 {
             return None;
         }
-        let (lobe, u_lobe) = self.pick_lobe(u_lobe)?;
-        let wi_l = match lobe {
-            Lobe::Diffuse => warp::square_to_cosine_hemisphere(u),
-            Lobe::Specular => reflect(wo_l, self.layers.specular.sample_visible_normal(wo_l, u)),
-            Lobe::Clearcoat => reflect(
-                wo_l,
-                self.layers.clearcoat_ggx.sample_visible_normal(wo_l, u),
-            ),
-            Lobe::Dielectric if self.layers.thin => {
-                let r = fresnel::thin_dielectric(wo_l.z, self.layers.eta);
-                if u_lobe >= r {
-                    return Some(BsdfSample {
-                        wi: -wo,
-                        weight: Vec3::splat(
-                            (1.0 - self.layers.opacity) / self.lobe_pdf[Lobe::Dielectric as usize],
-                        ),
-                        pdf: self.lobe_pdf[Lobe::Dielectric as usize] * (1.0 - r),
-                        delta: true,
-                    });
-                }
-                reflect(wo_l, self.layers.specular.sample_visible_normal(wo_l, u))
-            }
-            Lobe::Dielectric => {
-                let h = self.layers.specular.sample_visible_normal(wo_l, u);
-                let cos = wo_l.dot(h);
-                if u_lobe < fresnel::dielectric(cos, self.layers.eta) {
-                    reflect(wo_l, h)
-                } else {
-                    refract(wo_l, h, self.layers.eta)?
-                }
-            }
+        let drawn = match &self.model {
+            Model::Preview(p) => p.sample(wo, wo_l, u_lobe, u)?,
+            Model::OpenPbr(o) => o.sample(wo, &self.frame, u_lobe, u)?,
+        };
+        let wi_l = match drawn {
+            Drawn::Direction(wi_l) => wi_l,
+            Drawn::Dirac(sample) => return Some(sample),
         };
         let wi = self.frame.to_world(wi_l);
         let pdf = self.pdf(wo, wi);
@@ -80,37 +42,47 @@ impl Bsdf {
             delta: false,
         })
     }
+}
 
-    /// The lobe `u` falls in, and `u` rescaled to [0, 1) within it.
-    fn pick_lobe(&self, u: f32) -> Option<(Lobe, f32)> {
-        let mut start = 0.0;
-        for (lobe, p) in ALL_LOBES.iter().zip(self.lobe_pdf) {
-            if p > 0.0 && u < start + p {
-                return Some((*lobe, ((u - start) / p).clamp(0.0, 1.0 - f32::EPSILON)));
+impl Preview {
+    /// UsdPreviewSurface's lobes: cosine-weighted Lambert, GGX visible
+    /// normals reflected (specular, clearcoat) or reflected / refracted by
+    /// Fresnel (dielectric), and the thin sheet's straight pass-through.
+    fn sample(&self, wo: Vec3, wo_l: Vec3, u_lobe: f32, u: Vec2) -> Option<Drawn> {
+        let (lobe, u_lobe) = pick_lobe(&self.lobe_pdf, u_lobe)?;
+        let wi_l = match ALL_LOBES[lobe] {
+            Lobe::Diffuse => warp::square_to_cosine_hemisphere(u),
+            Lobe::Specular => reflect(wo_l, self.layers.specular.sample_visible_normal(wo_l, u)),
+            Lobe::Clearcoat => reflect(
+                wo_l,
+                self.layers.clearcoat_ggx.sample_visible_normal(wo_l, u),
+            ),
+            Lobe::Dielectric if self.layers.thin => {
+                let r = fresnel::thin_dielectric(wo_l.z, self.layers.eta);
+                if u_lobe >= r {
+                    return Some(Drawn::Dirac(BsdfSample {
+                        wi: -wo,
+                        weight: Vec3::splat(
+                            (1.0 - self.layers.opacity) / self.lobe_pdf[Lobe::Dielectric as usize],
+                        ),
+                        pdf: self.lobe_pdf[Lobe::Dielectric as usize] * (1.0 - r),
+                        delta: true,
+                    }));
+                }
+                reflect(wo_l, self.layers.specular.sample_visible_normal(wo_l, u))
             }
-            start += p;
-        }
-        // Rounding left u past the last lobe: take the last one with weight.
-        let last = self.lobe_pdf.iter().rposition(|p| *p > 0.0)?;
-        Some((ALL_LOBES[last], 1.0 - f32::EPSILON))
+            Lobe::Dielectric => {
+                let h = self.layers.specular.sample_visible_normal(wo_l, u);
+                let cos = wo_l.dot(h);
+                if u_lobe < fresnel::dielectric(cos, self.layers.eta) {
+                    reflect(wo_l, h)
+                } else {
+                    refract(wo_l, h, self.layers.eta)?
+                }
+            }
+        };
+        Some(Drawn::Direction(wi_l))
     }
-}
-
-/// Mirror `wo` about `h`.
-fn reflect(wo: Vec3, h: Vec3) -> Vec3 {
-    2.0 * wo.dot(h) * h - wo
-}
-
-/// Refract `wo` through the microfacet `h` into a medium of relative index
-/// `eta` (Snell); `None` on total internal reflection.
-fn refract(wo: Vec3, h: Vec3, eta: f32) -> Option<Vec3> {
-    let cos_o = wo.dot(h);
-    let sin2_t = (1.0 - cos_o * cos_o).max(0.0) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return None;
-    }
-    let cos_t = (1.0 - sin2_t).sqrt();
-    Some((-wo / eta + (cos_o / eta - cos_t) * h).normalize())
 }
 
 #[cfg(test)]

@@ -16,6 +16,24 @@ pub(crate) fn schlick_average(f0: Vec3, f90: Vec3) -> Vec3 {
     f0 + (f90 - f0) / 21.0
 }
 
+/// The F82-tint metal Fresnel (Kutz et al. 2021, "Novel aspects of the
+/// Adobe Standard Material"; OpenPBR 1.1 "Metal"): Schlick's curve less
+/// `b` mu (1 - mu)^6, with `b` from [`f82_tint_b`]; clamped to [0, 1].
+pub(crate) fn f82_tint(f0: Vec3, b: Vec3, cos_theta: f32) -> Vec3 {
+    let mu = cos_theta.clamp(0.0, 1.0);
+    let dip = mu * (1.0 - mu).powi(6);
+    (schlick(f0, Vec3::ONE, mu) - b * dip).clamp(Vec3::ZERO, Vec3::ONE)
+}
+
+/// The F82-tint coefficient b = F_Schlick(mu_bar) (1 - tint) / (mu_bar (1 -
+/// mu_bar)^6) with mu_bar = 1/7 (about 82 degrees), so that the curve passes
+/// through tint * F_Schlick(mu_bar) there.
+pub(crate) fn f82_tint_b(f0: Vec3, tint: Vec3) -> Vec3 {
+    const MU_BAR: f32 = 1.0 / 7.0;
+    let denom = MU_BAR * (1.0 - MU_BAR).powi(6);
+    schlick(f0, Vec3::ONE, MU_BAR) * (Vec3::ONE - tint) / denom
+}
+
 /// Normal-incidence reflectance of a dielectric with relative index of
 /// refraction `ior`: ((ior - 1) / (ior + 1))^2 (0.04 for 1.5).
 pub(crate) fn f0_from_ior(ior: f32) -> f32 {

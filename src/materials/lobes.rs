@@ -162,15 +162,7 @@ impl Layers {
     /// Rough refraction |cos_i| f_t (Walter et al. 2007, eq. 21, divided by
     /// eta^2 for radiance), without the 1 - opacity weight; `wi.z < 0`.
     pub(super) fn refraction(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let Some((h, jacobian)) = refraction_half_vector(wo, wi, self.eta) else {
-            return 0.0;
-        };
-        let ggx = self.specular;
-        let f = fresnel::dielectric(wo.dot(h), self.eta);
-        let denom_eta2 = jacobian / (self.eta * self.eta);
-        // |wo.h| |wi.h| / (wo.z (wo.h + eta wi.h)^2), the eta^2 of Walter's
-        // eq. 21 cancelled by the radiance scaling.
-        (1.0 - f) * ggx.d(h) * ggx.g2(wo, wi) * wo.dot(h) * denom_eta2 / wo.z
+        refraction(self.specular, self.eta, wo, wi)
     }
 
     /// Density of `lobe` drawing `wi` (before the lobe's selection probability).
@@ -180,35 +172,55 @@ impl Layers {
             (Lobe::Diffuse, true) => warp::cosine_hemisphere_pdf(wi.z),
             (Lobe::Specular, true) => reflection_pdf(l.specular, wo, wi),
             (Lobe::Clearcoat, true) => reflection_pdf(l.clearcoat_ggx, wo, wi),
-            (Lobe::Dielectric, true) => {
-                let choose = if l.thin {
-                    fresnel::thin_dielectric(wo.z, l.eta)
-                } else {
-                    fresnel::dielectric(wo.dot((wo + wi).normalize()), l.eta)
-                };
-                choose * reflection_pdf(l.specular, wo, wi)
+            (Lobe::Dielectric, true) if l.thin => {
+                fresnel::thin_dielectric(wo.z, l.eta) * reflection_pdf(l.specular, wo, wi)
             }
-            (Lobe::Dielectric, false) if !l.thin => {
-                let Some((h, jacobian)) = refraction_half_vector(wo, wi, l.eta) else {
-                    return 0.0;
-                };
-                let f = fresnel::dielectric(wo.dot(h), l.eta);
-                (1.0 - f) * l.specular.visible_normal_pdf(wo, h) * jacobian
-            }
+            (Lobe::Dielectric, true) => dielectric_reflection_pdf(l.specular, l.eta, wo, wi),
+            (Lobe::Dielectric, false) if !l.thin => refraction_pdf(l.specular, l.eta, wo, wi),
             _ => 0.0,
         }
     }
 }
 
+/// Rough refraction |cos_i| f_t through a dielectric of relative index
+/// `eta` (Walter et al. 2007, eq. 21, divided by eta^2 for radiance);
+/// `wo.z > 0 > wi.z`.
+pub(super) fn refraction(ggx: Ggx, eta: f32, wo: Vec3, wi: Vec3) -> f32 {
+    let Some((h, jacobian)) = refraction_half_vector(wo, wi, eta) else {
+        return 0.0;
+    };
+    let f = fresnel::dielectric(wo.dot(h), eta);
+    let denom_eta2 = jacobian / (eta * eta);
+    // |wo.h| |wi.h| / (wo.z (wo.h + eta wi.h)^2), the eta^2 of Walter's
+    // eq. 21 cancelled by the radiance scaling.
+    (1.0 - f) * ggx.d(h) * ggx.g2(wo, wi) * wo.dot(h) * denom_eta2 / wo.z
+}
+
+/// Density of a rough dielectric's sampling (a visible normal, then
+/// reflection with probability F) drawing the reflected `wi`.
+pub(super) fn dielectric_reflection_pdf(ggx: Ggx, eta: f32, wo: Vec3, wi: Vec3) -> f32 {
+    fresnel::dielectric(wo.dot((wo + wi).normalize()), eta) * reflection_pdf(ggx, wo, wi)
+}
+
+/// Density of a rough dielectric's sampling drawing the refracted `wi`:
+/// (1 - F) D_wo(h) dh/dwi (Walter et al. 2007, eq. 17).
+pub(super) fn refraction_pdf(ggx: Ggx, eta: f32, wo: Vec3, wi: Vec3) -> f32 {
+    let Some((h, jacobian)) = refraction_half_vector(wo, wi, eta) else {
+        return 0.0;
+    };
+    let f = fresnel::dielectric(wo.dot(h), eta);
+    (1.0 - f) * ggx.visible_normal_pdf(wo, h) * jacobian
+}
+
 /// GGX reflection without Fresnel, cosine included:
 /// D(h) G2(wo, wi) / (4 cos_o) (Walter et al. 2007, eq. 20, times cos_i).
-fn microfacet_reflection(ggx: Ggx, wo: Vec3, wi: Vec3, h: Vec3) -> f32 {
+pub(super) fn microfacet_reflection(ggx: Ggx, wo: Vec3, wi: Vec3, h: Vec3) -> f32 {
     ggx.d(h) * ggx.g2(wo, wi) / (4.0 * wo.z)
 }
 
 /// Density of reflecting `wo` about a visible normal: D_wo(h) / (4 wo.h)
 /// (Heitz 2018, eq. 17).
-fn reflection_pdf(ggx: Ggx, wo: Vec3, wi: Vec3) -> f32 {
+pub(super) fn reflection_pdf(ggx: Ggx, wo: Vec3, wi: Vec3) -> f32 {
     let h = (wo + wi).normalize();
     let cos = wo.dot(h);
     if cos <= 0.0 {

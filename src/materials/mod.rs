@@ -27,14 +27,17 @@ mod open_pbr_surface;
 mod param;
 mod preview_surface;
 mod primvars;
+mod scatter;
 mod texture;
 
+#[cfg(test)]
+mod open_pbr_tests;
 #[cfg(test)]
 mod test_support;
 
 pub use bsdf::Bsdf;
-pub use bsdf_sample::BsdfSample;
 pub use lobes::LobeValues;
+pub use scatter::BsdfSample;
 
 use glam::Vec3;
 use thiserror::Error;

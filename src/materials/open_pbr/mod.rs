@@ -1,52 +1,28 @@
-//! OpenPBR Surface (ASWF OpenPBR specification 1.1): inputs at a hit
-//! (inputs.rs) to a [`Bsdf`].
+//! OpenPBR Surface (ASWF OpenPBR specification 1.1,
+//! <https://academysoftwarefoundation.github.io/OpenPBR/>): inputs at a hit
+//! (inputs.rs) to a mixture of lobes (model.rs builds it, eval.rs evaluates
+//! and samples it) that [`Bsdf::from_open_pbr`](super::Bsdf::from_open_pbr)
+//! wraps.
 //!
-//! Stage 0: the BSDF is UsdPreviewSurface's layered model fed with the
-//! OpenPBR inputs it can express (base, metal, specular, coat, presence);
-//! the full model replaces this.
+//! Lobes and papers (docs/materials.md states the equations, what conserves
+//! energy and what deliberately loses it, with measured furnace values):
+//! - diffuse: EON, energy-preserving Oren-Nayar (Portsmouth et al. 2024),
+//!   eon.rs;
+//! - metal: GGX with the F82-tint Fresnel (Kutz et al. 2021);
+//! - dielectric specular, coat, thin wall: GGX (Heitz 2014, visible normals
+//!   by Dupuy and Benyoub 2023) with exact Fresnel, the spec's
+//!   specular_weight ior modulation, coat darkening and roughening;
+//! - thick transmission: the rough dielectric of Walter et al. 2007;
+//! - fuzz: Zeltner et al. 2022's LTC sheen, fuzz.rs;
+//! - energy compensation of the GGX lobes (Turquin 2019) and albedo-scaling
+//!   layering from tabulated directional albedos, albedo.rs.
 
+mod albedo;
+mod eon;
+mod eval;
+mod fuzz;
 mod inputs;
+mod model;
 
 pub(crate) use inputs::{OpenPbrInputs, ShadingFrames};
-
-use glam::Vec3;
-
-use super::fresnel;
-use super::lobes::Layers;
-use super::microfacet::Ggx;
-use super::preview_surface::Shading;
-use super::Bsdf;
-
-impl Bsdf {
-    /// The BSDF of an OpenPBR surface with `inputs` in `frames`, for the
-    /// outgoing direction `wo`.
-    pub(crate) fn from_open_pbr(inputs: &OpenPbrInputs, frames: &ShadingFrames, wo: Vec3) -> Bsdf {
-        let i = inputs;
-        let metal = i.base_metalness.clamp(0.0, 1.0);
-        let base = (i.base_weight * i.base_color).max(Vec3::ZERO);
-        let dielectric = Vec3::splat(fresnel::f0_from_ior(i.specular_ior) * i.specular_weight)
-            * i.specular_color;
-        let f0 = dielectric.lerp(base.min(Vec3::ONE), metal);
-        let layers = Layers {
-            diffuse: base * (1.0 - metal) * (1.0 - i.transmission_weight.clamp(0.0, 1.0)),
-            specular_f0: f0,
-            specular_f90: Vec3::splat(i.specular_weight.min(1.0)).lerp(Vec3::ONE, metal),
-            specular: Ggx::from_roughness(i.specular_roughness),
-            clearcoat: i.coat_weight.clamp(0.0, 1.0),
-            clearcoat_f0: fresnel::f0_from_ior(i.coat_ior),
-            clearcoat_ggx: Ggx::from_roughness(i.coat_roughness),
-            opacity: i.geometry_opacity.clamp(0.0, 1.0),
-            eta: 1.0,
-            thin: true,
-            albedo: base.lerp(f0, metal),
-        };
-        Bsdf::new(
-            Shading {
-                frame: frames.base,
-                ng: frames.ng,
-                layers,
-            },
-            wo,
-        )
-    }
-}
+pub(crate) use model::OpenPbr;

@@ -1,0 +1,179 @@
+//! Evaluating and sampling an [`OpenPbr`] mixture: f cos, the mixture
+//! density, and a direction from one lobe (model.rs has the weights).
+//!
+//! AOV categories: EON and fuzz are `diffuse`; metal, dielectric
+//! specular, coat and the dielectric's reflections are `specular`;
+//! refraction is `transmission`.
+
+use glam::{Vec2, Vec3};
+
+use super::albedo::Interface;
+use super::model::{OpenPbr, OpenPbrLobe, OPEN_PBR_LOBES};
+use crate::geometry::Frame;
+use crate::materials::fresnel;
+use crate::materials::lobes::{
+    dielectric_reflection_pdf, microfacet_reflection, reflection_pdf, refraction, refraction_pdf,
+    LobeValues,
+};
+use crate::materials::scatter::{pick_lobe, reflect, refract, BsdfSample, Drawn, Side};
+use crate::sampling::warp;
+
+/// The lobes in `lobe_pdf` order.
+const ALL: [OpenPbrLobe; OPEN_PBR_LOBES] = [
+    OpenPbrLobe::Diffuse,
+    OpenPbrLobe::Specular,
+    OpenPbrLobe::Translucent,
+    OpenPbrLobe::Coat,
+    OpenPbrLobe::Fuzz,
+    OpenPbrLobe::Pass,
+];
+
+impl OpenPbr {
+    /// f(wo, wi) |cos theta_i| by category; `wo`, `wi` world, `wo_l`,
+    /// `wi_l` in the base frame, `side` where `wi` leaves.
+    pub(crate) fn eval_split(
+        &self,
+        wo: Vec3,
+        wi: Vec3,
+        wo_l: Vec3,
+        wi_l: Vec3,
+        side: Side,
+    ) -> LobeValues {
+        let (wo_c, wi_c) = (self.coat_frame.to_local(wo), self.coat_frame.to_local(wi));
+        let w = self.below_fuzz * self.base_weight(wi_c.z);
+        if side == Side::Transmit {
+            if self.thin || self.translucent <= 0.0 {
+                return LobeValues::default();
+            }
+            let t = refraction(self.ggx, self.transmission_eta, wo_l, wi_l);
+            return LobeValues {
+                transmission: w * (self.translucent * t) * self.transmission_tint,
+                ..LobeValues::default()
+            };
+        }
+        let mut values = LobeValues::default();
+        if self.fuzz_tint != Vec3::ZERO {
+            values.diffuse += self.fuzz_tint * self.fuzz.eval(wi_l);
+        }
+        if self.gloss > 0.0 {
+            values.diffuse += w * self.gloss * self.through_specular * self.eon.eval(wo_l, wi_l);
+        }
+        if self.coat > 0.0 && wi_c.z > 0.0 {
+            let h = (wo_c + wi_c).normalize();
+            let f = fresnel::dielectric(wo_c.dot(h), self.coat_eta);
+            values.specular += Vec3::splat(
+                self.below_fuzz
+                    * self.coat
+                    * self.coat_compensation
+                    * f
+                    * microfacet_reflection(self.coat_ggx, wo_c, wi_c, h),
+            );
+        }
+        let h = (wo_l + wi_l).normalize();
+        let cos_h = wo_l.dot(h);
+        let mut fresnel = Vec3::ZERO;
+        if self.metal > 0.0 {
+            fresnel += self.metal
+                * self.metal_scale
+                * fresnel::f82_tint(self.metal_f0, self.metal_b, cos_h);
+        }
+        if self.gloss > 0.0 {
+            let f = Interface::Dielectric.fresnel(cos_h, self.specular_eta);
+            fresnel += self.specular_tint * (self.gloss * self.specular_compensation * f);
+        }
+        if self.translucent > 0.0 {
+            let f = if self.thin {
+                self.thin_compensation * Interface::ThinSheet.fresnel(cos_h, self.transmission_eta)
+            } else {
+                fresnel::dielectric(cos_h, self.transmission_eta)
+            };
+            fresnel += self.specular_tint * (self.translucent * f);
+        }
+        if fresnel != Vec3::ZERO {
+            values.specular += w * fresnel * microfacet_reflection(self.ggx, wo_l, wi_l, h);
+        }
+        values
+    }
+
+    /// The mixture density of the non-Dirac lobes drawing `wi`.
+    pub(crate) fn pdf(&self, wo: Vec3, wi: Vec3, wo_l: Vec3, wi_l: Vec3, side: Side) -> f32 {
+        ALL.iter()
+            .zip(self.lobe_pdf)
+            .filter(|(_, p)| *p > 0.0)
+            .map(|(lobe, p)| p * self.lobe_density(*lobe, wo, wi, wo_l, wi_l, side))
+            .sum()
+    }
+
+    /// Density of `lobe` drawing `wi` (before its selection probability).
+    fn lobe_density(
+        &self,
+        lobe: OpenPbrLobe,
+        wo: Vec3,
+        wi: Vec3,
+        wo_l: Vec3,
+        wi_l: Vec3,
+        side: Side,
+    ) -> f32 {
+        match (lobe, side) {
+            (OpenPbrLobe::Diffuse, Side::Reflect) => warp::cosine_hemisphere_pdf(wi_l.z),
+            (OpenPbrLobe::Specular, Side::Reflect) => reflection_pdf(self.ggx, wo_l, wi_l),
+            (OpenPbrLobe::Translucent, Side::Reflect) => {
+                dielectric_reflection_pdf(self.ggx, self.transmission_eta, wo_l, wi_l)
+            }
+            (OpenPbrLobe::Translucent, Side::Transmit) => {
+                refraction_pdf(self.ggx, self.transmission_eta, wo_l, wi_l)
+            }
+            (OpenPbrLobe::Coat, Side::Reflect) => {
+                let wi_c = self.coat_frame.to_local(wi);
+                if wi_c.z <= 0.0 {
+                    return 0.0;
+                }
+                reflection_pdf(self.coat_ggx, self.coat_frame.to_local(wo), wi_c)
+            }
+            (OpenPbrLobe::Fuzz, Side::Reflect) => self.fuzz.pdf(wi_l),
+            _ => 0.0,
+        }
+    }
+
+    /// Draws a lobe with `u_lobe` and a direction from it with `u`; the
+    /// pass-through returns its finished Dirac sample.
+    pub(crate) fn sample(&self, wo: Vec3, frame: &Frame, u_lobe: f32, u: Vec2) -> Option<Drawn> {
+        let wo_l = frame.to_local(wo);
+        let (lobe, u_lobe) = pick_lobe(&self.lobe_pdf, u_lobe)?;
+        // Each arm's direction and whether it was reflected.
+        let (wi_l, reflected) = match ALL[lobe] {
+            OpenPbrLobe::Diffuse => (warp::square_to_cosine_hemisphere(u), true),
+            OpenPbrLobe::Specular => (reflect(wo_l, self.ggx.sample_visible_normal(wo_l, u)), true),
+            OpenPbrLobe::Translucent => {
+                let h = self.ggx.sample_visible_normal(wo_l, u);
+                if u_lobe < fresnel::dielectric(wo_l.dot(h), self.transmission_eta) {
+                    (reflect(wo_l, h), true)
+                } else {
+                    (refract(wo_l, h, self.transmission_eta)?, false)
+                }
+            }
+            OpenPbrLobe::Coat => {
+                let wo_c = self.coat_frame.to_local(wo);
+                let wi_c = reflect(wo_c, self.coat_ggx.sample_visible_normal(wo_c, u));
+                (frame.to_local(self.coat_frame.to_world(wi_c)), true)
+            }
+            OpenPbrLobe::Fuzz => (self.fuzz.sample(u), true),
+            OpenPbrLobe::Pass => {
+                let p = self.lobe_pdf[lobe];
+                return Some(Drawn::Dirac(BsdfSample {
+                    wi: -wo,
+                    weight: self.pass / p,
+                    pdf: p,
+                    delta: true,
+                }));
+            }
+        };
+        // A reflection that ends below the surface (or a refraction above
+        // it) scatters nothing: scoring it on the other side, with that
+        // side's density, would not match the density it was drawn with.
+        if (wi_l.z > 0.0) != reflected {
+            return None;
+        }
+        Some(Drawn::Direction(wi_l))
+    }
+}
