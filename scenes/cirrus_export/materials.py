@@ -82,8 +82,8 @@ class MaterialTable:
                 self.materials[index] = self._record(path, shader.node if isinstance(shader, Link) else None,
                                                      "mtlx:", [])
             else:
-                why = f"no surfacematerial of that name in {found[1]}" if found else \
-                    "missing layer, or MaterialX-only"
+                why = "missing layer, or MaterialX-only" if found is None else \
+                    f"from {found[1]}, which is unusable or has no surfacematerial of that name"
                 self._report.warn(f"material {path}: bound but not a loadable Material ({why}); "
                                   f"using the grey fallback")
                 self.materials[index] = self._fallback(path)
@@ -145,7 +145,7 @@ class MaterialTable:
         skipped = []
         mtlx = material.GetSurfaceOutput("mtlx")
         if mtlx and mtlx.HasConnectedSource():
-            shader, _, _ = material.ComputeSurfaceSource(["mtlx"])
+            shader, _, _ = material.ComputeSurfaceSource("mtlx")
             node = UsdNode(shader, self._resolver, self._time) if shader else None
             if node is not None and (node.category in OPEN_PBR or node.category == PREVIEW):
                 return self._record(path, node, "", skipped)

@@ -144,7 +144,7 @@ class MtlxDocuments:
             mx.readFromXmlFile(document, file)
         except mx.ExceptionFileMissing:
             problem = "missing MaterialX document"
-        except mx.Exception as error:
+        except mx.ExceptionParseError as error:
             problem = f"unreadable MaterialX document ({' '.join(str(error).split())})"
         else:
             if document.getVersionIntegers() == SUPPORTED_VERSION:
@@ -159,6 +159,7 @@ class MtlxDocuments:
         reference on it or an ancestor (usdMtlx's namespace); the node is None when the document
         is unusable or lacks it; None when no .mtlx reference covers the path."""
         path = Sdf.Path(stage_path)
+        files = []
         for ancestor in path.GetAncestorsRange():
             prim = self._stage.GetPrimAtPath(ancestor)
             if not prim:
@@ -173,8 +174,12 @@ class MtlxDocuments:
                     if target.GetParentPath() != MATERIALS:
                         continue
                     file = str(Path(spec.layer.ComputeAbsolutePath(item.assetPath)).resolve())
-                    return self._surface_material(file, target.name), file
-        return None
+                    node = self._surface_material(file, target.name)
+                    if node is not None:
+                        return node, file
+                    files.append(file)
+        unusable = [file for file in files if self.document(file) is None]
+        return (None, (unusable or files)[0]) if files else None
 
     def _surface_material(self, file: str, name: str) -> MtlxNode | None:
         """The document's surfacematerial `name`, or None."""

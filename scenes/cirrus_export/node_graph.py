@@ -146,11 +146,15 @@ class GraphResolver:
 
     def _arg(self, node: Node, name: str):
         """An argument of `node`: its source, else its definition's default."""
-        value = self._source(node, name)
-        value = node.default(name) if value is None else value
+        value = self._optional(node, name)
         if value is None:
             raise Unsupported(node, f"no value for its input {name}")
         return value
+
+    def _optional(self, node: Node, name: str):
+        """An argument of `node` that may be absent everywhere (None then)."""
+        value = self._source(node, name)
+        return node.default(name) if value is None else value
 
     def _node(self, node: Node, output: str):
         """The value of one node's output."""
@@ -172,9 +176,9 @@ class GraphResolver:
         if category in ("image", "tiledimage"):
             return self._image(node)
         if category == "geompropvalue":
-            return self._primvar(node, str(self._arg(node, "geomprop")), node.default("default"))
+            return self._primvar(node, str(self._arg(node, "geomprop")), self._optional(node, "default"))
         if category.startswith("UsdPrimvarReader_"):
-            return self._primvar(node, str(self._arg(node, "varname")), node.default("fallback"))
+            return self._primvar(node, str(self._arg(node, "varname")), self._optional(node, "fallback"))
         if category == "UsdUVTexture":
             return {"texture": self._textures.usd_texture(node), "channel": output}
         raise Unsupported(node, "a node the scene format cannot express")
@@ -250,7 +254,8 @@ class GraphResolver:
     def _image(self, node: Node):
         """A MaterialX image / tiledimage as a texture input; a missing file gives the node's
         `default`, with one warning."""
-        default = self._arg(node, "default") if node.default("default") is not None else 0.0
+        default = self._optional(node, "default")
+        default = 0.0 if default is None else default
         found = node.file("file")
         if found is None or not found[1]:
             self._warn(f"material {self._material}: image file {found[0] if found else '(none)'} of "
