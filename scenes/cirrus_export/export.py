@@ -15,6 +15,7 @@ from .camera import chosen_camera, export_render
 from .instancing import Walker, instance_records
 from .lights import export_lights
 from .materials import MaterialTable
+from .mtlx import MtlxDocuments
 from .prototypes import MeshTable, Prototypes
 from .report import ExportError, Report
 from .skinning import Skinning
@@ -47,6 +48,8 @@ def report_composition_errors(stage: Usd.Stage, path: Path, report: Report) -> N
             missing.setdefault(text.split("@")[1], []).append(str(error.rootSite.path))
         else:
             report.warn(f"{path}: composition error: {text}")
+    # MaterialX documents are read by mtlx.py, which reports those it cannot use.
+    missing = {layer: sites for layer, sites in missing.items() if not layer.endswith(".mtlx")}
     for layer, sites in missing.items():
         what = "unreadable layer (no usd-core file format for it)" if Path(layer).is_file() else "missing layer"
         report.warn(f"{path}: {what} {layer}, referenced at {len(sites)} prims "
@@ -129,7 +132,9 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     out_dir.mkdir(parents=True, exist_ok=True)
     resolver = AssetResolver(out_dir)
     writer = BinWriter()
-    materials = MaterialTable(resolver, report, time)
+    mtlx = MtlxDocuments(stage, report)
+    mtlx.warn_unreadable()
+    materials = MaterialTable(resolver, mtlx, report, time)
     skinning = Skinning(report, time)
     meshes = MeshTable(writer, materials, skinning, report, time, str(path))
     volumes = VolumeTable(resolver, report, time, frame_label)

@@ -1,13 +1,22 @@
-"""UsdPreviewSurface materials and their UsdUVTexture / UsdTransform2d networks.
+"""Material records: UsdPreviewSurface (model preview_surface) and OpenPBR / Standard Surface
+(model open_pbr), read from USD shading networks and from MaterialX documents.
 
-Anything that is not a UsdPreviewSurface reachable from the universal surface output
-(MaterialX-only, glslfx) becomes a grey fallback material with one warning naming it.
+The richest look a material offers is read: its `mtlx` render-context surface output (an
+`ND_open_pbr_surface_surfaceshader`, `ND_standard_surface_surfaceshader` or
+`ND_UsdPreviewSurface_surfaceshader`), else its universal one (UsdPreviewSurface). A richer look
+skipped for a simpler one is listed in the record's `skipped` and warned about once; a material
+with nothing readable becomes a grey fallback with one warning naming it. Bindings into a
+`.mtlx` document referenced as a layer are read through mtlx.py. Inputs go through node_graph.
 """
 
-from pxr import Usd, UsdShade
+from pxr import Usd, UsdGeom, UsdShade
 
 from .assets import AssetResolver
+from .mtlx import MtlxDocuments
+from .node_graph import GraphResolver, Link, Node
+from .openpbr import open_pbr_record
 from .report import Report
+from .usd_nodes import UsdNode, input_value, shader_id, upstream
 
 NO_MATERIAL = 0xFFFFFFFF
 FALLBACK_GREY = [0.18, 0.18, 0.18]
@@ -31,53 +40,22 @@ WRAP_MODES = {"repeat": "repeat", "clamp": "clamp", "mirror": "mirror", "black":
               "useMetadata": "repeat"}
 
 
-def _shader_id(shader: UsdShade.Shader) -> str:
-    """The shader's info:id, or "" for sourceAsset/sourceCode shaders."""
-    return str(shader.GetIdAttr().Get() or "")
-
-
-def _upstream(inp: UsdShade.Input) -> tuple[UsdShade.Shader, str] | None:
-    """The shader and output an input finally reads from, through Material interface inputs."""
-    if not inp:
-        return None
-    attrs = inp.GetValueProducingAttributes()
-    if not attrs or not UsdShade.Output.IsOutput(attrs[0]):
-        return None
-    return UsdShade.Shader(attrs[0].GetPrim()), UsdShade.Output(attrs[0]).GetBaseName()
-
-
-def _as_json(value) -> float | list[float] | str:
-    """A Gf vector, scalar or token as JSON."""
-    if isinstance(value, str):
-        return value
-    try:
-        return [float(v) for v in value]
-    except TypeError:
-        return float(value)
-
-
-def _input_value(shader: UsdShade.Shader, name: str, default):
-    """An input's constant value, following interface connections to the Material."""
-    inp = shader.GetInput(name)
-    if not inp:
-        return default
-    attrs = inp.GetValueProducingAttributes()
-    value = attrs[0].Get() if attrs and UsdShade.Input.IsInput(attrs[0]) else None
-    return default if value is None else _as_json(value)
+# Surface nodes read, by MaterialX category (or UsdPreviewSurface's info:id).
+PREVIEW = "UsdPreviewSurface"
+OPEN_PBR = {"open_pbr_surface", "standard_surface"}
 
 
 class MaterialTable:
     """Materials and textures of the manifest, each USD material and texture stored once."""
 
-    def __init__(self, resolver: AssetResolver, report: Report, time: Usd.TimeCode) -> None:
+    def __init__(self, resolver: AssetResolver, mtlx: MtlxDocuments, report: Report, time: Usd.TimeCode) -> None:
         self.materials: list[dict] = []
         self.textures: list[dict] = []
         self._by_path: dict[str, int] = {}
         self._texture_keys: dict[str, int] = {}
         self._uv_names: dict[int, str] = {}
-        self._resolver = resolver
-        self._report = report
-        self._time = time
+        self._primvars: dict[int, set[str]] = {}
+        self._resolver, self._mtlx, self._report, self._time = resolver, mtlx, report, time
 
     def bound_index(self, prim: Usd.Prim) -> int:
         """Material index bound to `prim` (preview purpose, then full), or NO_MATERIAL."""
@@ -92,18 +70,32 @@ class MaterialTable:
         return NO_MATERIAL if broken is None else self._unloadable(broken)
 
     def _unloadable(self, path: str) -> int:
-        """A fallback record for a bound material that does not compose (e.g. a .mtlx
-        reference, which usd-core cannot read), warned about once."""
+        """A bound material that does not compose: a surfacematerial of a .mtlx document
+        referenced as a layer (which usd-core cannot compose), else a grey fallback warned
+        about once."""
         if path not in self._by_path:
-            self._report.warn(f"material {path}: bound but not a loadable Material (missing layer, or "
-                              f"MaterialX-only); using the grey fallback")
-            self._by_path[path] = len(self.materials)
-            self.materials.append(self._fallback(path))
+            index = self._by_path[path] = len(self.materials)
+            self.materials.append(None)
+            found = self._mtlx.material(path)
+            if found is not None and found[0] is not None:
+                shader = found[0].source("surfaceshader")
+                self.materials[index] = self._record(path, shader.node if isinstance(shader, Link) else None,
+                                                     "mtlx:", [])
+            else:
+                why = "missing layer, or MaterialX-only" if found is None else \
+                    f"from {found[1]}, which is unusable or has no surfacematerial of that name"
+                self._report.warn(f"material {path}: bound but not a loadable Material ({why}); "
+                                  f"using the grey fallback")
+                self.materials[index] = self._fallback(path)
         return self._by_path[path]
 
     def uv_primvar(self, index: int) -> str:
         """The primvar a material's textures read as st (UsdPrimvarReader_float2 varname), default "st"."""
         return self._uv_names.get(index, "st")
+
+    def primvars(self, index: int) -> set[str]:
+        """The primvars a material reads (primvar inputs), which its meshes must carry."""
+        return self._primvars.get(index, set())
 
     def index(self, material: UsdShade.Material) -> int:
         """The manifest index of a material, reading it the first time.
@@ -115,31 +107,86 @@ class MaterialTable:
         path = str(prim.GetPrimInPrototype().GetPath() if prim.IsInstanceProxy() else prim.GetPath())
         if path not in self._by_path:
             self._by_path[path] = len(self.materials)
-            self.materials.append(self._read(material, path))
+            self.materials.append(None)
+            self.materials[self._by_path[path]] = self._read(material, path)
         return self._by_path[path]
 
+    def display_color(self, prim: Usd.Prim) -> int:
+        """For a gprim with no bound material: a preview_surface record from its displayColor /
+        displayOpacity, as Hydra's fallback material reads them; NO_MATERIAL when neither is
+        authored. Per mesh (its path + `.displayColor`)."""
+        api = UsdGeom.PrimvarsAPI(prim)
+        found = {name: api.FindPrimvarWithInheritance(name) for name in ("displayColor", "displayOpacity")}
+        found = {name: primvar for name, primvar in found.items() if primvar and primvar.HasValue()}
+        if not found:
+            return NO_MATERIAL
+        path = f"{prim.GetPath()}.displayColor"
+        if path not in self._by_path:
+            index = self._by_path[path] = len(self.materials)
+            record = {**self._fallback(path), "fallback": False, "shader": "displayColor"}
+            for name, key, width in (("displayColor", "diffuse_color", 3), ("displayOpacity", "opacity", 1)):
+                if name in found:
+                    record[key] = self._display_input(found[name], index, record[key], width)
+            self.materials.append(record)
+        return self._by_path[path]
+
+    def _display_input(self, primvar: UsdGeom.Primvar, index: int, default, width: int):
+        """A display primvar as a constant (constant interpolation) or a primvar input."""
+        values = primvar.ComputeFlattened(self._time)
+        if primvar.GetInterpolation() == UsdGeom.Tokens.constant and values:
+            return [float(v) for v in values[0]] if width == 3 else float(values[0])
+        self._primvars.setdefault(index, set()).add(primvar.GetPrimvarName())
+        return {"primvar": str(primvar.GetPrimvarName()), "channel": "rgb" if width == 3 else "r",
+                "fallback": default}
+
     def _read(self, material: UsdShade.Material, path: str) -> dict:
-        """One material record, or the grey fallback with a warning."""
+        """One material record: the mtlx look if readable, else the universal one, else the
+        grey fallback with a warning."""
+        skipped = []
+        mtlx = material.GetSurfaceOutput("mtlx")
+        if mtlx and mtlx.HasConnectedSource():
+            shader, _, _ = material.ComputeSurfaceSource("mtlx")
+            node = UsdNode(shader, self._resolver, self._time) if shader else None
+            if node is not None and (node.category in OPEN_PBR or node.category == PREVIEW):
+                return self._record(path, node, "", skipped)
+            skipped.append(f"the mtlx surface ({node.id if node else 'unconnected'}) is not "
+                           f"open_pbr_surface, standard_surface or UsdPreviewSurface")
         shader, _, _ = material.ComputeSurfaceSource()
-        if not shader or _shader_id(shader) != "UsdPreviewSurface":
-            what = _shader_id(shader) if shader else "no universal surface output"
-            self._report.warn(f"material {path}: not a UsdPreviewSurface ({what or 'sourceAsset shader'});"
-                              f" using the grey fallback")
-            return self._fallback(path)
-        record = {"path": path, "fallback": False}
+        node = UsdNode(shader, self._resolver, self._time) if shader else None
+        return self._record(path, node if node is not None and node.id == PREVIEW else None, "", skipped,
+                            node.id if node else "no universal surface output")
+
+    def _record(self, path: str, node: Node | None, prefix: str, skipped: list[str],
+                what: str = "no surface shader") -> dict:
+        """The record of a surface node (shader named `prefix` + its id or category), or the
+        grey fallback with a warning; a non-empty `skipped` is warned about once."""
+        if node is None or (node.category not in OPEN_PBR and node.category != PREVIEW):
+            what = node.category if node is not None else what
+            self._report.warn(f"material {path}: not a UsdPreviewSurface, OpenPBR or Standard Surface "
+                              f"({what or 'sourceAsset shader'}); using the grey fallback")
+            return {**self._fallback(path), "skipped": skipped}
+        if skipped:
+            self._report.warn(f"material {path}: {'; '.join(skipped)}; the simpler look is used")
+        index = len(self.materials) - 1
+        resolver = GraphResolver(path, _Sink(self, index, path), self._report.warn)
+        record = {"path": path, "fallback": False, "shader": prefix + (node.id if not prefix else node.category),
+                  "skipped": skipped}
+        if node.category in OPEN_PBR:
+            return {**record, "model": "open_pbr", **open_pbr_record(node, resolver, self._report.warn, path)}
         for key, name, default in SURFACE_INPUTS:
-            record[key] = self._texture_or_value(shader, name, default, path)
-        record["use_specular_workflow"] = bool(_input_value(shader, "useSpecularWorkflow", 0.0))
+            record[key] = resolver.input(node, name, default)
+        record["use_specular_workflow"] = bool(resolver.input(node, "useSpecularWorkflow", 0.0))
         for key, name, default in CONSTANT_INPUTS:
-            record[key] = _input_value(shader, name, default)
-        normal = self._texture_or_value(shader, "normal", None, path)
-        record["normal"] = normal if isinstance(normal, dict) else None  # only a normal map counts
+            value = resolver.input(node, name, default)
+            record[key] = default if isinstance(value, dict) else value
+        normal = resolver.input(node, "normal", None)
+        record["normal"] = normal if isinstance(normal, dict) and "texture" in normal else None
         return record
 
     @staticmethod
     def _fallback(path: str) -> dict:
         """The stand-in for a material we cannot read: UsdPreviewSurface's defaults (a grey 0.18 plastic)."""
-        record = {"path": path, "fallback": True}
+        record = {"path": path, "fallback": True, "shader": "", "skipped": []}
         for key, _, default in SURFACE_INPUTS:
             record[key] = default
         record["use_specular_workflow"] = False
@@ -148,25 +195,23 @@ class MaterialTable:
         record["normal"] = None
         return record
 
-    def _texture_or_value(self, shader: UsdShade.Shader, name: str, default, path: str):
-        """A UsdUVTexture reference `{"texture", "channel"}` or the input's constant."""
-        found = _upstream(shader.GetInput(name))
-        if found is None or _shader_id(found[0]) != "UsdUVTexture":
-            if found is not None:
-                self._report.warn(f"material {path}: {name} is driven by "
-                                  f"{_shader_id(found[0]) or found[0].GetPath()}, not read; constant used")
-            return _input_value(shader, name, default)
-        texture, channel = found
-        self._note_uv_primvar(texture)
-        return {"texture": self._texture_index(texture, path), "channel": channel}
+    def note_uv(self, index: int, name: str) -> None:
+        """Remembers the primvar material `index`'s textures read as st (the first one named)."""
+        self._uv_names.setdefault(index, name)
 
-    def _note_uv_primvar(self, texture: UsdShade.Shader) -> None:
-        """Remembers the varname of the UsdPrimvarReader_float2 feeding a texture's st."""
-        reader = _upstream(texture.GetInput("st"))
-        if reader is not None and _shader_id(reader[0]) == "UsdTransform2d":
-            reader = _upstream(reader[0].GetInput("in"))
-        if reader is not None and _shader_id(reader[0]) == "UsdPrimvarReader_float2":
-            self._uv_names.setdefault(len(self.materials), str(_input_value(reader[0], "varname", "st")))
+    def note_primvar(self, index: int, name: str) -> None:
+        """Remembers a primvar material `index` reads."""
+        self._primvars.setdefault(index, set()).add(name)
+
+    def usd_texture(self, texture: UsdShade.Shader, index: int, material_path: str) -> int:
+        """A UsdUVTexture's record index, noting the UsdPrimvarReader_float2 varname its st
+        reads (through a UsdTransform2d)."""
+        reader = upstream(texture.GetInput("st"))
+        if reader is not None and shader_id(reader[0]) == "UsdTransform2d":
+            reader = upstream(reader[0].GetInput("in"))
+        if reader is not None and shader_id(reader[0]) == "UsdPrimvarReader_float2":
+            self.note_uv(index, str(input_value(reader[0], "varname", "st")))
+        return self._texture_index(texture, material_path)
 
     def _texture_index(self, texture: UsdShade.Shader, material_path: str) -> int:
         """The manifest index of a UsdUVTexture, stored once per distinct record."""
@@ -178,14 +223,18 @@ class MaterialTable:
                               f"{texture.GetPath()} is missing; its fallback value is used")
         record = {
             "file": file,
-            "wrap_s": WRAP_MODES.get(_input_value(texture, "wrapS", "useMetadata"), "repeat"),
-            "wrap_t": WRAP_MODES.get(_input_value(texture, "wrapT", "useMetadata"), "repeat"),
-            "scale": _input_value(texture, "scale", [1.0, 1.0, 1.0, 1.0]),
-            "bias": _input_value(texture, "bias", [0.0, 0.0, 0.0, 0.0]),
-            "fallback": _input_value(texture, "fallback", [0.0, 0.0, 0.0, 1.0]),
+            "wrap_s": WRAP_MODES.get(input_value(texture, "wrapS", "useMetadata"), "repeat"),
+            "wrap_t": WRAP_MODES.get(input_value(texture, "wrapT", "useMetadata"), "repeat"),
+            "scale": input_value(texture, "scale", [1.0, 1.0, 1.0, 1.0]),
+            "bias": input_value(texture, "bias", [0.0, 0.0, 0.0, 0.0]),
+            "fallback": input_value(texture, "fallback", [0.0, 0.0, 0.0, 1.0]),
             "color_space": self._color_space(texture, material_path),
             "st_transform": self._st_transform(texture),
         }
+        return self.add_texture(record)
+
+    def add_texture(self, record: dict) -> int:
+        """The manifest index of a texture record, stored once per distinct record."""
         key = repr(sorted(record.items()))
         if key not in self._texture_keys:
             self._texture_keys[key] = len(self.textures)
@@ -194,7 +243,7 @@ class MaterialTable:
 
     def _color_space(self, texture: UsdShade.Shader, material_path: str) -> str:
         """sourceColorSpace as auto | sRGB | raw; anything else is warned about and read as auto."""
-        space = _input_value(texture, "sourceColorSpace", "auto")
+        space = input_value(texture, "sourceColorSpace", "auto")
         if space not in COLOR_SPACES:
             self._report.warn(f"material {material_path}: sourceColorSpace {space!r} of "
                               f"{texture.GetPath()} is not auto, sRGB or raw; auto used")
@@ -203,10 +252,33 @@ class MaterialTable:
 
     def _st_transform(self, texture: UsdShade.Shader) -> dict | None:
         """The UsdTransform2d between the texture and its primvar reader, if any."""
-        found = _upstream(texture.GetInput("st"))
-        if found is None or _shader_id(found[0]) != "UsdTransform2d":
+        found = upstream(texture.GetInput("st"))
+        if found is None or shader_id(found[0]) != "UsdTransform2d":
             return None
         xform = found[0]
-        return {"translation": _input_value(xform, "translation", [0.0, 0.0]),
-                "rotation_deg": _input_value(xform, "rotation", 0.0),
-                "scale": _input_value(xform, "scale", [1.0, 1.0])}
+        return {"translation": input_value(xform, "translation", [0.0, 0.0]),
+                "rotation_deg": input_value(xform, "rotation", 0.0),
+                "scale": input_value(xform, "scale", [1.0, 1.0])}
+
+
+class _Sink:
+    """node_graph.TextureSink for one material: textures and primvars land in the table."""
+
+    def __init__(self, table: MaterialTable, index: int, path: str) -> None:
+        self._table, self._index, self._path = table, index, path
+
+    def add(self, record: dict) -> int:
+        """A texture record's index."""
+        return self._table.add_texture(record)
+
+    def usd_texture(self, node: UsdNode) -> int:
+        """A UsdUVTexture node's record index."""
+        return self._table.usd_texture(node.shader, self._index, self._path)
+
+    def note_uv(self, name: str) -> None:
+        """The primvar this material's textures read as st."""
+        self._table.note_uv(self._index, name)
+
+    def note_primvar(self, name: str) -> None:
+        """A primvar this material reads."""
+        self._table.note_primvar(self._index, name)

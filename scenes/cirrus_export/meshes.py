@@ -3,7 +3,7 @@
 Everything is vectorised over faces and corners; no Python loop per element.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -30,6 +30,8 @@ class MeshGeometry:
     normals: np.ndarray | None  # (n, 3) or None
     uvs: np.ndarray | None  # (n, 2) or None
     triangle_face: np.ndarray  # (t,) authored face index of each triangle
+    # name -> (n, width): the requested primvars the mesh has
+    primvars: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def fan_triangulate(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -73,7 +75,7 @@ def _read_primvar(prim: Usd.Prim, name: str, time: Usd.TimeCode) -> tuple[np.nda
     values = primvar.ComputeFlattened(time)
     if values is None or len(values) == 0:
         return None
-    return np.array(values, dtype=np.float64), primvar.GetInterpolation()
+    return np.array(values, dtype=np.float64).reshape(len(values), -1), primvar.GetInterpolation()
 
 
 def read_normals(mesh: UsdGeom.Mesh, time: Usd.TimeCode) -> tuple[np.ndarray, str] | None:
@@ -105,10 +107,11 @@ def _validated(points, counts, indices) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 
 def read_mesh(prim: Usd.Prim, time: Usd.TimeCode, report: Report, uv_name: str = "st",
-              pose: "Pose | None" = None) -> MeshGeometry:
+              pose: "Pose | None" = None, primvars: tuple[str, ...] = ()) -> MeshGeometry:
     """A UsdGeom.Mesh as triangles; per-corner vertices are unwelded when a primvar needs it.
 
-    `uv_name` is the primvar the mesh's material reads as texture coordinates. A `pose`
+    `uv_name` is the primvar the mesh's material reads as texture coordinates, `primvars`
+    the others its materials read (any interpolation; constant ones broadcast). A `pose`
     (UsdSkel's) replaces the authored points and normals.
     """
     mesh = UsdGeom.Mesh(prim)
@@ -124,16 +127,18 @@ def read_mesh(prim: Usd.Prim, time: Usd.TimeCode, report: Report, uv_name: str =
     corner_face = np.repeat(np.arange(counts.size), counts)
     shape = (len(points), indices.size, counts.size)
     attrs = {"normals": read_normals(mesh, time) if pose is None else pose.normals,
-             "st": _read_primvar(prim, uv_name, time)}
+             "st": _read_primvar(prim, uv_name, time),
+             **{f"primvars:{name}": _read_primvar(prim, name, time) for name in primvars}}
     for name, found in list(attrs.items()):
         if found is not None and len(found[0]) != _expected_length(found[1], *shape):
             report.warn(f"{path}: {name} has {len(found[0])} values, wrong for "
                         f"{found[1]} interpolation; ignored")
             attrs[name] = None
-    welded = all(found is None or found[1] in PER_POINT for found in attrs.values())
+    welded = all(found is None or found[1] in (*PER_POINT, "constant") for found in attrs.values())
     if welded:
         triangles = indices[corners]
-        per_point = {k: None if v is None else v[0] for k, v in attrs.items()}
+        per_point = {k: None if v is None else v[0] if v[1] in PER_POINT else
+                     np.broadcast_to(v[0][:1], (len(points), v[0].shape[1])) for k, v in attrs.items()}
     else:
         triangles = corners
         points = points[indices]
@@ -141,4 +146,5 @@ def read_mesh(prim: Usd.Prim, time: Usd.TimeCode, report: Report, uv_name: str =
                      for k, v in attrs.items()}
     if mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded:
         triangles = triangles[:, [0, 2, 1]]
-    return MeshGeometry(points, triangles, per_point["normals"], per_point["st"], face)
+    extra = {name: per_point[f"primvars:{name}"] for name in primvars if per_point[f"primvars:{name}"] is not None}
+    return MeshGeometry(points, triangles, per_point["normals"], per_point["st"], face, extra)

@@ -77,7 +77,9 @@ class MeshTable:
     def material_key(self, prim: Usd.Prim) -> tuple[int, ...]:
         """Material indices a gprim uses: its own binding, then each materialBind subset's."""
         subsets = [s.GetPrim() for s in self._subsets(prim)]
-        return tuple(self._materials.bound_index(p) for p in [prim, *subsets])
+        own = self._materials.bound_index(prim)
+        own = self._materials.display_color(prim) if own == NO_MATERIAL else own
+        return (own, *(self._materials.bound_index(p) for p in subsets))
 
     def signature(self, root: Usd.Prim) -> tuple:
         """Every material binding under `root`: equal for instances that can share parts."""
@@ -87,9 +89,10 @@ class MeshTable:
         """Reads, validates and stores one mesh; a bad one is warned about and skipped."""
         bound = [m for m in materials if m != NO_MATERIAL]
         uv_name = self._materials.uv_primvar(bound[0]) if bound else "st"
+        primvars = {name: m for m in bound for name in self._materials.primvars(m)}
         try:
-            geometry = read_mesh(prim, self._time, self._report, uv_name, self._skinning.pose(prim)) \
-                if prim.IsA(UsdGeom.Mesh) else tessellate(prim, self._time)
+            geometry = read_mesh(prim, self._time, self._report, uv_name, self._skinning.pose(prim),
+                                 tuple(sorted(primvars))) if prim.IsA(UsdGeom.Mesh) else tessellate(prim, self._time)
         except BadMesh as bad:
             self._report.warn(f"{self._source}: mesh {prim.GetPath()} skipped: {bad}")
             return None
@@ -99,6 +102,9 @@ class MeshTable:
         if prim.IsA(UsdGeom.Mesh) and \
                 UsdGeom.Mesh(prim).GetSubdivisionSchemeAttr().Get() != UsdGeom.Tokens.none:
             self.cages.append(str(prim.GetPath()))
+        for name in sorted(set(primvars) - set(geometry.primvars)):
+            self._report.warn(f"{self._source}: mesh {prim.GetPath()} has no primvar {name} (read by material "
+                              f"{self._materials.materials[primvars[name]]['path']}); its fallback is used")
         self.records.append(self._record(prim, key, geometry, materials))
         self.boxes.append((geometry.points.min(axis=0), geometry.points.max(axis=0)))
         return len(self.records) - 1
@@ -122,6 +128,7 @@ class MeshTable:
             "triangles": w.add(geometry.triangles, "u32", 3),
             "normals": _optional(w, geometry.normals, 3),
             "uvs": _optional(w, geometry.uvs, 2),
+            "primvars": {name: w.add(values, "f32", values.shape[1]) for name, values in geometry.primvars.items()},
             "triangle_materials": w.add(self._triangle_materials(prim, geometry, materials), "u32", 1),
             "double_sided": bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(self._time)),
         }
