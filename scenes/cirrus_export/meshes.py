@@ -30,6 +30,7 @@ class MeshGeometry:
     normals: np.ndarray | None  # (n, 3) or None
     uvs: np.ndarray | None  # (n, 2) or None
     triangle_face: np.ndarray  # (t,) authored face index of each triangle
+    corner_points: np.ndarray | None = None  # (c,) point of each faceVertexIndices corner (subdivision.py)
 
 
 def fan_triangulate(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -141,4 +142,5 @@ def read_mesh(prim: Usd.Prim, time: Usd.TimeCode, report: Report, uv_name: str =
                      for k, v in attrs.items()}
     if mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded:
         triangles = triangles[:, [0, 2, 1]]
-    return MeshGeometry(points, triangles, per_point["normals"], per_point["st"], face)
+    return MeshGeometry(points, triangles, per_point["normals"], per_point["st"], face,
+                        indices if welded else np.arange(indices.size))

@@ -79,6 +79,7 @@ fn scene_summary(scene: &Scene) -> String {
         "materials",
         format!("{} ({fallbacks} fell back)", m.materials.len()),
     );
+    line("subdivided", scene.subdivision.to_string());
     line("textures", m.textures.len().to_string());
     line("volumes", m.volumes.len().to_string());
     for v in &m.volumes {
