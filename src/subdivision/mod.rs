@@ -209,6 +209,10 @@ fn validate(cage: &Cage) -> Result<(), SubdivisionError> {
         Some(i) => invalid(format!("{name} holds {i}, not below {len}")),
         None => Ok(()),
     };
+    if let Some(face) = cage.face_counts.iter().position(|&n| n < 3) {
+        let n = cage.face_counts[face];
+        return invalid(format!("face {face} has {n} vertices: a degenerate cage"));
+    }
     let vertices = cage.positions.len();
     below("face indices", cage.face_indices, vertices)?;
     below("crease pairs", cage.crease_pairs, vertices)?;
