@@ -15,30 +15,21 @@ pub(super) fn triangles(cage: &Cage, faces: Faces) -> RefinedMesh {
     let fvar: Vec<usize> = (0..cage.channels.len())
         .filter(|&c| cage.channels[c].indices.is_some())
         .collect();
-    // Per face corner, the point it becomes and, per point, its refined vertex
-    // and the value index of each channel.
-    let (corner_points, point_keys): (Vec<u32>, Vec<Vec<u32>>) = if fvar.is_empty() {
-        let n = faces.positions.len() as u32;
-        (faces.vertices.clone(), (0..n).map(|v| vec![v]).collect())
-    } else {
-        split_seams(&faces, &fvar)
-    };
-    let point_vertex = |p: usize| point_keys[p][0] as usize;
-    let value_index = |c: usize, p: usize| match fvar.iter().position(|&f| f == c) {
-        Some(k) => point_keys[p][k + 1] as usize,
-        None => point_vertex(p),
-    };
-    let points: Vec<[f32; 3]> = (0..point_keys.len())
-        .map(|p| faces.positions[point_vertex(p)])
-        .collect();
-    let (triangles, triangle_faces) = fan(&faces, &corner_points);
+    let points = Points::split(&faces, &fvar);
+    let (triangles, triangle_faces) = fan(&faces, &points.of_corner);
     let normals = faces.normals.as_ref().map(|limit| {
         let fallback = vertex_normals(&faces);
-        (0..point_keys.len())
-            .map(|p| {
-                let v = point_vertex(p);
-                let n = Vec3::from(limit[v]).normalize_or_zero();
-                if n == Vec3::ZERO { fallback[v] } else { n }.to_array()
+        points
+            .vertex
+            .iter()
+            .map(|&v| {
+                let n = Vec3::from(limit[v as usize]).normalize_or_zero();
+                if n == Vec3::ZERO {
+                    fallback[v as usize]
+                } else {
+                    n
+                }
+                .to_array()
             })
             .collect()
     });
@@ -49,13 +40,24 @@ pub(super) fn triangles(cage: &Cage, faces: Faces) -> RefinedMesh {
         .enumerate()
         .map(|(c, (channel, (values, _)))| {
             let w = channel.width;
-            (0..point_keys.len())
-                .flat_map(|p| values[value_index(c, p) * w..][..w].iter().copied())
+            let k = fvar.iter().position(|&f| f == c);
+            (0..points.vertex.len())
+                .flat_map(|p| {
+                    let i = match k {
+                        Some(k) => points.values[p * fvar.len() + k],
+                        None => points.vertex[p],
+                    } as usize;
+                    values[i * w..][..w].iter().copied()
+                })
                 .collect()
         })
         .collect();
     RefinedMesh {
-        points,
+        points: points
+            .vertex
+            .iter()
+            .map(|&v| faces.positions[v as usize])
+            .collect(),
         normals,
         triangles,
         triangle_faces,
@@ -63,23 +65,70 @@ pub(super) fn triangles(cage: &Cage, faces: Faces) -> RefinedMesh {
     }
 }
 
-/// Points for the distinct (vertex, face-varying value indices) keys of the
-/// face corners: the point of each corner, and each point's key.
-fn split_seams(faces: &Faces, fvar: &[usize]) -> (Vec<u32>, Vec<Vec<u32>>) {
-    let mut ids: HashMap<Vec<u32>, u32> = HashMap::new();
-    let mut keys = Vec::new();
-    let corner_points = (0..faces.vertices.len())
-        .map(|corner| {
-            let key: Vec<u32> = std::iter::once(faces.vertices[corner])
-                .chain(fvar.iter().map(|&c| faces.channels[c].1[corner]))
-                .collect();
-            *ids.entry(key).or_insert_with_key(|key| {
-                keys.push(key.clone());
-                keys.len() as u32 - 1
-            })
+/// The output points of the refined face corners.
+struct Points {
+    /// Per face corner, its point.
+    of_corner: Vec<u32>,
+    /// Per point, its refined vertex.
+    vertex: Vec<u32>,
+    /// Per point, its value index in each face-varying channel (stride: their number).
+    values: Vec<u32>,
+}
+
+impl Points {
+    /// One point per distinct (vertex, face-varying value indices) of the
+    /// corners, numbered in corner order. Keys are combined one channel at a
+    /// time through a table indexed by value (OpenSubdiv gives each refined
+    /// value one vertex, so a hash map is only the fallback), never hashing
+    /// a key per corner: the chess set has 25 million corners.
+    fn split(faces: &Faces, fvar: &[usize]) -> Self {
+        let mut of_corner = faces.vertices.clone();
+        for &c in fvar {
+            let (values, indices) = &faces.channels[c];
+            of_corner = combine(&of_corner, indices, values.len());
+        }
+        let n = of_corner.iter().max().map_or(0, |&m| m as usize + 1);
+        let mut vertex = vec![u32::MAX; n];
+        let mut values = vec![0; n * fvar.len()];
+        for (corner, &p) in of_corner.iter().enumerate() {
+            let p = p as usize;
+            if vertex[p] == u32::MAX {
+                vertex[p] = faces.vertices[corner];
+                for (k, &c) in fvar.iter().enumerate() {
+                    values[p * fvar.len() + k] = faces.channels[c].1[corner];
+                }
+            }
+        }
+        Self {
+            of_corner,
+            vertex,
+            values,
+        }
+    }
+}
+
+/// Ids numbering the distinct pairs (`a[i]`, `b[i]`) in order of first
+/// appearance; `b` values are below `b_len`.
+fn combine(a: &[u32], b: &[u32], b_len: usize) -> Vec<u32> {
+    let mut first = vec![(u32::MAX, 0u32); b_len];
+    let mut others: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut next = 0u32;
+    let mut new_id = || {
+        next += 1;
+        next - 1
+    };
+    a.iter()
+        .zip(b)
+        .map(|(&a, &b)| match first[b as usize] {
+            (u32::MAX, _) => {
+                let id = new_id();
+                first[b as usize] = (a, id);
+                id
+            }
+            (seen, id) if seen == a => id,
+            _ => *others.entry((a, b)).or_insert_with(&mut new_id),
         })
-        .collect();
-    (corner_points, keys)
+        .collect()
 }
 
 /// Each face fanned from its first corner into triangles of points, with
