@@ -8,13 +8,13 @@ use std::path::PathBuf;
 
 use glam::UVec2;
 
+use super::aovs::settings;
 use super::machine::{machine_line, with_threads};
 use super::scenes::scene_name;
 use super::Result;
-use crate::film::{AovSet, FilterKind};
-use crate::integrator::{self, Budget, PathSettings, RenderSettings, Strategy, VolumeEstimator};
+use crate::film::AovSet;
+use crate::integrator;
 use crate::render_state::{RenderState, StateOptions};
-use crate::sampling::SamplerKind;
 use crate::scene::{Refinement, Scene};
 
 /// Image size of the sample-rate renders.
@@ -61,20 +61,7 @@ pub fn run(scenes: &[PathBuf], level: u32) -> Result<()> {
 /// built first, not timed).
 fn samples_per_second(scene: &Scene) -> Result<f64> {
     let state = RenderState::build(scene, Some(RESOLUTION), StateOptions::default())?;
-    let settings = RenderSettings {
-        budget: Budget::Samples(SPP),
-        seed: 0,
-        sampler: SamplerKind::Sobol,
-        filter: FilterKind::default(),
-        path: PathSettings {
-            strategy: Strategy::Mis,
-            max_depth: 16,
-            clamp: None,
-            volume_estimator: VolumeEstimator::NullScatteringMis,
-            equiangular: true,
-        },
-        aovs: AovSet::beauty_only(),
-    };
+    let settings = settings(SPP, AovSet::beauty_only());
     let (_, stats) = integrator::render(&state, &settings, &|_| {});
     let samples = f64::from(RESOLUTION.x * RESOLUTION.y) * f64::from(SPP);
     Ok(samples / stats.elapsed.as_secs_f64())

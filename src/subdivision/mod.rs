@@ -426,6 +426,50 @@ mod tests {
         assert_eq!(faces, (0..6).collect::<Vec<u32>>());
     }
 
+    /// Loop splits each triangle of an octahedron into 4^L, and its limit
+    /// surface is smooth (normals along the position from the centre at the
+    /// six cage vertices, by symmetry); bilinear splits the cube's quads
+    /// without moving anything off the cube and gives no normals (faceted).
+    #[test]
+    fn loop_and_bilinear_refine_as_their_rules_say() {
+        let octahedron: [[f32; 3]; 6] = [
+            [1.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+        ];
+        let faces = [
+            0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5,
+        ];
+        let cage = Cage {
+            positions: &octahedron,
+            face_counts: &[3; 8],
+            face_indices: &faces,
+            ..cube(Scheme::Loop)
+        };
+        let refined = refine(&cage, 2, Surface::Limit).unwrap();
+        assert_eq!(
+            refined.triangles.len() as u64,
+            triangles_at(Scheme::Loop, &[3; 8], 2)
+        );
+        assert_eq!(refined.triangles.len(), 8 * 16);
+        let normals = refined.normals.unwrap();
+        for (v, (point, normal)) in refined.points.iter().zip(&normals).take(6).enumerate() {
+            let radial = Vec3::from(*point).normalize();
+            assert!(Vec3::from(*normal).dot(radial) > 1.0 - 1e-5, "vertex {v}");
+        }
+        let bilinear = refine(&cube(Scheme::Bilinear), 3, Surface::Limit).unwrap();
+        assert!(bilinear.normals.is_none());
+        for p in &bilinear.points {
+            assert!(
+                p.iter().any(|&c| c == 0.0 || c == 1.0),
+                "{p:?} left the cube"
+            );
+        }
+    }
+
     /// Loop refuses quads; a bad index is refused before OpenSubdiv sees it.
     #[test]
     fn refusals_are_errors() {
