@@ -23,4 +23,5 @@ pub mod output;
 pub mod render_state;
 pub mod sampling;
 pub mod scene;
+pub mod subdivision;
 pub mod volumes;

@@ -11,7 +11,7 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use cirrus::scene::{Scene, Transform};
+use cirrus::scene::{Refinement, Scene, Transform};
 use common::aovs::Exr;
 use common::{cirrus_ok, python_script, run_python, scratch, venv_python};
 use glam::{DMat3, DVec3};
@@ -48,7 +48,8 @@ fn export(usda: &Path, frame: &str) -> Scene {
         "--frame".as_ref(),
         frame.as_ref(),
     ]);
-    Scene::load(&out).unwrap()
+    // The exported (posed) cages, not their refined surfaces: UsdSkel poses points.
+    Scene::load_with(&out, Refinement::Cages).unwrap()
 }
 
 /// Points (or normals) per stage path of a mesh copy.

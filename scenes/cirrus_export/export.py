@@ -140,7 +140,6 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     volumes = VolumeTable(resolver, report, time, frame_label)
     prototypes = Prototypes(meshes, volumes)
     sink = Walker(prototypes, skinning, report, time).walk_stage(stage)
-    meshes.warn_cages()
     instances, prototype, matrices = instance_records(sink, writer)
     lights = export_lights(stage, time, resolver, report)
     if instances["count"] == 0 and not lights:

@@ -32,6 +32,7 @@ class MeshGeometry:
     triangle_face: np.ndarray  # (t,) authored face index of each triangle
     # name -> (n, width): the requested primvars the mesh has
     primvars: dict[str, np.ndarray] = field(default_factory=dict)
+    corner_points: np.ndarray | None = None  # (c,) point of each faceVertexIndices corner (subdivision.py)
 
 
 def fan_triangulate(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -147,4 +148,5 @@ def read_mesh(prim: Usd.Prim, time: Usd.TimeCode, report: Report, uv_name: str =
     if mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded:
         triangles = triangles[:, [0, 2, 1]]
     extra = {name: per_point[f"primvars:{name}"] for name in primvars if per_point[f"primvars:{name}"] is not None}
-    return MeshGeometry(points, triangles, per_point["normals"], per_point["st"], face, extra)
+    return MeshGeometry(points, triangles, per_point["normals"], per_point["st"], face, extra,
+                        indices if welded else np.arange(indices.size))

@@ -15,6 +15,7 @@ from .materials import NO_MATERIAL, MaterialTable
 from .meshes import BadMesh, MeshGeometry, read_mesh
 from .report import Report
 from .shapes import tessellate
+from .subdivision import CageWriter, scheme
 from .xforms import box_corners, to_3x4_list, transform_points
 
 if TYPE_CHECKING:
@@ -41,8 +42,7 @@ class MeshTable:
                  time: Usd.TimeCode, source: str) -> None:
         self.records: list[dict] = []
         self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
-        # Meshes whose subdivisionScheme is not none: rendered as their cages.
-        self.cages: list[str] = []
+        self._cages = CageWriter(writer, report, time, source)
         self._by_path: dict[tuple, int | None] = {}
         self._writer, self._materials, self._skinning, self._report = writer, materials, skinning, report
         self._time, self._source = time, source
@@ -60,14 +60,6 @@ class MeshTable:
         if key not in self._by_path:
             self._by_path[key] = self._add(prim, key[0], materials)
         return self._by_path[key]
-
-    def warn_cages(self) -> None:
-        """One warning for every mesh read whose subdivisionScheme asks for a smooth surface."""
-        if self.cages:
-            shown = ", ".join(self.cages[:3]) + (f" and {len(self.cages) - 3} more" if len(self.cages) > 3 else "")
-            self._report.warn(f"{self._source}: {len(self.cages)} meshes ({shown}) have a subdivisionScheme "
-                              "other than none (catmullClark when unauthored, as USD defines it): rendered "
-                              "as their control cages, faceted; subdivision surfaces are not supported yet")
 
     def _subsets(self, prim: Usd.Prim) -> list[UsdGeom.Subset]:
         """The prim's face GeomSubsets of the materialBind family."""
@@ -99,9 +91,6 @@ class MeshTable:
         if geometry is None or len(geometry.triangles) == 0:
             self._report.warn(f"{self._source}: {prim.GetTypeName()} {prim.GetPath()} has no triangles; skipped")
             return None
-        if prim.IsA(UsdGeom.Mesh) and \
-                UsdGeom.Mesh(prim).GetSubdivisionSchemeAttr().Get() != UsdGeom.Tokens.none:
-            self.cages.append(str(prim.GetPath()))
         for name in sorted(set(primvars) - set(geometry.primvars)):
             self._report.warn(f"{self._source}: mesh {prim.GetPath()} has no primvar {name} (read by material "
                               f"{self._materials.materials[primvars[name]]['path']}); its fallback is used")
@@ -109,19 +98,24 @@ class MeshTable:
         self.boxes.append((geometry.points.min(axis=0), geometry.points.max(axis=0)))
         return len(self.records) - 1
 
-    def _triangle_materials(self, prim: Usd.Prim, geometry: MeshGeometry,
-                            materials: tuple[int, ...]) -> np.ndarray:
-        """Material per triangle: the prim's binding, overridden by materialBind GeomSubsets."""
-        result = np.full(len(geometry.triangles), materials[0], dtype=np.uint32)
+    def _face_materials(self, prim: Usd.Prim, faces: np.ndarray, materials: tuple[int, ...]) -> np.ndarray:
+        """Material per entry of `faces` (authored face indices, one per triangle or per cage
+        face): the prim's binding, overridden by materialBind GeomSubsets."""
+        result = np.full(len(faces), materials[0], dtype=np.uint32)
         for subset, material in zip(self._subsets(prim), materials[1:]):
-            faces = np.array(subset.GetIndicesAttr().Get(self._time) or [], dtype=np.int64)
-            result[np.isin(geometry.triangle_face, faces)] = material
+            indices = np.array(subset.GetIndicesAttr().Get(self._time) or [], dtype=np.int64)
+            result[np.isin(faces, indices)] = material
         return result
 
     def _record(self, prim: Usd.Prim, key: str, geometry: MeshGeometry,
                 materials: tuple[int, ...]) -> dict:
         """The manifest Mesh record, arrays written to scene.bin."""
         w = self._writer
+        cage = None
+        if scheme(prim, self._time) is not None:
+            n_faces = len(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get(self._time) or [])
+            cage = self._cages.record(prim, geometry,
+                                      self._face_materials(prim, np.arange(n_faces), materials))
         return {
             "path": key,
             "points": w.add(geometry.points, "f32", 3),
@@ -129,8 +123,9 @@ class MeshTable:
             "normals": _optional(w, geometry.normals, 3),
             "uvs": _optional(w, geometry.uvs, 2),
             "primvars": {name: w.add(values, "f32", values.shape[1]) for name, values in geometry.primvars.items()},
-            "triangle_materials": w.add(self._triangle_materials(prim, geometry, materials), "u32", 1),
+            "triangle_materials": w.add(self._face_materials(prim, geometry.triangle_face, materials), "u32", 1),
             "double_sided": bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(self._time)),
+            "subdivision": cage,
         }
 
 

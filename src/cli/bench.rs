@@ -62,6 +62,15 @@ pub enum Bench {
         #[arg(long, default_value_t = 3)]
         repeats: usize,
     },
+    /// Subdivision at load: refinement time and memory, samples/s of cages and refined surfaces.
+    Subdivision {
+        /// Scenes (USD or exported).
+        #[arg(required = true)]
+        scenes: Vec<PathBuf>,
+        /// Subdivision level.
+        #[arg(long, default_value_t = cirrus::subdivision::DEFAULT_LEVEL)]
+        level: u32,
+    },
     /// Rendering core: camera-ray, path-ray and sample rates, and the
     /// equal-time MSE of BSDF-only, NEE-only and MIS with Sobol and
     /// independent samples against a high-spp reference (table + SVG chart).
@@ -250,6 +259,7 @@ pub fn run(bench: Bench) -> Result<()> {
             let bench = EqualTimeBench::new(scenes, res, settings, quick, threads, (out, charts));
             lab::bench_fire(&bench)
         }
+        Bench::Subdivision { scenes, level } => lab::bench_subdivision(&scenes, level),
         Bench::InstancesMemory { scene } => lab::instances_memory(&scene),
     }?;
     Ok(())

@@ -87,6 +87,7 @@ fn scene_summary(scene: &Scene) -> String {
     for mat in skipped {
         line("", format!("{}: {}", mat.path, mat.skipped.join("; ")));
     }
+    line("subdivided", scene.subdivision.to_string());
     line("textures", m.textures.len().to_string());
     line("volumes", m.volumes.len().to_string());
     for v in &m.volumes {

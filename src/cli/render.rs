@@ -115,6 +115,9 @@ pub struct RenderArgs {
     /// the render settings' camera, else the stage's first).
     #[arg(long, value_name = "PRIM_PATH")]
     camera: Option<String>,
+    /// Subdivision level of meshes that do not author primvars:cirrus:subdivisionLevel.
+    #[arg(long, default_value_t = cirrus::subdivision::DEFAULT_LEVEL)]
+    subdiv_level: u32,
     #[command(flatten)]
     part: PartArgs,
     /// Render nothing when the output is complete (it exists, no checkpoint beside it).
@@ -250,7 +253,9 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
     }
     let pool = pool.build().context("cannot start worker threads")?;
     let start = Instant::now();
-    let scene = cirrus::scene::Scene::open(&args.scene, args.frame, args.camera.as_deref())?;
+    let level = cirrus::scene::Refinement::Level(args.subdiv_level);
+    let scene =
+        cirrus::scene::Scene::open_with(&args.scene, args.frame, args.camera.as_deref(), level)?;
     let resolution = render_state::resolution_for(&scene, args.res);
     let window = part.window(resolution)?;
     let needs = pool.install(|| memory::estimate(&scene, window.size, &settings.aovs))?;

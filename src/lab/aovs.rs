@@ -108,8 +108,8 @@ fn run_scenes(bench: &AovsBench) -> Result<()> {
     Ok(())
 }
 
-/// The render defaults at `spp` samples with `aovs`.
-fn settings(spp: u32, aovs: AovSet) -> RenderSettings {
+/// The render defaults at `spp` samples with `aovs` (MIS, Sobol, depth 16).
+pub(super) fn settings(spp: u32, aovs: AovSet) -> RenderSettings {
     RenderSettings {
         budget: Budget::Samples(spp),
         seed: 0,

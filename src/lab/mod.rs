@@ -39,6 +39,7 @@ mod reference;
 mod render;
 mod scenes;
 mod stats;
+mod subdivision;
 mod vdb;
 mod volumes;
 
@@ -58,6 +59,7 @@ pub use fire::run as bench_fire;
 pub use instances::{print_memory as instances_memory, run as bench_instances, InstancesBench};
 pub use peers::Peer;
 pub use render::run as bench_render;
+pub use subdivision::run as bench_subdivision;
 pub use vdb::{run as bench_vdb, VdbBench};
 pub use volumes::run as bench_volumes;
 

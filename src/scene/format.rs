@@ -163,6 +163,18 @@ pub struct Array<T> {
 }
 
 impl<T: Element> Array<T> {
+    /// A reference to `count` elements at `offset` (for arrays the loader
+    /// appends: refined meshes).
+    pub(crate) fn new(offset: u64, count: u64) -> Self {
+        Self {
+            offset,
+            count,
+            scalar: T::SCALAR,
+            width: T::WIDTH,
+            element: PhantomData,
+        }
+    }
+
     /// Bytes the array occupies in `scene.bin` (`None` on overflow).
     pub fn bytes(&self) -> Option<u64> {
         self.count.checked_mul(u64::from(self.width) * 4)
@@ -192,6 +204,53 @@ pub struct Mesh {
     /// `width` 1 to 4, one element per point (unwelded like `uvs`).
     #[serde(default)]
     pub primvars: BTreeMap<String, Array<f32>>,
+    /// The control cage of a mesh whose `subdivisionScheme` is not `none`;
+    /// absent for polygonal meshes and in files written before subdivision.
+    /// The arrays above then hold the triangulated cage, which the loader
+    /// replaces with the refined surface (or keeps, with a warning, when
+    /// OpenSubdiv refuses the cage).
+    #[serde(default)]
+    pub subdivision: Option<Subdivision>,
+}
+
+/// A subdivision surface's control cage and tags (`UsdGeomMesh`), refined by
+/// `crate::subdivision` at load. Cage vertex `face_indices[c]` sits at
+/// `points[corner_points[c]]`, and every per-point array of the [`Mesh`]
+/// (`uvs`) is read at the corners the same way, so a per-point primvar is
+/// refined as face-varying data (or per vertex when the mesh is welded).
+#[derive(Clone, Debug, Deserialize)]
+pub struct Subdivision {
+    /// `subdivisionScheme` (`catmullClark` when unauthored, as USD defines it).
+    pub scheme: crate::subdivision::Scheme,
+    /// `interpolateBoundary` (default `edgeAndCorner`).
+    pub interpolate_boundary: crate::subdivision::Boundary,
+    /// `faceVaryingLinearInterpolation` (default `cornersPlus1`).
+    pub face_varying_linear_interpolation: crate::subdivision::FaceVaryingLinear,
+    /// `triangleSubdivisionRule` (default `catmullClark`).
+    pub triangle_subdivision_rule: crate::subdivision::TriangleRule,
+    /// `primvars:cirrus:subdivisionLevel` (constant int): this mesh's level,
+    /// which `--subdiv-level` does not override; `null` when unauthored.
+    pub level: Option<u32>,
+    /// Number of authored `points` (cage vertices).
+    pub vertex_count: u32,
+    /// `faceVertexCounts`, every face.
+    pub face_counts: Array<u32>,
+    /// `faceVertexIndices`, cage vertex indices (reversed per face for `leftHanded`).
+    pub face_indices: Array<u32>,
+    /// Per face corner: the index into the mesh's `points` holding it.
+    pub corner_points: Array<u32>,
+    /// Bound material per cage face (GeomSubsets resolved); [`NO_MATERIAL`] = none.
+    pub face_materials: Array<u32>,
+    /// `creaseIndices`/`creaseLengths` as vertex pairs, two entries per creased edge.
+    pub crease_pairs: Array<u32>,
+    /// `creaseSharpnesses` per creased edge (10 or more: infinitely sharp).
+    pub crease_sharpness: Array<f32>,
+    /// `cornerIndices`: sharp cage vertices.
+    pub corners: Array<u32>,
+    /// `cornerSharpnesses`, one per corner.
+    pub corner_sharpness: Array<f32>,
+    /// `holeIndices`: cage faces not rendered.
+    pub holes: Array<u32>,
 }
 
 /// `triangle_materials` entry for a triangle with no bound material (grey default).

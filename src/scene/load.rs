@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use bytemuck::{Pod, Zeroable};
 
 use super::format::{
-    Array, Element, LightShape, Manifest, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+    Array, Element, LightShape, Manifest, Subdivision, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
 };
 use super::material::{Input, Material};
 
@@ -69,6 +69,19 @@ pub enum SceneError {
         /// What is wrong with it.
         message: String,
     },
+    /// A subdivision level above [`crate::subdivision::MAX_LEVEL`], refused
+    /// before refining anything.
+    #[error("{path}: subdivision level {level} ({from}) is above the safe bound {max}: it would make {triangles} triangles", path = path.display(), max = crate::subdivision::MAX_LEVEL)]
+    SubdivisionLevel {
+        /// `scene.json`.
+        path: PathBuf,
+        /// The level asked for.
+        level: u32,
+        /// Who asked: `--subdiv-level`, or the mesh whose primvar says so.
+        from: String,
+        /// Triangles the scene's subdivision meshes would make at their levels.
+        triangles: u64,
+    },
 }
 
 /// One 16-byte chunk: a `Vec` of these is a byte buffer aligned for any array view.
@@ -93,6 +106,18 @@ impl Blob {
         let start = array.offset as usize;
         let end = start + array.bytes().expect("validated array") as usize;
         bytemuck::cast_slice(&self.bytes()[start..end])
+    }
+
+    /// Appends `values` at the next 16-byte boundary (a refined mesh's
+    /// arrays) and returns their reference.
+    pub(crate) fn push<T: Element>(&mut self, values: &[T]) -> Array<T> {
+        let offset = self.chunks.len() * 16;
+        let bytes: &[u8] = bytemuck::cast_slice(values);
+        let mut chunks = vec![Chunk::zeroed(); bytes.len().div_ceil(16)];
+        bytemuck::cast_slice_mut(&mut chunks)[..bytes.len()].copy_from_slice(bytes);
+        self.chunks.extend(chunks);
+        self.len = offset + bytes.len();
+        Array::new(offset as u64, values.len() as u64)
     }
 
     fn read(path: &Path) -> Result<Self, SceneError> {
@@ -373,6 +398,92 @@ impl Checker<'_> {
             self.manifest.materials.len(),
             "materials",
             Some(NO_MATERIAL),
+        )?;
+        match &mesh.subdivision {
+            Some(cage) => self.cage(&field("subdivision"), cage, points.len()),
+            None => Ok(()),
+        }
+    }
+
+    /// A subdivision record: every index below what it indexes, counts
+    /// matching (`field` is `meshes[i].subdivision`).
+    fn cage(&self, field: &str, cage: &Subdivision, points: usize) -> Result<(), SceneError> {
+        let f = |name: &str| format!("{field}.{name}");
+        let vertices = cage.vertex_count as usize;
+        let counts = self.array(&f("face_counts"), &cage.face_counts)?;
+        let indices = self.array(&f("face_indices"), &cage.face_indices)?;
+        let corners: u64 = counts.iter().map(|&n| u64::from(n)).sum();
+        self.count(
+            &f("face_indices"),
+            indices.len(),
+            corners as usize,
+            "face corner",
+        )?;
+        self.indices(
+            &f("face_indices"),
+            indices.iter().copied(),
+            vertices,
+            "vertices",
+            None,
+        )?;
+        let corner_points = self.array(&f("corner_points"), &cage.corner_points)?;
+        self.count(
+            &f("corner_points"),
+            corner_points.len(),
+            indices.len(),
+            "face corner",
+        )?;
+        self.indices(
+            &f("corner_points"),
+            corner_points.iter().copied(),
+            points,
+            "points",
+            None,
+        )?;
+        let materials = self.array(&f("face_materials"), &cage.face_materials)?;
+        self.count(&f("face_materials"), materials.len(), counts.len(), "face")?;
+        let len = self.manifest.materials.len();
+        self.indices(
+            &f("face_materials"),
+            materials.iter().copied(),
+            len,
+            "materials",
+            Some(NO_MATERIAL),
+        )?;
+        let sharpness = self.array(&f("crease_sharpness"), &cage.crease_sharpness)?;
+        self.finite(&f("crease_sharpness"), sharpness)?;
+        let pairs = self.array(&f("crease_pairs"), &cage.crease_pairs)?;
+        self.count(
+            &f("crease_pairs"),
+            pairs.len(),
+            2 * sharpness.len(),
+            "sharpness, twice",
+        )?;
+        self.indices(
+            &f("crease_pairs"),
+            pairs.iter().copied(),
+            vertices,
+            "vertices",
+            None,
+        )?;
+        let sharpness = self.array(&f("corner_sharpness"), &cage.corner_sharpness)?;
+        self.finite(&f("corner_sharpness"), sharpness)?;
+        let corners = self.array(&f("corners"), &cage.corners)?;
+        self.count(&f("corners"), corners.len(), sharpness.len(), "sharpness")?;
+        self.indices(
+            &f("corners"),
+            corners.iter().copied(),
+            vertices,
+            "vertices",
+            None,
+        )?;
+        let holes = self.array(&f("holes"), &cage.holes)?;
+        self.indices(
+            &f("holes"),
+            holes.iter().copied(),
+            counts.len(),
+            "faces",
+            None,
         )
     }
 

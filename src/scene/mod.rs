@@ -19,11 +19,13 @@ mod export;
 mod format;
 mod load;
 mod material;
+mod subdivide;
 
 use std::path::{Path, PathBuf};
 
 pub use export::repo_root;
 pub use export::{cache_root, export, export_cached, is_usd, CachedExport, ExportError};
+pub use format::Subdivision;
 pub use format::{
     affine, Array, Bounds, Camera, Element, Instances, Light, LightShape, Manifest, Mesh, MeshPart,
     Projection, Prototype, Render, Scalar, Source, Stage, Transform, UpAxis, Volume, VolumeField,
@@ -34,6 +36,7 @@ pub use material::{
     Channel, ColorSpace, Input, InputValue, Material, Model, NormalMap, Op, OpInput, OpenPbr,
     PrimvarInput, Rgb, StTransform, Texture, TextureInput, Wrap,
 };
+pub use subdivide::{Refinement, SubdivisionSummary};
 
 /// A loaded, validated scene: the manifest records and the bulk data they reference.
 pub struct Scene {
@@ -41,6 +44,8 @@ pub struct Scene {
     pub dir: PathBuf,
     /// Every record of `scene.json`; bulk fields are [`Array`]s, read with [`Scene::view`].
     pub manifest: Manifest,
+    /// What loading did to the subdivision meshes (refined in `manifest`).
+    pub subdivision: SubdivisionSummary,
     blob: load::Blob,
 }
 
@@ -98,17 +103,27 @@ impl Scene {
     /// held it, so a user sees them every time) or from an exported folder
     /// or its scene.json.
     pub fn open(path: &Path, frame: Option<f64>, camera: Option<&str>) -> Result<Self, OpenError> {
+        Self::open_with(path, frame, camera, Refinement::default())
+    }
+
+    /// [`Scene::open`], its subdivision meshes refined as `refinement` says.
+    pub fn open_with(
+        path: &Path,
+        frame: Option<f64>,
+        camera: Option<&str>,
+        refinement: Refinement,
+    ) -> Result<Self, OpenError> {
         if !is_usd(path) {
             let flag = match (frame, camera) {
                 (Some(_), _) => "--frame",
                 (_, Some(_)) => "--camera",
-                _ => return Ok(Self::load(path)?),
+                _ => return Ok(Self::load_with(path, refinement)?),
             };
             let path = path.to_path_buf();
             return Err(OpenError::UsdOnly { flag, path });
         }
         let export = export_cached(path, frame, camera)?;
-        let scene = Self::load(&export.dir)?;
+        let scene = Self::load_with(&export.dir, refinement)?;
         if export.reused {
             for warning in &scene.manifest.warnings {
                 eprintln!("warning: {warning}");
@@ -118,13 +133,23 @@ impl Scene {
     }
 
     /// Loads a scene from its folder or its `scene.json`, validating everything
-    /// (see [`SceneError`] for what is refused).
+    /// (see [`SceneError`] for what is refused), and refines its subdivision
+    /// meshes at the default level.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
+        Self::load_with(path, Refinement::default())
+    }
+
+    /// [`Scene::load`], its subdivision meshes refined as `refinement` says:
+    /// once per mesh, so every instance shares the refined surface.
+    pub fn load_with(path: &Path, refinement: Refinement) -> Result<Self, SceneError> {
         let dir = load::scene_dir(path);
-        let (manifest, blob) = load::load(&dir)?;
+        let (mut manifest, mut blob) = load::load(&dir)?;
+        let manifest_path = dir.join(MANIFEST_FILE);
+        let subdivision = subdivide::refine(&manifest_path, &mut manifest, &mut blob, refinement)?;
         Ok(Self {
             dir,
             manifest,
+            subdivision,
             blob,
         })
     }
