@@ -19,6 +19,7 @@ pub mod lab;
 pub mod lights;
 pub mod materials;
 pub mod memory;
+pub mod motion;
 pub mod output;
 pub mod render_state;
 pub mod sampling;

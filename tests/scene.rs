@@ -500,7 +500,7 @@ fn ray_hits_the_expected_triangle_of_an_instance() {
         Some((1.0f32, instance, 0u32, triangle, barycentrics))
     };
     let found = |ray: &Ray| {
-        geometry.intersect(ray).map(|h| {
+        geometry.intersect(ray, 0.0).map(|h| {
             (
                 h.t,
                 h.instance,
@@ -517,9 +517,9 @@ fn ray_hits_the_expected_triangle_of_an_instance() {
         expect(0, 0, Vec2::new(0.5, 0.25))
     );
     // Between instances, and short of the surface.
-    assert_eq!(geometry.intersect(&down(3.5, 0.5)), None);
+    assert_eq!(geometry.intersect(&down(3.5, 0.5), 0.0), None);
     let short = Ray::new(vec3a(4.75, 0.25, 1.0), vec3a(0.0, 0.0, -1.0), 0.0, 0.5);
-    assert_eq!(geometry.intersect(&short), None);
+    assert_eq!(geometry.intersect(&short, 0.0), None);
 }
 
 #[test]
@@ -532,9 +532,12 @@ fn rays_through_shared_edges_and_vertices_never_miss() {
     for i in 0..=n {
         for j in 0..=n {
             let (x, y) = (grid(i), grid(j));
-            assert!(geometry.intersect(&down(x, y)).is_some(), "down ({x}, {y})");
+            assert!(
+                geometry.intersect(&down(x, y), 0.0).is_some(),
+                "down ({x}, {y})"
+            );
             let up = Ray::new_inf(vec3a(x, y, -1.0), vec3a(0.0, 0.0, 1.0));
-            assert!(geometry.intersect(&up).is_some(), "up ({x}, {y})");
+            assert!(geometry.intersect(&up, 0.0).is_some(), "up ({x}, {y})");
         }
     }
     // Oblique rays aimed at points of the shared diagonal: rounding puts the
@@ -550,7 +553,7 @@ fn rays_through_shared_edges_and_vertices_never_miss() {
                 0.1 + 2.0 * rng.next_f32(),
             );
         let ray = Ray::new_inf(origin, target - origin);
-        let hit = geometry.intersect(&ray);
+        let hit = geometry.intersect(&ray, 0.0);
         assert!(hit.is_some(), "ray {origin} -> {target} slipped through");
     }
 }
@@ -567,8 +570,8 @@ fn instances_and_copies_give_identical_hits() {
         let origin = vec3a(uniform(-1.0, 17.0), uniform(-1.0, 2.0), uniform(0.5, 3.0));
         let target = vec3a(uniform(-0.5, 16.0), uniform(-0.5, 1.5), 0.0);
         let ray = Ray::new_inf(origin, target - origin);
-        let hit = instanced.intersect(&ray);
-        assert_eq!(hit, copies.intersect(&ray), "ray {origin} -> {target}");
+        let hit = instanced.intersect(&ray, 0.0);
+        assert_eq!(hit, copies.intersect(&ray, 0.0), "ray {origin} -> {target}");
         hits += usize::from(hit.is_some());
     }
     // About a quarter of the targets lie on a quad: the comparison is not vacuous.
@@ -601,7 +604,7 @@ fn exported_point_instancer_loads_and_intersects() {
             let x = lo[0] + (hi[0] - lo[0]) * (i as f32 + 0.5) / 32.0;
             let y = lo[1] + (hi[1] - lo[1]) * (j as f32 + 0.5) / 32.0;
             let ray = Ray::new_inf(vec3a(x, y, hi[2] + 1.0), vec3a(0.0, 0.0, -1.0));
-            hits += usize::from(geometry.intersect(&ray).is_some());
+            hits += usize::from(geometry.intersect(&ray, 0.0).is_some());
         }
     }
     assert!(hits > 0, "no ray hit the exported instances");

@@ -103,6 +103,10 @@ pub struct RenderArgs {
     /// EXR compression.
     #[arg(long, value_parser = super::choice::<Compression>(), default_value_t)]
     compression: Compression,
+    /// Shutter interval OPEN,CLOSE in frames relative to the frame
+    /// (default: the camera's shutter:open/close; 0,0 = no motion blur).
+    #[arg(long, value_name = "OPEN,CLOSE", allow_hyphen_values = true)]
+    shutter: Option<cirrus::motion::Shutter>,
     /// USD time code to export (USD input only).
     #[arg(long)]
     frame: Option<f64>,
@@ -214,6 +218,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let options = StateOptions {
         majorant: args.majorant,
         volume_lights: args.volume_light_sampling,
+        shutter: args.shutter,
     };
     let state = pool.install(|| RenderState::build(&scene, args.res, options))?;
     let identity = RenderIdentity {

@@ -20,6 +20,7 @@
 mod bvh;
 mod frame;
 mod intersect;
+mod motion;
 mod surface;
 
 pub use bvh::{Geometry, Hit};

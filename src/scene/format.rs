@@ -138,6 +138,7 @@ macro_rules! element {
     };
 }
 element!(u32, U32, 1);
+element!(f32, F32, 1);
 element!([u32; 3], U32, 3);
 element!([f32; 2], F32, 2);
 element!([f32; 3], F32, 3);
@@ -239,6 +240,35 @@ pub struct Instances {
     pub source_index: Array<u32>,
     /// Prim paths of instancers, instanceable prims and plain prims.
     pub instance_sources: Vec<String>,
+    /// The instances that move over the shutter; absent when none do
+    /// (and in files written before motion blur).
+    #[serde(default)]
+    pub motion: Option<InstanceMotion>,
+}
+
+/// World-from-prototype transforms of the moving instances at key times
+/// (docs/rendering.md, "Motion blur"): interpolated linearly between keys,
+/// the end keys held outside them. `transform` above keeps each instance's
+/// transform at the frame itself.
+#[derive(Clone, Debug, Deserialize)]
+pub struct InstanceMotion {
+    /// Key times, frames relative to `source.time_code`, strictly increasing.
+    pub times: Vec<f32>,
+    /// Indices of the moving instances, strictly increasing.
+    pub instance: Array<u32>,
+    /// Per moving instance, its transform at every key time, instance-major:
+    /// key k of moving instance i is element `i * times.len() + k`.
+    pub transform: Array<[f32; 12]>,
+}
+
+/// A camera's world-from-camera transform at key times (see
+/// [`InstanceMotion`]).
+#[derive(Clone, Debug, Deserialize)]
+pub struct CameraMotion {
+    /// Key times, frames relative to `source.time_code`, strictly increasing.
+    pub times: Vec<f32>,
+    /// World-from-camera at each key time.
+    pub transforms: Vec<Transform>,
 }
 
 /// A `UsdPreviewSurface` material; defaults are UsdPreviewSurface's.
@@ -486,6 +516,13 @@ pub struct Camera {
     pub f_stop: f32,
     /// `focusDistance` (default 0), scene units.
     pub focus_distance: f32,
+    /// `shutter:open` and `shutter:close`, frames relative to the time code;
+    /// absent when both are USD's default 0 (no motion blur).
+    #[serde(default)]
+    pub shutter: Option<[f32; 2]>,
+    /// The transform over the shutter; absent when the camera does not move.
+    #[serde(default)]
+    pub motion: Option<CameraMotion>,
 }
 
 /// `UsdGeomCamera.projection`.

@@ -24,10 +24,10 @@ use std::path::{Path, PathBuf};
 pub use export::repo_root;
 pub use export::{cache_root, export, export_cached, is_usd, CachedExport, ExportError};
 pub use format::{
-    affine, Array, Bounds, Camera, Channel, ColorSpace, Element, Input, Instances, Light,
-    LightShape, Manifest, Material, Mesh, MeshPart, Projection, Prototype, Render, Rgb, Scalar,
-    Source, StTransform, Stage, Texture, TextureInput, Transform, UpAxis, Volume, VolumeField,
-    VolumePart, Wrap, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+    affine, Array, Bounds, Camera, CameraMotion, Channel, ColorSpace, Element, Input,
+    InstanceMotion, Instances, Light, LightShape, Manifest, Material, Mesh, MeshPart, Projection,
+    Prototype, Render, Rgb, Scalar, Source, StTransform, Stage, Texture, TextureInput, Transform,
+    UpAxis, Volume, VolumeField, VolumePart, Wrap, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
 
