@@ -80,6 +80,14 @@ impl Shutter {
         self.close > self.open
     }
 
+    /// Whether anything may move: every shutter but [`Shutter::CLOSED`].
+    /// A shutter closed at the frame itself renders the scene as it is at
+    /// the frame, motion keys ignored, bit-identical to the scene exported
+    /// without them.
+    pub fn blurs(&self) -> bool {
+        *self != Self::CLOSED
+    }
+
     /// The time at fraction `u` in [0, 1) of the interval, frames.
     pub fn time(&self, u: f32) -> f32 {
         if self.is_open() {

@@ -1,5 +1,5 @@
 //! Everything a render reads, built once from a [`Scene`] in a fixed order
-//! (volumes, textures and materials, lights, geometry, camera) and never changed
+//! (volumes, textures and materials, lights, camera, geometry) and never changed
 //! afterwards, so threads share it freely. The scene itself can be dropped.
 
 use glam::UVec2;
@@ -115,11 +115,17 @@ impl RenderState {
         let media = Media::build(scene, options.majorant)?;
         let materials = Materials::build(scene)?;
         let lights = Lights::build(scene, &materials, &media, options.volume_lights)?;
-        let geometry = Geometry::build(scene);
-        let mut camera = Camera::new(&scene.manifest.camera, resolution)?;
-        if let Some(shutter) = options.shutter {
-            camera = camera.with_shutter(shutter);
+        // The camera first: its shutter says whether geometry moves.
+        let camera = Camera::new(&scene.manifest.camera, resolution)?;
+        let camera = match options.shutter {
+            Some(shutter) => camera.with_shutter(shutter),
+            None => camera,
+        };
+        let shutter = camera.shutter();
+        if shutter.blurs() {
+            log::info!("shutter {shutter} frames: motion blur on");
         }
+        let geometry = Geometry::build(scene, shutter.blurs());
         let m = &scene.manifest;
         let id_names = IdNames {
             objects: m.meshes.iter().map(|x| x.path.clone()).collect(),

@@ -492,7 +492,7 @@ fn ray_hits_the_expected_triangle_of_an_instance() {
     for (k, value) in rotation.iter().enumerate() {
         files.poke("/instances/transform", k, value.to_bits());
     }
-    let geometry = Geometry::build(&load_scene("geometry_instance_hit", &files));
+    let geometry = Geometry::build(&load_scene("geometry_instance_hit", &files), true);
     // Local point (0.75, 0.25) of an instance is in triangle 0 = (0, 1, 2), with
     // weights 0.5 on (1, 0) and 0.25 on (1, 1); (0.25, 0.75) is in triangle
     // 1 = (0, 2, 3), with weights 0.25 on (1, 1) and 0.5 on (0, 1).
@@ -524,7 +524,7 @@ fn ray_hits_the_expected_triangle_of_an_instance() {
 
 #[test]
 fn rays_through_shared_edges_and_vertices_never_miss() {
-    let geometry = Geometry::build(&load_scene("geometry_watertight", &scene_files(1, 1)));
+    let geometry = Geometry::build(&load_scene("geometry_watertight", &scene_files(1, 1)), true);
     let n = 16;
     let grid = |i: u32| i as f32 / n as f32;
     // Straight down and straight up onto every grid point, the quad's border,
@@ -561,8 +561,8 @@ fn rays_through_shared_edges_and_vertices_never_miss() {
 #[test]
 fn instances_and_copies_give_identical_hits() {
     let n = 8;
-    let instanced = Geometry::build(&load_scene("geometry_instanced", &scene_files(1, n)));
-    let copies = Geometry::build(&load_scene("geometry_copies", &scene_files(n, n)));
+    let instanced = Geometry::build(&load_scene("geometry_instanced", &scene_files(1, n)), true);
+    let copies = Geometry::build(&load_scene("geometry_copies", &scene_files(n, n)), true);
     let mut rng = Pcg32::new(SEED, 1);
     let mut uniform = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
     let mut hits = 0;
@@ -596,7 +596,7 @@ fn exported_point_instancer_loads_and_intersects() {
     assert_eq!(m.instances.count, 4);
     assert!(!m.prototypes.is_empty() && !m.meshes.is_empty());
     // A grid of rays down the up axis over the bounds hits the instances.
-    let geometry = Geometry::build(&scene);
+    let geometry = Geometry::build(&scene, true);
     let (lo, hi) = (m.bounds.min, m.bounds.max);
     let mut hits = 0;
     for i in 0..32 {

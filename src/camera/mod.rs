@@ -156,9 +156,15 @@ impl Camera {
         self.shutter
     }
 
-    /// The same camera with its shutter replaced (`--shutter`).
+    /// The same camera with its shutter replaced (`--shutter`); a closed
+    /// one ([`Shutter::blurs`] false) leaves the camera at the frame.
     pub fn with_shutter(self, shutter: Shutter) -> Self {
-        Self { shutter, ..self }
+        let motion = self.motion.filter(|_| shutter.blurs());
+        Self {
+            shutter,
+            motion,
+            ..self
+        }
     }
 
     /// Camera-space depth of the world point `p`: its distance along the
@@ -236,7 +242,7 @@ impl Camera {
             }
         };
         let [near, far] = record.clipping_range;
-        Ok(Self {
+        let camera = Self {
             world_from_camera,
             camera_from_world: world_from_camera.inverse(),
             window: FilmWindow::new(aperture, offset, resolution, plane_units),
@@ -247,9 +253,10 @@ impl Camera {
                 0.0
             },
             far,
-            shutter: motion::shutter(record).map_err(invalid)?,
+            shutter: Shutter::CLOSED,
             motion: motion::track(record).map_err(invalid)?,
-        })
+        };
+        Ok(camera.with_shutter(motion::shutter(record).map_err(invalid)?))
     }
 }
 

@@ -193,13 +193,14 @@ impl Geometry {
     }
 
     /// Builds the world-space BVH over the meshes placed once, one BVH per
-    /// mesh placed more than once (in parallel), and the top-level BVH over
-    /// those meshes' placements. Placements whose transform cannot be
-    /// inverted (a zero scale collapses the mesh) cover no area and are left
-    /// out.
-    pub fn build(scene: &Scene) -> Self {
+    /// mesh placed more than once or moving (in parallel), and the
+    /// top-level BVH over those meshes' placements. Placements whose
+    /// transform cannot be inverted (a zero scale collapses the mesh) cover
+    /// no area and are left out. Without `motion` (a shutter closed at the
+    /// frame) every instance stays where it is at the frame.
+    pub fn build(scene: &Scene, motion: bool) -> Self {
         let m = &scene.manifest;
-        let moving = MovingInstances::new(scene);
+        let moving = MovingInstances::new(scene, motion);
         let roles = mesh_roles(scene, &moving);
         let meshes: Vec<Option<MeshBvh>> = m
             .meshes

@@ -18,9 +18,11 @@ pub(super) struct MovingInstances {
 }
 
 impl MovingInstances {
-    /// The moving instances of `scene` (none when it has no motion).
-    pub(super) fn new(scene: &Scene) -> Self {
-        let Some(motion) = &scene.manifest.instances.motion else {
+    /// The moving instances of `scene`; none without `motion` or when the
+    /// scene has no motion.
+    pub(super) fn new(scene: &Scene, motion: bool) -> Self {
+        let motion = scene.manifest.instances.motion.as_ref().filter(|_| motion);
+        let Some(motion) = motion else {
             return Self {
                 instances: Vec::new(),
                 tracks: Vec::new(),
