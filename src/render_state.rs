@@ -124,6 +124,10 @@ impl RenderState {
         let shutter = camera.shutter();
         if shutter.blurs() {
             log::info!("shutter {shutter} frames: motion blur on");
+            let m = &scene.manifest;
+            if m.camera.shutter.is_none() && m.instances.motion.is_none() {
+                log::warn!("the scene was exported with a closed shutter: nothing moves (export the stage with export_usd.py --shutter {shutter})");
+            }
         }
         let geometry = Geometry::build(scene, shutter.blurs());
         let m = &scene.manifest;

@@ -40,6 +40,12 @@ fn cirrus_ok(args: &[&str]) -> String {
     log
 }
 
+/// `scenes/tests/NAME.usda` exported once per test process, as its camera
+/// sees it (shutter open, with motion).
+fn exported(name: &str) -> PathBuf {
+    common::exported_test_scene(name, "motion")
+}
+
 /// `scenes/tests/NAME.usda`.
 fn stage(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/tests/{name}.usda"))
@@ -103,15 +109,8 @@ fn blurred_equals_average_of_stills(name: &str) {
         &common::python_script("export_frames.py"),
         &args,
     );
-    let blurred_scene = dir.join("blurred");
-    cirrus_ok(&[
-        "export",
-        stage(name).to_str().unwrap(),
-        "-o",
-        blurred_scene.to_str().unwrap(),
-    ]);
     let blurred = render(
-        &blurred_scene,
+        &exported(name),
         &dir.join("blurred.exr"),
         &["--spp", BLURRED_SPP, "--seed", "1"],
     );
@@ -178,13 +177,7 @@ fn a_closed_shutter_renders_the_still_frame_bit_identically() {
         let args = [usda.to_str().unwrap(), still.to_str().unwrap(), "0,0", "0"];
         let script = common::python_script("export_frames.py");
         common::run_python(&common::venv_python(), &script, &args);
-        let moving = dir.join(format!("{name}_moving"));
-        cirrus_ok(&[
-            "export",
-            stage(name).to_str().unwrap(),
-            "-o",
-            moving.to_str().unwrap(),
-        ]);
+        let moving = exported(name);
         let a = dir.join(format!("{name}_closed.exr"));
         let b = dir.join(format!("{name}_still.exr"));
         let flags = ["--spp", "8", "--seed", "3"];
@@ -203,14 +196,8 @@ fn a_closed_shutter_renders_the_still_frame_bit_identically() {
 #[test]
 fn bad_shutters_and_non_finite_samples_are_refused_or_warned_about() {
     let dir = common::scratch("motion_bad");
-    let scene = dir.join("scene");
+    let scene = exported("motion_sphere");
     let sphere = stage("motion_sphere");
-    cirrus_ok(&[
-        "export",
-        sphere.to_str().unwrap(),
-        "-o",
-        scene.to_str().unwrap(),
-    ]);
     let out = dir.join("out.exr");
     for shutter in ["1,0", "nan,1", "0.5"] {
         let flag = format!("--shutter={shutter}");
@@ -247,12 +234,12 @@ fn bad_shutters_and_non_finite_samples_are_refused_or_warned_about() {
     let nan = dir.join("nan.usda");
     let sample = "0: (-1.5, 0, 0),\n            0.5: (nan, 0, 0),";
     std::fs::write(&nan, text.replace("0: (-1.5, 0, 0),", sample)).unwrap();
-    let exported = dir.join("nan");
+    let nan_scene = dir.join("nan");
     let result = cirrus(&[
         "export",
         nan.to_str().unwrap(),
         "-o",
-        exported.to_str().unwrap(),
+        nan_scene.to_str().unwrap(),
     ]);
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert!(result.status.success(), "{stderr}");
@@ -260,7 +247,7 @@ fn bad_shutters_and_non_finite_samples_are_refused_or_warned_about() {
         stderr.contains("/World/Ball: a transform over the shutter is not finite"),
         "{stderr}"
     );
-    let manifest = std::fs::read_to_string(exported.join("scene.json")).unwrap();
+    let manifest = std::fs::read_to_string(nan_scene.join("scene.json")).unwrap();
     assert!(
         !manifest.contains("\"motion\""),
         "the NaN instance still moves"
@@ -296,14 +283,7 @@ fn succeeds(mut command: Command) {
 #[test]
 fn blurred_farm_parts_and_resumed_renders_are_bit_identical() {
     let dir = common::scratch("motion_farm");
-    let scene = dir.join("scene");
-    let sphere = stage("motion_sphere");
-    cirrus_ok(&[
-        "export",
-        sphere.to_str().unwrap(),
-        "-o",
-        scene.to_str().unwrap(),
-    ]);
+    let scene = exported("motion_sphere");
     let whole = dir.join("whole.exr");
     succeeds(blurred_command(&scene, &whole, 16, &["--threads", "2"]));
     let whole_bits = common::channel_bits(&whole);
