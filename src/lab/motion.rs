@@ -1,7 +1,7 @@
 //! `cirrus bench motion`: what motion blur costs. A stage of N instanceable
 //! spheres, each translating half a unit and turning 30 degrees about +Y
-//! over the shutter (camera shutter 0..1, so the exporter keys every 5
-//! degrees: 7 keys), under a dome, is exported once, then built and
+//! over the shutter (camera shutter 0..1; the exporter halves the key
+//! spacing until no turn exceeds 5 degrees: 9 keys), under a dome, is exported once, then built and
 //! rendered with the shutter closed (`--shutter 0,0`: every instance still,
 //! in the world-space BVH where placed once) and open: top-level BVH build
 //! time (medians), the transform tracks' memory, and samples per second at
