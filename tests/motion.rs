@@ -1,6 +1,7 @@
 //! Motion blur end to end: a render whose shutter is open equals the
 //! average of still renders at stratified times over the shutter (a
-//! translating sphere, a rotating instance, a moving camera), within 4 sigma
+//! translating sphere, a rotating instance, PointInstancer velocities, a
+//! moving camera), within 4 sigma
 //! per band of columns; a shutter closed at the frame renders the still
 //! frame bit for bit; farm parts and resumed renders of a blurred frame stay
 //! bit-identical; bad shutters and non-finite transform samples are refused
@@ -161,6 +162,11 @@ fn a_rotating_instance_blurs_to_the_average_of_still_frames() {
 }
 
 #[test]
+fn point_instancer_velocities_blur_to_the_average_of_still_frames() {
+    blurred_equals_average_of_stills("motion_points");
+}
+
+#[test]
 fn a_moving_camera_blurs_the_still_world_to_the_average_of_still_frames() {
     blurred_equals_average_of_stills("motion_camera");
 }
@@ -251,6 +257,26 @@ fn bad_shutters_and_non_finite_samples_are_refused_or_warned_about() {
     assert!(
         !manifest.contains("\"motion\""),
         "the NaN instance still moves"
+    );
+
+    // PointInstancer velocities of the wrong length: usd-core ignores them,
+    // and its warning names the prim.
+    let points = std::fs::read_to_string(stage("motion_points")).unwrap();
+    let short = dir.join("short_velocities.usda");
+    let one = "0: [(24, 0, 0)],";
+    std::fs::write(&short, points.replace("0: [(24, 0, 0), (0, 24, 0)],", one)).unwrap();
+    let out = dir.join("short");
+    let result = cirrus(&[
+        "export",
+        short.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(result.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("/World/Points") && stderr.contains("velocities"),
+        "{stderr}"
     );
 }
 
