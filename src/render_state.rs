@@ -126,7 +126,7 @@ impl RenderState {
             log::info!("shutter {shutter} frames: motion blur on");
             let m = &scene.manifest;
             if m.camera.shutter.is_none() && m.instances.motion.is_none() {
-                log::warn!("the scene was exported with a closed shutter: nothing moves (export the stage with export_usd.py --shutter {shutter})");
+                log::warn!("the scene was exported with a closed shutter: nothing moves (render the USD stage itself with --shutter {shutter}, or export it with export_usd.py --shutter {shutter})");
             }
         }
         let geometry = Geometry::build(scene, shutter.blurs());

@@ -196,6 +196,54 @@ fn a_closed_shutter_renders_the_still_frame_bit_identically() {
     }
 }
 
+/// `cirrus render STAGE.usda --shutter 0,1` on a stage whose camera has no
+/// shutter exports the motion over that shutter: the same image, bit for
+/// bit, as the stage whose camera authors it.
+#[test]
+fn a_render_time_shutter_reaches_the_exporter() {
+    let dir = common::scratch("motion_forwarded");
+    let text = std::fs::read_to_string(stage("motion_sphere")).unwrap();
+    let usda = dir.join("no_shutter.usda");
+    let without = text
+        .replace("double shutter:open = 0\n", "")
+        .replace("double shutter:close = 1\n", "");
+    assert!(
+        !without.contains("double shutter"),
+        "the test stage changed"
+    );
+    std::fs::write(&usda, without).unwrap();
+    let (a, b) = (dir.join("forwarded.exr"), dir.join("authored.exr"));
+    let flags = ["--spp", "4", "--seed", "2"];
+    let cache = dir.join("cache");
+    let out = Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .env("XDG_CACHE_HOME", &cache)
+        .args(["render", usda.to_str().unwrap(), "-o", a.to_str().unwrap()])
+        .args([
+            "--res",
+            RES,
+            "--filter",
+            "box",
+            "--aovs",
+            "variance",
+            "--threads",
+            "1",
+        ])
+        .args(flags)
+        .args(["--shutter", "0,1"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    render(&exported("motion_sphere"), &b, &flags);
+    assert!(
+        common::channel_bits(&a) == common::channel_bits(&b),
+        "--shutter 0,1 did not export the motion"
+    );
+}
+
 /// A shutter closing before it opens is refused, on the command line and
 /// in the stage; a non-finite transform sample inside the shutter is
 /// warned about naming the prim, which is exported without motion.

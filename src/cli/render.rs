@@ -209,7 +209,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     let pool = pool.build().context("cannot start worker threads")?;
     let start = Instant::now();
-    let scene = cirrus::scene::Scene::open(&args.scene, args.frame, args.camera.as_deref())?;
+    let scene = cirrus::scene::Scene::open(
+        &args.scene,
+        args.frame,
+        args.camera.as_deref(),
+        args.shutter,
+    )?;
     let resolution = render_state::resolution_for(&scene, args.res);
     let window = part.window(resolution)?;
     let needs = pool.install(|| memory::estimate(&scene, window.size, &settings.aovs))?;

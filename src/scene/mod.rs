@@ -21,6 +21,8 @@ mod load;
 
 use std::path::{Path, PathBuf};
 
+use crate::motion::Shutter;
+
 pub use export::repo_root;
 pub use export::{cache_root, export, export_cached, is_usd, CachedExport, ExportError};
 pub use format::{
@@ -73,8 +75,15 @@ impl Scene {
     /// by the camera prim `camera`, see [`export`]; the
     /// export's warnings are printed to stderr again when the cache already
     /// held it, so a user sees them every time) or from an exported folder
-    /// or its scene.json.
-    pub fn open(path: &Path, frame: Option<f64>, camera: Option<&str>) -> Result<Self, OpenError> {
+    /// or its scene.json. `shutter` (frames) replaces the camera's for the
+    /// export (motion is keyed over it); an exported scene keeps the one it
+    /// was exported with.
+    pub fn open(
+        path: &Path,
+        frame: Option<f64>,
+        camera: Option<&str>,
+        shutter: Option<Shutter>,
+    ) -> Result<Self, OpenError> {
         if !is_usd(path) {
             let flag = match (frame, camera) {
                 (Some(_), _) => "--frame",
@@ -84,7 +93,7 @@ impl Scene {
             let path = path.to_path_buf();
             return Err(OpenError::UsdOnly { flag, path });
         }
-        let export = export_cached(path, frame, camera)?;
+        let export = export_cached(path, frame, camera, shutter)?;
         let scene = Self::load(&export.dir)?;
         if export.reused {
             for warning in &scene.manifest.warnings {
