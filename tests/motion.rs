@@ -55,11 +55,7 @@ fn stage(name: &str) -> PathBuf {
 /// Renders `scene` to `out` (box filter, beauty and variance, one thread)
 /// with `extra` flags; the G channel and its variance, per pixel.
 fn render(scene: &Path, out: &Path, extra: &[&str]) -> (Vec<f64>, Vec<f64>) {
-    let (scene, out_str) = (scene.to_str().unwrap(), out.to_str().unwrap());
-    let mut args = vec!["render", scene, "-o", out_str, "--res", RES];
-    args.extend(["--filter", "box", "--aovs", "variance", "--threads", "1"]);
-    args.extend(extra);
-    cirrus_ok(&args);
+    succeeds(render_command(scene, out, extra));
     let channels = common::channel_bits(out);
     let plane = |name: &str| -> Vec<f64> {
         let (_, bits) = channels
@@ -69,6 +65,19 @@ fn render(scene: &Path, out: &Path, extra: &[&str]) -> (Vec<f64>, Vec<f64>) {
         bits.iter().map(|&b| f64::from(f32::from_bits(b))).collect()
     };
     (plane("G"), plane("variance.G"))
+}
+
+/// The `cirrus render` command of [`render`].
+fn render_command(scene: &Path, out: &Path, extra: &[&str]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_cirrus"));
+    c.arg("render")
+        .arg(scene)
+        .arg("-o")
+        .arg(out)
+        .args(["--res", RES]);
+    c.args(["--filter", "box", "--aovs", "variance", "--threads", "1"]);
+    c.args(extra);
+    c
 }
 
 /// Per band of [`BAND`] columns: the mean of the pixels and its variance.
@@ -214,29 +223,9 @@ fn a_render_time_shutter_reaches_the_exporter() {
     std::fs::write(&usda, without).unwrap();
     let (a, b) = (dir.join("forwarded.exr"), dir.join("authored.exr"));
     let flags = ["--spp", "4", "--seed", "2"];
-    let cache = dir.join("cache");
-    let out = Command::new(env!("CARGO_BIN_EXE_cirrus"))
-        .env("XDG_CACHE_HOME", &cache)
-        .args(["render", usda.to_str().unwrap(), "-o", a.to_str().unwrap()])
-        .args([
-            "--res",
-            RES,
-            "--filter",
-            "box",
-            "--aovs",
-            "variance",
-            "--threads",
-            "1",
-        ])
-        .args(flags)
-        .args(["--shutter", "0,1"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let mut forwarded = render_command(&usda, &a, &[&flags[..], &["--shutter", "0,1"]].concat());
+    forwarded.env("XDG_CACHE_HOME", dir.join("cache"));
+    succeeds(forwarded);
     render(&exported("motion_sphere"), &b, &flags);
     assert!(
         common::channel_bits(&a) == common::channel_bits(&b),
@@ -351,8 +340,9 @@ fn succeeds(mut command: Command) {
     );
 }
 
-/// Time is one of each sample's dimensions: a blurred frame split into
-/// tiles and crops merges bit-identically to the whole, and a blurred
+/// Time is one of each sample's dimensions: a blurred frame (whose EXR
+/// header states its shutter) split into tiles merges bit-identically to
+/// the whole, and a blurred
 /// render stopped by SIGTERM and resumed equals the uninterrupted one.
 #[test]
 fn blurred_farm_parts_and_resumed_renders_are_bit_identical() {
@@ -361,6 +351,15 @@ fn blurred_farm_parts_and_resumed_renders_are_bit_identical() {
     let whole = dir.join("whole.exr");
     succeeds(blurred_command(&scene, &whole, 16, &["--threads", "2"]));
     let whole_bits = common::channel_bits(&whole);
+    let meta = exr::meta::MetaData::read_from_file(&whole, false).unwrap();
+    let shutter = meta.headers[0]
+        .own_attributes
+        .other
+        .get(&exr::prelude::Text::from("cirrus/shutter"));
+    assert!(
+        matches!(shutter, Some(exr::meta::attribute::AttributeValue::Text(t)) if t.eq("0,1")),
+        "the header's cirrus/shutter is {shutter:?}"
+    );
     let mut parts = Vec::new();
     for (i, flags) in [["--tile", "0/2"], ["--tile", "1/2"]].iter().enumerate() {
         let part = dir.join(format!("tile{i}.film"));
