@@ -2,6 +2,7 @@
 """Exports a USD stage to a Cirrus scene folder (scene.json + scene.bin, see FORMAT.md).
 
 Usage: python scenes/export_usd.py IN.usd[a|c|z] -o OUT_DIR [--frame F] [--camera PRIM_PATH]
+       [--shutter OPEN,CLOSE]
 
 Exit codes: 0 exported (warnings, if any, on stderr and in the manifest);
 2 unusable input (missing file, parse error, nothing to export), one `error:` line;
@@ -31,14 +32,25 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                         help="time code (default: the stage's startTimeCode, else the default time)")
     parser.add_argument("--camera", default=None,
                         help="camera prim path (default: the render settings' camera, else the first)")
+    parser.add_argument("--shutter", type=shutter_interval, default=None,
+                        help="OPEN,CLOSE in frames relative to --frame (default: the camera's)")
     return parser.parse_args(argv)
+
+
+def shutter_interval(text: str) -> tuple[float, float]:
+    """`OPEN,CLOSE` as two floats."""
+    try:
+        open_, close = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected OPEN,CLOSE in frames") from None
+    return open_, close
 
 
 def main(argv: list[str]) -> int:
     """Runs the export; an unusable input is one clear line on stderr, never a traceback."""
     args = parse_args(argv)
     try:
-        warnings = export(args.input, args.out, args.frame, args.camera)
+        warnings = export(args.input, args.out, args.frame, args.camera, args.shutter)
     except ExportError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_UNUSABLE_INPUT

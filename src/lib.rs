@@ -2,7 +2,7 @@
 //!
 //! Data flows one way: scene -> render state -> integrator -> film -> output.
 //! Each folder under `src/` is one concern with its `mod.rs` as the interface;
-//! the C++ libraries (OpenVDB, OpenImageIO) are reached only through `ffi/`,
+//! the C++ libraries (OpenVDB, OpenImageIO, OpenSubdiv) are reached only through `ffi/`,
 //! mounted privately by `volumes::vdb` and `output::exr`.
 
 pub mod camera;
@@ -19,7 +19,9 @@ pub mod lab;
 pub mod lights;
 pub mod materials;
 pub mod memory;
+pub mod motion;
 pub mod output;
+pub mod progress_bar;
 pub mod render_state;
 pub mod sampling;
 pub mod scene;

@@ -1,5 +1,5 @@
 //! Everything a render reads, built once from a [`Scene`] in a fixed order
-//! (volumes, textures and materials, lights, geometry, camera) and never changed
+//! (volumes, textures and materials, lights, camera, geometry) and never changed
 //! afterwards, so threads share it freely. The scene itself can be dropped.
 
 use glam::UVec2;
@@ -9,6 +9,7 @@ use crate::camera::{Camera, CameraError};
 use crate::geometry::Geometry;
 use crate::lights::{Emitters, LightError, Lights};
 use crate::materials::{MaterialError, Materials};
+use crate::motion::Shutter;
 use crate::scene::Scene;
 use crate::volumes::{MajorantKind, Media, VolumeError};
 
@@ -17,7 +18,7 @@ use crate::volumes::{MajorantKind, Media, VolumeError};
 pub const DEFAULT_WIDTH: u32 = 960;
 
 /// Choices that shape the render state, beside the scene and resolution.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StateOptions {
     /// How finely the media's majorants follow their density (`--majorant`).
     pub majorant: MajorantKind,
@@ -25,6 +26,9 @@ pub struct StateOptions {
     /// MIS-combined with the emission tracking finds (on by default;
     /// `--volume-light-sampling off` leaves them to tracking alone).
     pub volume_lights: bool,
+    /// Replaces the camera's shutter (`--shutter`); `None` keeps the
+    /// scene's `shutter:open`/`shutter:close`.
+    pub shutter: Option<Shutter>,
 }
 
 impl Default for StateOptions {
@@ -32,6 +36,7 @@ impl Default for StateOptions {
         Self {
             majorant: MajorantKind::Grid,
             volume_lights: true,
+            shutter: None,
         }
     }
 }
@@ -110,8 +115,21 @@ impl RenderState {
         let media = Media::build(scene, options.majorant)?;
         let materials = Materials::build(scene)?;
         let lights = Lights::build(scene, &materials, &media, options.volume_lights)?;
-        let geometry = Geometry::build(scene);
+        // The camera first: its shutter says whether geometry moves.
         let camera = Camera::new(&scene.manifest.camera, resolution)?;
+        let camera = match options.shutter {
+            Some(shutter) => camera.with_shutter(shutter),
+            None => camera,
+        };
+        let shutter = camera.shutter();
+        if shutter.blurs() {
+            log::info!("shutter {shutter} frames: motion blur on");
+            let m = &scene.manifest;
+            if m.camera.shutter.is_none() && m.instances.motion.is_none() {
+                log::warn!("the scene was exported with a closed shutter: nothing moves (render the USD stage itself with --shutter {shutter}, or export it with export_usd.py --shutter {shutter})");
+            }
+        }
+        let geometry = Geometry::build(scene, shutter.blurs());
         let m = &scene.manifest;
         let id_names = IdNames {
             objects: m.meshes.iter().map(|x| x.path.clone()).collect(),

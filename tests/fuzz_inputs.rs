@@ -249,7 +249,7 @@ fn load_and_view(dir: &Path) -> Result<(), String> {
     assert_eq!(scene.view(&m.instances.transform).len(), n);
     assert_eq!(scene.view(&m.instances.source_index).len(), n);
     // What the loader accepts, the BVH builder takes without panicking.
-    cirrus::geometry::Geometry::build(&scene);
+    cirrus::geometry::Geometry::build(&scene, true);
     Ok(())
 }
 

@@ -642,7 +642,7 @@ fn ray_hits_the_expected_triangle_of_an_instance() {
     for (k, value) in rotation.iter().enumerate() {
         files.poke("/instances/transform", k, value.to_bits());
     }
-    let geometry = Geometry::build(&load_scene("geometry_instance_hit", &files));
+    let geometry = Geometry::build(&load_scene("geometry_instance_hit", &files), true);
     // Local point (0.75, 0.25) of an instance is in triangle 0 = (0, 1, 2), with
     // weights 0.5 on (1, 0) and 0.25 on (1, 1); (0.25, 0.75) is in triangle
     // 1 = (0, 2, 3), with weights 0.25 on (1, 1) and 0.5 on (0, 1).
@@ -650,7 +650,7 @@ fn ray_hits_the_expected_triangle_of_an_instance() {
         Some((1.0f32, instance, 0u32, triangle, barycentrics))
     };
     let found = |ray: &Ray| {
-        geometry.intersect(ray).map(|h| {
+        geometry.intersect(ray, 0.0).map(|h| {
             (
                 h.t,
                 h.instance,
@@ -667,14 +667,14 @@ fn ray_hits_the_expected_triangle_of_an_instance() {
         expect(0, 0, Vec2::new(0.5, 0.25))
     );
     // Between instances, and short of the surface.
-    assert_eq!(geometry.intersect(&down(3.5, 0.5)), None);
+    assert_eq!(geometry.intersect(&down(3.5, 0.5), 0.0), None);
     let short = Ray::new(vec3a(4.75, 0.25, 1.0), vec3a(0.0, 0.0, -1.0), 0.0, 0.5);
-    assert_eq!(geometry.intersect(&short), None);
+    assert_eq!(geometry.intersect(&short, 0.0), None);
 }
 
 #[test]
 fn rays_through_shared_edges_and_vertices_never_miss() {
-    let geometry = Geometry::build(&load_scene("geometry_watertight", &scene_files(1, 1)));
+    let geometry = Geometry::build(&load_scene("geometry_watertight", &scene_files(1, 1)), true);
     let n = 16;
     let grid = |i: u32| i as f32 / n as f32;
     // Straight down and straight up onto every grid point, the quad's border,
@@ -682,9 +682,12 @@ fn rays_through_shared_edges_and_vertices_never_miss() {
     for i in 0..=n {
         for j in 0..=n {
             let (x, y) = (grid(i), grid(j));
-            assert!(geometry.intersect(&down(x, y)).is_some(), "down ({x}, {y})");
+            assert!(
+                geometry.intersect(&down(x, y), 0.0).is_some(),
+                "down ({x}, {y})"
+            );
             let up = Ray::new_inf(vec3a(x, y, -1.0), vec3a(0.0, 0.0, 1.0));
-            assert!(geometry.intersect(&up).is_some(), "up ({x}, {y})");
+            assert!(geometry.intersect(&up, 0.0).is_some(), "up ({x}, {y})");
         }
     }
     // Oblique rays aimed at points of the shared diagonal: rounding puts the
@@ -700,7 +703,7 @@ fn rays_through_shared_edges_and_vertices_never_miss() {
                 0.1 + 2.0 * rng.next_f32(),
             );
         let ray = Ray::new_inf(origin, target - origin);
-        let hit = geometry.intersect(&ray);
+        let hit = geometry.intersect(&ray, 0.0);
         assert!(hit.is_some(), "ray {origin} -> {target} slipped through");
     }
 }
@@ -708,8 +711,8 @@ fn rays_through_shared_edges_and_vertices_never_miss() {
 #[test]
 fn instances_and_copies_give_identical_hits() {
     let n = 8;
-    let instanced = Geometry::build(&load_scene("geometry_instanced", &scene_files(1, n)));
-    let copies = Geometry::build(&load_scene("geometry_copies", &scene_files(n, n)));
+    let instanced = Geometry::build(&load_scene("geometry_instanced", &scene_files(1, n)), true);
+    let copies = Geometry::build(&load_scene("geometry_copies", &scene_files(n, n)), true);
     let mut rng = Pcg32::new(SEED, 1);
     let mut uniform = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
     let mut hits = 0;
@@ -717,8 +720,8 @@ fn instances_and_copies_give_identical_hits() {
         let origin = vec3a(uniform(-1.0, 17.0), uniform(-1.0, 2.0), uniform(0.5, 3.0));
         let target = vec3a(uniform(-0.5, 16.0), uniform(-0.5, 1.5), 0.0);
         let ray = Ray::new_inf(origin, target - origin);
-        let hit = instanced.intersect(&ray);
-        assert_eq!(hit, copies.intersect(&ray), "ray {origin} -> {target}");
+        let hit = instanced.intersect(&ray, 0.0);
+        assert_eq!(hit, copies.intersect(&ray, 0.0), "ray {origin} -> {target}");
         hits += usize::from(hit.is_some());
     }
     // About a quarter of the targets lie on a quad: the comparison is not vacuous.
@@ -743,7 +746,7 @@ fn exported_point_instancer_loads_and_intersects() {
     assert_eq!(m.instances.count, 4);
     assert!(!m.prototypes.is_empty() && !m.meshes.is_empty());
     // A grid of rays down the up axis over the bounds hits the instances.
-    let geometry = Geometry::build(&scene);
+    let geometry = Geometry::build(&scene, true);
     let (lo, hi) = (m.bounds.min, m.bounds.max);
     let mut hits = 0;
     for i in 0..32 {
@@ -751,7 +754,7 @@ fn exported_point_instancer_loads_and_intersects() {
             let x = lo[0] + (hi[0] - lo[0]) * (i as f32 + 0.5) / 32.0;
             let y = lo[1] + (hi[1] - lo[1]) * (j as f32 + 0.5) / 32.0;
             let ray = Ray::new_inf(vec3a(x, y, hi[2] + 1.0), vec3a(0.0, 0.0, -1.0));
-            hits += usize::from(geometry.intersect(&ray).is_some());
+            hits += usize::from(geometry.intersect(&ray, 0.0).is_some());
         }
     }
     assert!(hits > 0, "no ray hit the exported instances");
@@ -861,7 +864,7 @@ fn instancing_stress_stage_is_deterministic_and_exports_every_instance() {
     assert!(stages[0] == stages[1], "two runs wrote different stages");
 
     let out = dir.join("out");
-    cirrus::scene::export(&dir.join("a.usdc"), &out, None, None).unwrap();
+    cirrus::scene::export(&dir.join("a.usdc"), &out, None, None, None).unwrap();
     let scene = Scene::load(&out).unwrap();
     let m = &scene.manifest;
     assert_eq!(m.instances.count, 1000);

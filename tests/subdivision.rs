@@ -172,7 +172,7 @@ fn silhouette(geometry: &Geometry, lo: f32, hi: f32, n: usize) -> f64 {
                 0.0,
                 f32::INFINITY,
             );
-            hits += usize::from(geometry.intersect(&ray).is_some());
+            hits += usize::from(geometry.intersect(&ray, 0.0).is_some());
         }
     }
     hits as f64 / (n * n) as f64
@@ -187,7 +187,7 @@ fn silhouette_converges_with_the_level() {
     let out = export_stage(&dir, &format!("def Mesh \"Cube\"\n{{\n {CUBE}\n}}"));
     let area = |refinement| {
         let scene = Scene::load_with(&out, refinement).unwrap();
-        silhouette(&Geometry::build(&scene), -0.1, 1.1, 400)
+        silhouette(&Geometry::build(&scene, false), -0.1, 1.1, 400)
     };
     let (level4, level6) = (area(Refinement::Level(4)), area(Refinement::Level(6)));
     assert!(
@@ -257,7 +257,7 @@ fn refined_sphere_shades_smooth() {
         ),
     );
     let scene = Scene::load_with(&out, Refinement::Level(2)).unwrap();
-    let geometry = Geometry::build(&scene);
+    let geometry = Geometry::build(&scene, false);
     let (mut worst_ns, mut worst_ng) = (0.0f32, 0.0f32);
     for i in 0..40 {
         for j in 0..40 {
@@ -268,7 +268,7 @@ fn refined_sphere_shades_smooth() {
                 0.0,
                 f32::INFINITY,
             );
-            let Some(hit) = geometry.intersect(&ray) else {
+            let Some(hit) = geometry.intersect(&ray, 0.0) else {
                 continue;
             };
             let sp = geometry.surface_point(&hit);

@@ -397,7 +397,7 @@ fn overlapping_volumes_add_their_extinctions() {
         "/scenes/tests/volume_overlap.usda"
     );
     let dir = common::scratch("volumes_overlap");
-    scene::export(usda.as_ref(), &dir, None, None).unwrap();
+    scene::export(usda.as_ref(), &dir, None, None, None).unwrap();
     let scene = Scene::load(&dir).unwrap();
     // (x, z) of the ray down from y = 5, and its optical depth.
     let rays: [((f32, f32), f64); 4] = [

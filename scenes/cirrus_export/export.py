@@ -16,6 +16,7 @@ from .instancing import Walker, instance_records
 from .lights import export_lights
 from .materials import MaterialTable
 from .mtlx import MtlxDocuments
+from .motion import Recorder, add_motion, replaying_walker
 from .prototypes import MeshTable, Prototypes
 from .report import ExportError, Report
 from .skinning import Skinning
@@ -86,12 +87,14 @@ def world_bounds(prototype_boxes: list, prototype: np.ndarray, matrices: np.ndar
     return world.reshape(-1, 3).min(axis=0), world.reshape(-1, 3).max(axis=0)
 
 
-def export(path: Path, out_dir: Path, frame: float | None, camera: str | None = None) -> list[str]:
-    """Exports `path` to `out_dir` as seen by the camera prim `camera` (default: the stage's);
-    returns the warnings. Raises ExportError for unusable input."""
+def export(path: Path, out_dir: Path, frame: float | None, camera: str | None = None,
+           shutter: tuple[float, float] | None = None) -> list[str]:
+    """Exports `path` to `out_dir` as seen by the camera prim `camera` (default: the stage's)
+    with `shutter` (frames; default: the camera's); returns the warnings. Raises ExportError
+    for unusable input."""
     report = Report()
     with report.usd_diagnostics():
-        manifest, writer = collect(path, out_dir, frame, report, camera)
+        manifest, writer = collect(path, out_dir, frame, report, camera, shutter)
     manifest["warnings"] = report.warnings
     bad = first_non_finite(manifest)
     if bad is not None:
@@ -123,7 +126,7 @@ def first_non_finite(value, field: str = "", prim: str | None = None):
 
 
 def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
-            camera: str | None = None) -> tuple[dict, BinWriter]:
+            camera: str | None = None, shutter: tuple[float, float] | None = None) -> tuple[dict, BinWriter]:
     """Reads the stage into the manifest (warnings not yet filled in) and the scene.bin arrays."""
     stage = open_stage(path, report)
     chosen = chosen_camera(stage, camera)
@@ -139,7 +142,8 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     meshes = MeshTable(writer, materials, skinning, report, time, str(path))
     volumes = VolumeTable(resolver, report, time, frame_label)
     prototypes = Prototypes(meshes, volumes)
-    sink = Walker(prototypes, skinning, report, time).walk_stage(stage)
+    recorder = Recorder(prototypes)
+    sink = Walker(recorder, skinning, report, time).walk_stage(stage)
     instances, prototype, matrices = instance_records(sink, writer)
     lights = export_lights(stage, time, resolver, report)
     if instances["count"] == 0 and not lights:
@@ -150,6 +154,8 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
         raise ExportError(f"{path}: nothing to export from /: {problems}")
     lo, hi = world_bounds(prototypes.boxes, prototype, matrices)
     camera, render = export_render(stage, time, (lo, hi), report, chosen)
+    add_motion(stage, time, shutter, replaying_walker(Walker, recorder, skinning, stage),
+               (camera, instances), (matrices, sink.arrays()["source"]), writer, report)
     manifest = {
         "format": "cirrus-scene",
         "version": FORMAT_VERSION,

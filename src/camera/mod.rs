@@ -19,6 +19,11 @@
 //!   space (clipping range, focus distance, lens radius, orthographic view)
 //!   are scaled with it, like any geometry under the prim; directions are
 //!   normalised and `t_min`/`t_max` are world distances.
+//! - Shutter and motion (docs/rendering.md, "Motion blur"): each ray has a
+//!   time in the shutter interval (frames relative to the frame rendered);
+//!   a moving camera's world-from-camera transform is its keys' matrix lerp
+//!   at that time ([`TransformTrack`]). The compositing matrices below are
+//!   the camera's at the frame itself.
 //! - For compositing, [`Camera::world_to_camera`] and [`Camera::world_to_ndc`]
 //!   give the matrices of OpenEXR's `worldToCamera` and `worldToNDC`
 //!   standard attributes (read by Nuke to rebuild the camera and project
@@ -26,11 +31,13 @@
 //!   (-Z forward, +Y up, +X right), so a scaling camera transform scales
 //!   depths like the clipping range.
 
+mod motion;
 mod window;
 
 use glam::{Affine3A, Mat4, UVec2, Vec2, Vec3, Vec4};
 use thiserror::Error;
 
+use crate::motion::{Shutter, TransformTrack};
 use crate::sampling::warp::square_to_concentric_disk;
 use crate::scene;
 use window::FilmWindow;
@@ -50,6 +57,10 @@ pub struct Camera {
     near: f32,
     /// Camera-space depth of the far clipping plane.
     far: f32,
+    /// The shutter interval rays draw their times from.
+    shutter: Shutter,
+    /// World-from-camera over the shutter; `None` when the camera does not move.
+    motion: Option<TransformTrack>,
 }
 
 /// How rays leave the camera.
@@ -108,8 +119,9 @@ pub const NEAR_PLANE_MIN_FRACTION: f32 = 1e-3;
 
 impl Camera {
     /// The primary ray through `film` (pixels from the top-left corner, y
-    /// down) using `u_lens` in [0,1)^2 for the thin lens (ignored otherwise).
-    pub fn generate_ray(&self, film: Vec2, u_lens: Vec2) -> CameraRay {
+    /// down) using `u_lens` in [0,1)^2 for the thin lens (ignored otherwise),
+    /// from where the camera is at `time` (frames).
+    pub fn generate_ray(&self, film: Vec2, u_lens: Vec2, time: f32) -> CameraRay {
         let p = self.window.at(film);
         let (origin, direction) = match self.projection {
             Projection::Pinhole => (Vec3::ZERO, p.extend(-1.0)),
@@ -124,14 +136,34 @@ impl Camera {
         // Rays start in the z = 0 plane, so the clipping planes z = -near and
         // z = -far lie at depth / cos(angle to the view axis) along them.
         let t_per_depth = 1.0 / -direction.z;
-        let world_direction = self.world_from_camera.transform_vector3(direction);
+        let world_from_camera = match &self.motion {
+            Some(track) => track.at(time),
+            None => self.world_from_camera,
+        };
+        let world_direction = world_from_camera.transform_vector3(direction);
         let world_per_camera = world_direction.length();
         let t_scale = t_per_depth * world_per_camera;
         CameraRay {
-            origin: self.world_from_camera.transform_point3(origin),
+            origin: world_from_camera.transform_point3(origin),
             direction: world_direction / world_per_camera,
             t_min: self.near * t_scale,
             t_max: self.far * t_scale,
+        }
+    }
+
+    /// The shutter interval: a ray's time is drawn from it.
+    pub fn shutter(&self) -> Shutter {
+        self.shutter
+    }
+
+    /// The same camera with its shutter replaced (`--shutter`); a closed
+    /// one ([`Shutter::blurs`] false) leaves the camera at the frame.
+    pub fn with_shutter(self, shutter: Shutter) -> Self {
+        let motion = self.motion.filter(|_| shutter.blurs());
+        Self {
+            shutter,
+            motion,
+            ..self
         }
     }
 
@@ -210,7 +242,7 @@ impl Camera {
             }
         };
         let [near, far] = record.clipping_range;
-        Ok(Self {
+        let camera = Self {
             world_from_camera,
             camera_from_world: world_from_camera.inverse(),
             window: FilmWindow::new(aperture, offset, resolution, plane_units),
@@ -221,7 +253,10 @@ impl Camera {
                 0.0
             },
             far,
-        })
+            shutter: Shutter::CLOSED,
+            motion: motion::track(record).map_err(invalid)?,
+        };
+        Ok(camera.with_shutter(motion::shutter(record).map_err(invalid)?))
     }
 }
 
@@ -334,6 +369,8 @@ mod tests {
             clipping_range: [1.0, 1e6],
             f_stop: 0.0,
             focus_distance: 0.0,
+            shutter: None,
+            motion: None,
         }
     }
 
@@ -357,8 +394,11 @@ mod tests {
 
     #[test]
     fn centre_ray_of_identity_camera_looks_down_minus_z() {
-        let ray =
-            camera(&record(), UVec2::new(300, 200)).generate_ray(Vec2::new(150., 100.), Vec2::ZERO);
+        let ray = camera(&record(), UVec2::new(300, 200)).generate_ray(
+            Vec2::new(150., 100.),
+            Vec2::ZERO,
+            0.0,
+        );
         assert_eq!(ray.origin, Vec3::ZERO);
         assert_close(ray.direction, Vec3::NEG_Z, 1e-6);
         // The fallback clipping range 1..1e6 is "tiny": rays start at the eye.
@@ -385,8 +425,9 @@ mod tests {
                 Vec2::new(0., 0.),
                 Vec2::new(300., 37.),
             ] {
-                let ray = cam.generate_ray(film, Vec2::ZERO);
-                let local = camera(&record(), UVec2::new(300, 200)).generate_ray(film, Vec2::ZERO);
+                let ray = cam.generate_ray(film, Vec2::ZERO, 0.0);
+                let local =
+                    camera(&record(), UVec2::new(300, 200)).generate_ray(film, Vec2::ZERO, 0.0);
                 assert_close(ray.origin, translation, 1e-5);
                 assert_close(ray.direction, rotation * local.direction, 1e-5);
                 assert!((ray.direction.length() - 1.0).abs() < 1e-6);
@@ -426,7 +467,7 @@ mod tests {
             (Vec2::new(300., 200.), half_d, Vec3::new(18., -12., 0.)),
         ];
         for (film, angle, side) in cases {
-            let d = cam.generate_ray(film, Vec2::ZERO).direction;
+            let d = cam.generate_ray(film, Vec2::ZERO, 0.0).direction;
             assert!((angle_to(d, Vec3::NEG_Z) - angle).abs() < 1e-5, "{film}");
             // The ray leans towards the expected side of the image.
             assert_close(d.truncate().normalize().extend(0.0), side.normalize(), 1e-5);
@@ -439,10 +480,10 @@ mod tests {
             let cam = camera(&record(), resolution);
             let r = resolution.as_vec2();
             let h = cam
-                .generate_ray(Vec2::new(r.x, r.y / 2.0), Vec2::ZERO)
+                .generate_ray(Vec2::new(r.x, r.y / 2.0), Vec2::ZERO, 0.0)
                 .direction;
             let v = cam
-                .generate_ray(Vec2::new(r.x / 2.0, 0.0), Vec2::ZERO)
+                .generate_ray(Vec2::new(r.x / 2.0, 0.0), Vec2::ZERO, 0.0)
                 .direction;
             (angle_to(h, Vec3::NEG_Z), angle_to(v, Vec3::NEG_Z))
         };
@@ -466,7 +507,7 @@ mod tests {
         r.horizontal_aperture_offset = 5.0;
         r.vertical_aperture_offset = -3.0;
         let d = camera(&r, UVec2::new(300, 200))
-            .generate_ray(Vec2::new(150., 100.), Vec2::ZERO)
+            .generate_ray(Vec2::new(150., 100.), Vec2::ZERO, 0.0)
             .direction;
         assert_close(d, Vec3::new(5.0, -3.0, -50.0).normalize(), 1e-6);
         assert!((angle_to(d, Vec3::NEG_Z) - (5.0f32.hypot(3.0) / 50.0).atan()).abs() < 1e-5);
@@ -489,7 +530,7 @@ mod tests {
             (Vec2::new(50., 75.), Vec3::new(0., -0.5, 0.)),
         ];
         for (film, origin) in cases {
-            let ray = cam.generate_ray(film, Vec2::new(0.3, 0.9));
+            let ray = cam.generate_ray(film, Vec2::new(0.3, 0.9), 0.0);
             assert_close(ray.origin, origin, 1e-5);
             assert_eq!(ray.direction, Vec3::NEG_Z);
             assert!((ray.t_min - 2.0).abs() < 1e-6 && (ray.t_max - 50.0).abs() < 1e-5);
@@ -521,13 +562,13 @@ mod tests {
             Vec2::new(280.5, 12.25),
         ] {
             // Where the pinhole ray crosses the plane of focus.
-            let sharp = pinhole.generate_ray(film, Vec2::ZERO);
+            let sharp = pinhole.generate_ray(film, Vec2::ZERO, 0.0);
             let target = sharp.origin + sharp.direction * (10.0 / sharp.direction.dot(axis));
             let mut widest = 0.0f32;
             let edge = [Vec2::new(0.999_999, 0.5), Vec2::new(0.5, 0.0)];
             let random = (0..16).map(|_| Vec2::new(rng.next_f32(), rng.next_f32()));
             for u in edge.into_iter().chain(random) {
-                let ray = cam.generate_ray(film, u);
+                let ray = cam.generate_ray(film, u, 0.0);
                 let offset = ray.origin - eye;
                 assert!(offset.dot(axis).abs() < 1e-5, "origin off the lens plane");
                 assert!(offset.length() <= radius * (1.0 + 1e-5));
@@ -549,8 +590,8 @@ mod tests {
         no_focus.f_stop = 2.0;
         for r in [record(), no_focus] {
             let cam = camera(&r, UVec2::new(64, 64));
-            let a = cam.generate_ray(Vec2::new(10.5, 40.5), Vec2::new(0.1, 0.2));
-            let b = cam.generate_ray(Vec2::new(10.5, 40.5), Vec2::new(0.9, 0.7));
+            let a = cam.generate_ray(Vec2::new(10.5, 40.5), Vec2::new(0.1, 0.2), 0.0);
+            let b = cam.generate_ray(Vec2::new(10.5, 40.5), Vec2::new(0.9, 0.7), 0.0);
             assert_eq!((a.origin, a.direction), (b.origin, b.direction));
         }
     }
@@ -566,7 +607,7 @@ mod tests {
             (Vec2::new(150., 100.), Vec2::new(0.5, 0.5)),
             (Vec2::new(0., 0.), Vec2::new(0.1, 0.8)),
         ] {
-            let ray = cam.generate_ray(film, u);
+            let ray = cam.generate_ray(film, u, 0.0);
             assert!(((ray.origin + ray.t_min * ray.direction).z + 5.0).abs() < 1e-5);
             assert!(((ray.origin + ray.t_max * ray.direction).z + 100.0).abs() < 1e-4);
         }
@@ -653,7 +694,7 @@ mod tests {
                 for _ in 0..200 {
                     let film = Vec2::new(rng.next_f32(), rng.next_f32()) * resolution.as_vec2();
                     let u_lens = Vec2::new(rng.next_f32(), rng.next_f32());
-                    let ray = cam.generate_ray(film, u_lens);
+                    let ray = cam.generate_ray(film, u_lens, 0.0);
                     // Any point of a pinhole or orthographic ray; the point
                     // on the plane of focus of a thin-lens ray.
                     let t = if r.f_stop > 0.0 {

@@ -167,6 +167,22 @@ pub enum Bench {
         #[arg(long, value_name = "DIR")]
         charts: Option<PathBuf>,
     },
+    /// Motion blur cost: BVH build time, transform-track memory and
+    /// samples/s of moving instances with the shutter closed and open.
+    Motion {
+        /// Moving instances.
+        #[arg(long, default_value_t = 1000)]
+        instances: usize,
+        /// Image size WIDTHxHEIGHT.
+        #[arg(long, default_value = "320x180", value_parser = parse_resolution)]
+        res: glam::UVec2,
+        /// Samples per pixel of each timed render.
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        /// Timed repeats of the build and the render; the table shows medians.
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+    },
     /// Internal to `bench instances`: loads one exported scene and builds its
     /// BVHs in this fresh process, and prints the resident bytes added.
     #[command(hide = true)]
@@ -260,6 +276,17 @@ pub fn run(bench: Bench) -> Result<()> {
             lab::bench_fire(&bench)
         }
         Bench::Subdivision { scenes, level } => lab::bench_subdivision(&scenes, level),
+        Bench::Motion {
+            instances,
+            res,
+            spp,
+            repeats,
+        } => lab::bench_motion(&lab::MotionBench {
+            instances,
+            resolution: res,
+            spp,
+            repeats,
+        }),
         Bench::InstancesMemory { scene } => lab::instances_memory(&scene),
     }?;
     Ok(())

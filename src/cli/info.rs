@@ -15,7 +15,7 @@ pub fn run(file: &Path) -> Result<()> {
     if is_scene || cirrus::scene::is_usd(file) {
         print!(
             "{}",
-            scene_summary(&cirrus::scene::Scene::open(file, None, None)?)
+            scene_summary(&cirrus::scene::Scene::open(file, &Default::default())?)
         );
     } else {
         let vdb = VdbFile::open(file)?;

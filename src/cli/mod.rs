@@ -117,7 +117,7 @@ fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Val
 /// `cirrus export`: runs the exporter, then loads the result so a scene that
 /// the renderer would refuse is reported now rather than at render time.
 fn export(input: &Path, output: &Path, frame: Option<f64>, camera: Option<&str>) -> Result<()> {
-    cirrus::scene::export(input, output, frame, camera)?;
+    cirrus::scene::export(input, output, frame, camera, None)?;
     let scene = Scene::load(output)?;
     let m = &scene.manifest;
     println!(

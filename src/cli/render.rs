@@ -3,14 +3,11 @@
 //! scene; the beauty (linear, float RGBA) and the chosen AOVs go to OUT.exr
 //! (or one file per AOV) and a tone-mapped preview beside it (OUT.png).
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
 use glam::UVec2;
-use indicatif::{ProgressBar, ProgressStyle};
 
 use super::signal::{Interrupted, StopSignal};
 use super::split::PartArgs;
@@ -104,6 +101,10 @@ pub struct RenderArgs {
     /// EXR compression.
     #[arg(long, value_parser = super::choice::<Compression>(), default_value_t)]
     compression: Compression,
+    /// Shutter interval OPEN,CLOSE in frames relative to the frame
+    /// (default: the camera's shutter:open/close; 0,0 = no motion blur).
+    #[arg(long, value_name = "OPEN,CLOSE", allow_hyphen_values = true)]
+    shutter: Option<cirrus::motion::Shutter>,
     /// USD time code to export (USD input only).
     #[arg(long)]
     frame: Option<f64>,
@@ -253,9 +254,13 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
     }
     let pool = pool.build().context("cannot start worker threads")?;
     let start = Instant::now();
-    let level = cirrus::scene::Refinement::Level(args.subdiv_level);
-    let scene =
-        cirrus::scene::Scene::open_with(&args.scene, args.frame, args.camera.as_deref(), level)?;
+    let options = cirrus::scene::OpenOptions {
+        frame: args.frame,
+        camera: args.camera.as_deref(),
+        shutter: args.shutter,
+        refinement: cirrus::scene::Refinement::Level(args.subdiv_level),
+    };
+    let scene = cirrus::scene::Scene::open(&args.scene, &options)?;
     let resolution = render_state::resolution_for(&scene, args.res);
     let window = part.window(resolution)?;
     let needs = pool.install(|| memory::estimate(&scene, window.size, &settings.aovs))?;
@@ -264,6 +269,7 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
     let options = StateOptions {
         majorant: args.majorant,
         volume_lights: args.volume_light_sampling,
+        shutter: args.shutter,
     };
     let state = pool.install(|| RenderState::build(&scene, args.res, options))?;
     let identity = RenderIdentity {
@@ -299,7 +305,7 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
         window.size.x,
         window.size.y
     );
-    let progress = Progress::new();
+    let progress = cirrus::progress_bar::ProgressDisplay::new();
     let save = |s: &Snapshot| {
         if let Err(e) = write_snapshot(&files.checkpoint, &identity, s) {
             log::warn!("checkpoint not saved: {e:#}");
@@ -349,86 +355,9 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
 
 /// Prints what was written and how the render went; warns about dropped samples.
 fn report(written: &[PathBuf], stats: &RenderStats) {
-    let secs = stats.elapsed.as_secs_f64();
-    let rays = stats.rays.closest + stats.rays.shadow;
-    log::info!(
-        "{} spp in {secs:.2} s: {:.2} M rays/s ({} camera, {} closest-hit, {} shadow)",
-        stats.samples_per_pixel,
-        rays as f64 / secs.max(1e-9) / 1e6,
-        stats.rays.camera,
-        stats.rays.closest,
-        stats.rays.shadow,
-    );
-    let t = &stats.tracking;
-    if t.density_lookups > 0 {
-        let collisions = (t.real_collisions + t.null_collisions).max(1);
-        log::info!(
-            "volumes: {:.1} density lookups per camera ray; {:.0}% of collisions null",
-            t.density_lookups as f64 / stats.rays.camera.max(1) as f64,
-            100.0 * t.null_collisions as f64 / collisions as f64,
-        );
-    }
-    if t.majorant_violations > 0 {
-        log::warn!(
-            "{} density lookups exceeded their majorant: delta tracking is biased there",
-            t.majorant_violations
-        );
-    }
-    if let Some((pixel, sample)) = stats.non_finite.first {
-        log::warn!(
-            "{} NaN/Inf sample(s) dropped; the first at pixel ({}, {}), sample {sample}",
-            stats.non_finite.count,
-            pixel.x,
-            pixel.y
-        );
-    }
+    stats.log_summary();
     let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
     println!("wrote {}", names.join(" and "));
-}
-
-/// A progress bar with ETA on a terminal; on anything else, a log line
-/// every 10%.
-struct Progress {
-    bar: Option<ProgressBar>,
-    logged: Mutex<u32>,
-}
-
-impl Progress {
-    fn new() -> Self {
-        let bar = std::io::stderr().is_terminal().then(|| {
-            let bar = ProgressBar::new(1000);
-            bar.set_style(
-                ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise} ETA {eta}")
-                    .expect("valid template"),
-            );
-            bar
-        });
-        Self {
-            bar,
-            logged: Mutex::new(0),
-        }
-    }
-
-    fn update(&self, fraction: f64) {
-        let fraction = fraction.clamp(0.0, 1.0);
-        match &self.bar {
-            Some(bar) => bar.set_position((fraction * 1000.0) as u64),
-            None => {
-                let tenth = (fraction * 10.0) as u32;
-                let mut logged = self.logged.lock().expect("progress lock");
-                if tenth > *logged {
-                    *logged = tenth;
-                    log::info!("{}% rendered", tenth * 10);
-                }
-            }
-        }
-    }
-
-    fn finish(&self) {
-        if let Some(bar) = &self.bar {
-            bar.finish_and_clear();
-        }
-    }
 }
 
 /// `on` or `off` as a flag's value.

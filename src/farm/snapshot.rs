@@ -55,6 +55,12 @@ impl Fingerprint {
             ("equiangular", p.equiangular.to_string()),
             ("majorant", format!("{:?}", options.majorant)),
             ("volume-light-sampling", options.volume_lights.to_string()),
+            (
+                "shutter",
+                options
+                    .shutter
+                    .map_or_else(|| "the camera's".into(), |s| s.to_string()),
+            ),
             ("aovs", settings.aovs.to_string()),
         ];
         Ok(Self(

@@ -31,7 +31,9 @@ use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
 use super::intersect::{TriangleHit, WatertightRay};
+use super::motion::MovingInstances;
 use super::surface::{MeshShading, SurfacePoint};
+use crate::motion::TransformTrack;
 use crate::scene::{affine, Scene};
 
 /// Build quality for both levels: obvhs's balanced preset.
@@ -75,6 +77,9 @@ pub struct Geometry {
     /// Every placed mesh: the top level's leaves (placements of meshes
     /// placed more than once) first, then the placements in `world`.
     leaves: Vec<PlacedMesh>,
+    /// World-from-mesh tracks of the placements of moving instances (all
+    /// top-level leaves), indexed by [`PlacedMesh::motion`].
+    tracks: Vec<TransformTrack>,
 }
 
 /// How a scene mesh enters the BVHs, by how often the scene places it.
@@ -84,7 +89,8 @@ enum MeshRole {
     Unused,
     /// Placed exactly once: its world-space triangles go into [`WorldMeshes`].
     Flattened,
-    /// Placed more than once: one mesh-space BVH, shared under the top level.
+    /// Placed more than once, or by a moving instance: one mesh-space BVH,
+    /// shared under the top level.
     Instanced,
 }
 
@@ -127,11 +133,17 @@ struct TopLevel {
 
 /// One mesh of one instance: a top-level leaf.
 struct PlacedMesh {
+    /// At the frame itself; a moving placement's is at the ray's time.
     mesh_from_world: Affine3A,
     instance: u32,
     prototype_mesh: u32,
     mesh: u32,
+    /// Index into [`Geometry::tracks`]; [`STATIC`] when it does not move.
+    motion: u32,
 }
+
+/// [`PlacedMesh::motion`] of a placement that does not move.
+const STATIC: u32 = u32::MAX;
 
 /// The closest intersection of a ray with the scene's meshes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -150,6 +162,8 @@ pub struct Hit {
     pub barycentrics: Vec2,
     /// The placed mesh hit (an index into `Geometry::leaves`).
     leaf: u32,
+    /// The ray's time, frames: where a moving mesh was when hit.
+    time: f32,
 }
 
 /// Per triangle, resident: the BVH's triangle copy (three `Vec3A`, 48
@@ -179,13 +193,15 @@ impl Geometry {
     }
 
     /// Builds the world-space BVH over the meshes placed once, one BVH per
-    /// mesh placed more than once (in parallel), and the top-level BVH over
-    /// those meshes' placements. Placements whose transform cannot be
-    /// inverted (a zero scale collapses the mesh) cover no area and are left
-    /// out.
-    pub fn build(scene: &Scene) -> Self {
+    /// mesh placed more than once or moving (in parallel), and the
+    /// top-level BVH over those meshes' placements. Placements whose
+    /// transform cannot be inverted (a zero scale collapses the mesh) cover
+    /// no area and are left out. Without `motion` (a shutter closed at the
+    /// frame) every instance stays where it is at the frame.
+    pub fn build(scene: &Scene, motion: bool) -> Self {
         let m = &scene.manifest;
-        let roles = mesh_roles(scene);
+        let moving = MovingInstances::new(scene, motion);
+        let roles = mesh_roles(scene, &moving);
         let meshes: Vec<Option<MeshBvh>> = m
             .meshes
             .par_iter()
@@ -209,24 +225,43 @@ impl Geometry {
             .collect();
         // Boxes first, leaves after the top level is built: the two are
         // never held together (32 MB and 64 MB at a million instances).
-        let boxes: Vec<Aabb> = placements(scene, &roles, MeshRole::Instanced)
+        // A moving mesh's box: the union of its boxes at the keys, which
+        // bounds it at every time in between (matrix lerp).
+        let boxes: Vec<Aabb> = placements(scene, &roles, MeshRole::Instanced, &moving)
             .enumerate()
             .map(|(i, (leaf, world_from_mesh))| {
-                let mesh_box = &meshes[leaf.mesh as usize]
+                let mesh_box = &meshes[leaf.placed.mesh as usize]
                     .as_ref()
                     .expect("instanced meshes have a BVH")
                     .bvh
                     .total_aabb;
-                padded(transform_box(&world_from_mesh, mesh_box), i)
+                let keys = match &leaf.track {
+                    Some(track) => track.keys(),
+                    None => std::slice::from_ref(&world_from_mesh),
+                };
+                let union = keys.iter().fold(Aabb::INVALID, |b, key| {
+                    b.union(&transform_box(key, mesh_box))
+                });
+                padded(union, i)
             })
             .collect();
         let count = boxes.len();
         let top = (count > 0).then(|| TopLevel::build(boxes));
         // Sized exactly: a million leaves grown by doubling would briefly
         // take twice their size.
-        let flattened: Vec<_> = placements(scene, &roles, MeshRole::Flattened).collect();
+        let flattened: Vec<_> = placements(scene, &roles, MeshRole::Flattened, &moving)
+            .map(|(leaf, world_from_mesh)| (leaf.placed, world_from_mesh))
+            .collect();
         let mut leaves = Vec::with_capacity(count + flattened.len());
-        leaves.extend(placements(scene, &roles, MeshRole::Instanced).map(|(leaf, _)| leaf));
+        let mut tracks = Vec::new();
+        let instanced = placements(scene, &roles, MeshRole::Instanced, &moving);
+        leaves.extend(instanced.map(|(mut leaf, _)| {
+            if let Some(track) = leaf.track {
+                leaf.placed.motion = tracks.len() as u32;
+                tracks.push(track);
+            }
+            leaf.placed
+        }));
         let world = WorldMeshes::build(scene, flattened, &mut leaves);
         Self {
             meshes,
@@ -234,18 +269,20 @@ impl Geometry {
             world,
             top,
             leaves,
+            tracks,
         }
     }
 
-    /// The closest hit along `ray` within `(ray.tmin, ray.tmax)`: first in
-    /// the world-space BVH, then through both levels of the instanced
-    /// meshes, where each candidate instance sees the ray in its mesh's space.
-    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+    /// The closest hit along `ray` within `(ray.tmin, ray.tmax)` at `time`
+    /// (frames; it places the moving meshes): first in the world-space BVH,
+    /// then through both levels of the instanced meshes, where each
+    /// candidate instance sees the ray in its mesh's space.
+    pub fn intersect(&self, ray: &Ray, time: f32) -> Option<Hit> {
         let mut ray = traversal_ray(ray.origin, ray.direction, ray.tmin, ray.tmax);
         let mut closest = self.world.as_ref().and_then(|world| {
             let (index, hit) = world.mesh.intersect(&ray)?;
             let source = world.sources[index as usize];
-            Some(self.hit(source.leaf, source.triangle, hit))
+            Some(self.hit(source.leaf, source.triangle, hit, time))
         });
         if let Some(hit) = &closest {
             ray.tmax = hit.t;
@@ -253,9 +290,12 @@ impl Geometry {
         if let Some(top) = &self.top {
             top.traverse(ray, |ray, index| {
                 let leaf = &self.leaves[index];
-                match self.mesh(leaf).intersect(&leaf.local_ray(ray)) {
+                let found = self
+                    .local_ray(leaf, ray, time)
+                    .and_then(|local| self.mesh(leaf).intersect(&local));
+                match found {
                     Some((triangle, hit)) => {
-                        closest = Some(self.hit(index as u32, triangle, hit));
+                        closest = Some(self.hit(index as u32, triangle, hit, time));
                         hit.t
                     }
                     None => f32::INFINITY,
@@ -265,9 +305,10 @@ impl Geometry {
         closest
     }
 
-    /// Whether anything blocks `ray` within `(ray.tmin, ray.tmax)`: a shadow
-    /// ray's query, which stops at the first hit found, nearest or not.
-    pub fn occluded(&self, ray: &Ray) -> bool {
+    /// Whether anything blocks `ray` within `(ray.tmin, ray.tmax)` at
+    /// `time` (frames): a shadow ray's query, which stops at the first hit
+    /// found, nearest or not.
+    pub fn occluded(&self, ray: &Ray, time: f32) -> bool {
         let ray = traversal_ray(ray.origin, ray.direction, ray.tmin, ray.tmax);
         self.world
             .as_ref()
@@ -275,7 +316,8 @@ impl Geometry {
             || self.top.as_ref().is_some_and(|top| {
                 top.any(ray, |ray, index| {
                     let leaf = &self.leaves[index];
-                    self.mesh(leaf).occluded(&leaf.local_ray(ray))
+                    self.local_ray(leaf, ray, time)
+                        .is_some_and(|local| self.mesh(leaf).occluded(&local))
                 })
             })
     }
@@ -293,15 +335,15 @@ impl Geometry {
     pub fn surface_point(&self, hit: &Hit) -> SurfacePoint {
         let leaf = &self.leaves[hit.leaf as usize];
         self.shading[leaf.mesh as usize].surface_point(
-            &leaf.mesh_from_world,
+            &self.mesh_from_world(leaf, hit.time),
             hit.triangle,
             hit.barycentrics,
             [hit.instance, hit.prototype_mesh, leaf.mesh],
         )
     }
 
-    /// The [`Hit`] of triangle `triangle` of placed mesh `leaf`.
-    fn hit(&self, leaf: u32, triangle: u32, hit: TriangleHit) -> Hit {
+    /// The [`Hit`] of triangle `triangle` of placed mesh `leaf` at `time`.
+    fn hit(&self, leaf: u32, triangle: u32, hit: TriangleHit, time: f32) -> Hit {
         let placed = &self.leaves[leaf as usize];
         Hit {
             t: hit.t,
@@ -310,7 +352,32 @@ impl Geometry {
             triangle,
             barycentrics: hit.barycentrics,
             leaf,
+            time,
         }
+    }
+
+    /// `leaf`'s mesh-from-world transform at `time` (frames): its own for
+    /// a static placement, the inverse of its track's for a moving one.
+    fn mesh_from_world(&self, leaf: &PlacedMesh, time: f32) -> Affine3A {
+        match self.tracks.get(leaf.motion as usize) {
+            Some(track) => track.at(time).inverse(),
+            None => leaf.mesh_from_world,
+        }
+    }
+
+    /// A world traversal ray in `leaf`'s mesh space at `time`, with the
+    /// same parameterisation (`t` means the same point in both spaces);
+    /// `None` when a moving placement collapses at that time.
+    fn local_ray(&self, leaf: &PlacedMesh, ray: &Ray, time: f32) -> Option<Ray> {
+        let mesh_from_world = self.mesh_from_world(leaf, time);
+        mesh_from_world.is_finite().then(|| {
+            traversal_ray(
+                mesh_from_world.transform_point3a(ray.origin),
+                mesh_from_world.transform_vector3a(ray.direction),
+                ray.tmin,
+                ray.tmax,
+            )
+        })
     }
 
     fn mesh(&self, leaf: &PlacedMesh) -> &MeshBvh {
@@ -358,19 +425,6 @@ impl WorldMeshes {
             mesh: MeshBvh::build(triangles)?,
             sources,
         })
-    }
-}
-
-impl PlacedMesh {
-    /// A world traversal ray in this placement's mesh space, with the same
-    /// parameterisation (`t` means the same point in both spaces).
-    fn local_ray(&self, ray: &Ray) -> Ray {
-        traversal_ray(
-            self.mesh_from_world.transform_point3a(ray.origin),
-            self.mesh_from_world.transform_vector3a(ray.direction),
-            ray.tmin,
-            ray.tmax,
-        )
     }
 }
 
@@ -543,12 +597,13 @@ const MORTON_MAX: f32 = 1.0 - f32::EPSILON;
 
 /// Each scene mesh's [`MeshRole`]: how many times the instances place it,
 /// counted per prototype (a placement whose transform turns out singular
-/// still counts), and whether it has triangles.
-fn mesh_roles(scene: &Scene) -> Vec<MeshRole> {
+/// still counts; a moving instance's counts twice, as its mesh cannot be
+/// carried to world space once), and whether it has triangles.
+fn mesh_roles(scene: &Scene, moving: &MovingInstances) -> Vec<MeshRole> {
     let m = &scene.manifest;
     let mut instances_of = vec![0u64; m.prototypes.len()];
-    for &prototype in scene.view(&m.instances.prototype) {
-        instances_of[prototype as usize] += 1;
+    for (instance, &prototype) in scene.view(&m.instances.prototype).iter().enumerate() {
+        instances_of[prototype as usize] += if moving.moves(instance as u32) { 2 } else { 1 };
     }
     let mut placed = vec![0u64; m.meshes.len()];
     for (prototype, &count) in m.prototypes.iter().zip(&instances_of) {
@@ -583,15 +638,23 @@ fn mesh_triangles<'a>(
     })
 }
 
+/// A placed mesh as [`placements`] finds it: the leaf, and the track of a
+/// moving one (its `motion` index is set when the track is stored).
+struct Placement {
+    placed: PlacedMesh,
+    track: Option<TransformTrack>,
+}
+
 /// Every placed mesh of `scene` whose role is `role`, in instance order,
-/// with its world-from-mesh transform, except placements whose transform
-/// cannot be inverted (a zero scale collapses the mesh, which then covers
-/// no area).
+/// with its world-from-mesh transform at the frame, except placements whose
+/// transform at the frame cannot be inverted (a zero scale collapses the
+/// mesh, which then covers no area).
 fn placements<'a>(
     scene: &'a Scene,
     roles: &'a [MeshRole],
     role: MeshRole,
-) -> impl Iterator<Item = (PlacedMesh, Affine3A)> + 'a {
+    moving: &'a MovingInstances,
+) -> impl Iterator<Item = (Placement, Affine3A)> + 'a {
     let m = &scene.manifest;
     let prototypes = scene.view(&m.instances.prototype);
     let transforms = scene.view(&m.instances.transform);
@@ -603,17 +666,20 @@ fn placements<'a>(
                 .enumerate()
                 .filter(move |(_, part)| roles[part.mesh as usize] == role)
                 .filter_map(move |(prototype_mesh, part)| {
-                    let world_from_mesh = affine(world_from_prototype) * affine(&part.transform);
+                    let prototype_from_mesh = affine(&part.transform);
+                    let world_from_mesh = affine(world_from_prototype) * prototype_from_mesh;
                     let mesh_from_world = world_from_mesh.inverse();
-                    mesh_from_world.is_finite().then_some((
-                        PlacedMesh {
-                            mesh_from_world,
-                            instance: instance as u32,
-                            prototype_mesh: prototype_mesh as u32,
-                            mesh: part.mesh,
-                        },
-                        world_from_mesh,
-                    ))
+                    let placed = PlacedMesh {
+                        mesh_from_world,
+                        instance: instance as u32,
+                        prototype_mesh: prototype_mesh as u32,
+                        mesh: part.mesh,
+                        motion: STATIC,
+                    };
+                    let track = moving.mesh_track(instance as u32, prototype_from_mesh);
+                    mesh_from_world
+                        .is_finite()
+                        .then_some((Placement { placed, track }, world_from_mesh))
                 })
         },
     )

@@ -15,11 +15,17 @@
 //! with the watertight algorithm of Woop, Benthin and Wald (2013), so rays
 //! through shared edges and vertices never slip between triangles.
 //!
+//! Motion blur: a mesh placed by a moving instance always sits under the
+//! top level, its box the union of its boxes at the motion keys (exact for
+//! the matrix lerp of `crate::motion`), and a ray at time t enters it
+//! through the inverse of its transform at t (`motion.rs`).
+//!
 //! [`Scene`]: crate::scene::Scene
 
 mod bvh;
 mod frame;
 mod intersect;
+mod motion;
 mod surface;
 
 pub use bvh::{Geometry, Hit};

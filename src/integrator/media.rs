@@ -184,7 +184,7 @@ impl EquiangularRay {
 pub(super) fn equiangular_sample(
     state: &RenderState,
     settings: &PathSettings,
-    (along, segments, eq): (&MediaRay, &[MajorantSegment], &EquiangularRay),
+    (along, segments, eq, time): (&MediaRay, &[MajorantSegment], &EquiangularRay, f32),
     rng: &mut Pcg32,
     counts: &mut PathCounts,
 ) -> Option<Vec3> {
@@ -225,7 +225,7 @@ pub(super) fn equiangular_sample(
         return None;
     }
     let shadow = shadow_ray(p, ls.wi, ls.distance);
-    let seen = visibility(state, settings, &shadow, light, rng, counts);
+    let seen = visibility(state, settings, (&shadow, time), light, rng, counts);
     if seen.transmittance == Vec3::ZERO {
         return None;
     }

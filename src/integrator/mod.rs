@@ -13,6 +13,7 @@ mod media;
 mod path;
 mod progress;
 mod shadow;
+mod summary;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
@@ -333,7 +334,17 @@ fn render_tile(
             for index in samples.clone() {
                 sampler.start_pixel_sample(pixel, index);
                 let film = pixel.as_vec2() + Vec2::splat(0.5) + filter.sample(sampler.next_2d());
-                let camera = state.camera.generate_ray(film, sampler.next_2d());
+                let u_lens = sampler.next_2d();
+                // The time has its own dimension, stratified over the pixel's
+                // samples; a closed shutter draws none, so unblurred renders
+                // keep their sample sequences.
+                let shutter = state.camera.shutter();
+                let time = if shutter.is_open() {
+                    shutter.time(sampler.next_1d())
+                } else {
+                    shutter.open
+                };
+                let camera = state.camera.generate_ray(film, u_lens, time);
                 let ray = obvhs::ray::Ray::new(
                     camera.origin.into(),
                     camera.direction.into(),
@@ -350,7 +361,8 @@ fn render_tile(
                     rays: &mut *rays,
                     tracking: &mut *tracking,
                 };
-                let (radiance, aovs) = path::radiance(state, ray, random, &settings.path, counts);
+                let (radiance, aovs) =
+                    path::radiance(state, (ray, time), random, &settings.path, counts);
                 out.add(pixel, index, radiance, &aovs);
             }
         }

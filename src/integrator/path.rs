@@ -64,14 +64,15 @@ pub struct PathRandom<'a> {
     pub tracking: &'a mut Pcg32,
 }
 
-/// Radiance arriving at the camera along a camera ray, W/(m^2 sr): one
-/// sample of the path-integral estimator, with what it gives every AOV. The
+/// Radiance arriving at the camera along a camera ray at its time (frames,
+/// shared by the whole path), W/(m^2 sr): one sample of the path-integral
+/// estimator, with what it gives every AOV. The
 /// sampler must be positioned at the first path dimension; each bounce
 /// consumes the same number of dimensions whether or not it uses them, so
 /// dimensions stay aligned between pixel samples.
 pub fn radiance(
     state: &RenderState,
-    mut ray: Ray,
+    (mut ray, time): (Ray, f32),
     random: PathRandom,
     settings: &PathSettings,
     counts: PathCounts,
@@ -79,6 +80,7 @@ pub fn radiance(
     let mut path = Path {
         state,
         settings,
+        time,
         sampler: random.sampler,
         rng: random.tracking,
         counts,
@@ -111,6 +113,8 @@ pub fn radiance(
 struct Path<'a, 'r> {
     state: &'a RenderState,
     settings: &'a PathSettings,
+    /// The camera sample's time, frames: every ray of the path is at it.
+    time: f32,
     sampler: &'r mut Sampler,
     rng: &'r mut Pcg32,
     counts: PathCounts<'r>,
@@ -157,7 +161,8 @@ impl Path<'_, '_> {
             return None;
         }
         let shadow = vertex.shadow_ray(&ls);
-        let seen = visibility(state, settings, &shadow, light, self.rng, &mut self.counts);
+        let shadow = (&shadow, self.time);
+        let seen = visibility(state, settings, shadow, light, self.rng, &mut self.counts);
         if seen.transmittance == Vec3::ZERO {
             return None;
         }
@@ -180,7 +185,7 @@ impl Path<'_, '_> {
     fn extend(&mut self, ray: &Ray, depth: u32) -> Option<Ray> {
         let (geometry, lights) = (&self.state.geometry, &self.state.lights);
         self.counts.rays.closest += 1;
-        let hit = geometry.intersect(ray);
+        let hit = geometry.intersect(ray, self.time);
         let (origin, direction) = (Vec3::from(ray.origin), Vec3::from(ray.direction));
         let t_surface = hit.map_or(ray.tmax, |h| h.t);
         let light_hit = lights.intersect(origin, direction, t_surface);
@@ -249,7 +254,7 @@ impl Path<'_, '_> {
             let listed: Vec<MajorantSegment> = segments.collect();
             equiangular = EquiangularRay::new(origin, direction, &listed);
             if let Some(eq) = &equiangular {
-                let sample = (&along, listed.as_slice(), eq);
+                let sample = (&along, listed.as_slice(), eq, self.time);
                 if let Some(c) =
                     equiangular_sample(state, settings, sample, self.rng, &mut self.counts)
                 {

@@ -45,20 +45,21 @@ impl Visibility {
     };
 }
 
-/// Traces the shadow ray `shadow` towards light `light` through geometry,
-/// the other lights and the media, with the configured transmittance
-/// estimator.
+/// Traces the shadow ray `shadow` at its time (frames) towards light
+/// `light` through geometry, the other lights and the media, with the
+/// configured transmittance estimator.
 pub(super) fn visibility(
     state: &RenderState,
     settings: &PathSettings,
-    shadow: &Ray,
+    (shadow, time): (&Ray, f32),
     light: usize,
     rng: &mut Pcg32,
     counts: &mut PathCounts,
 ) -> Visibility {
     counts.rays.shadow += 1;
     let (origin, direction) = (Vec3::from(shadow.origin), Vec3::from(shadow.direction));
-    if state.geometry.occluded(shadow) || state.lights.blocks(origin, direction, shadow.tmax, light)
+    if state.geometry.occluded(shadow, time)
+        || state.lights.blocks(origin, direction, shadow.tmax, light)
     {
         return Visibility::BLOCKED;
     }

@@ -55,7 +55,7 @@ fn run_scenes(bench: &AovsBench) -> Result<()> {
     println!("|---|---|---:|---:|---:|---:|---:|");
     std::fs::create_dir_all(&bench.out).map_err(LabError::Os)?;
     for path in &scenes_or_default(bench.scenes.clone(), &DEFAULT_SCENES) {
-        let scene = crate::scene::Scene::open(path, None, None)?;
+        let scene = crate::scene::Scene::open(path, &Default::default())?;
         let state = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
         let sets = [AovSet::beauty_only(), AovSet::default()];
         let name = scene_name(path);

@@ -61,7 +61,7 @@ pub fn run(bench: &EqualTimeBench) -> Result<()> {
 
 /// One scene's tables and chart.
 fn measure_scene(bench: &EqualTimeBench, path: &Path) -> Result<()> {
-    let scene = crate::scene::Scene::open(path, None, None)?;
+    let scene = crate::scene::Scene::open(path, &Default::default())?;
     let name = scene_name(path);
     let build = |volume_lights| {
         let options = StateOptions {

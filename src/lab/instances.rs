@@ -146,7 +146,7 @@ fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Re
     generate(&stage, instances, triangles)?;
     let scene_dir = dir.join(format!("stress_{instances}"));
     let start = Instant::now();
-    crate::scene::export(&stage, &scene_dir, None, None)?;
+    crate::scene::export(&stage, &scene_dir, None, None, None)?;
     let export_s = start.elapsed().as_secs_f64();
 
     let [after_load, after_build, peak] = memory_in_child(&scene_dir)?;
@@ -168,7 +168,7 @@ fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Re
     }
     let build_s = median(
         (0..repeats)
-            .map(|_| timed(|| Geometry::build(&scene)).0)
+            .map(|_| timed(|| Geometry::build(&scene, true)).0)
             .collect(),
     );
     Ok(Costs {
@@ -249,7 +249,7 @@ pub fn print_memory(scene_dir: &Path) -> Result<()> {
         .map_err(|e| LabError::system("resetting the peak RSS", e))?;
     let scene = Scene::load(scene_dir)?;
     let after_load = memory("VmRSS")? - before;
-    let geometry = Geometry::build(&scene);
+    let geometry = Geometry::build(&scene, true);
     let after_build = memory("VmRSS")? - before;
     let peak = memory("VmHWM")? - before;
     black_box(&geometry);

@@ -51,7 +51,7 @@ fn run_scenes(bench: &EqualTimeBench) -> Result<()> {
         bench.reference_spp
     );
     for path in &bench.scenes {
-        let scene = crate::scene::Scene::open(path, None, None)?;
+        let scene = crate::scene::Scene::open(path, &Default::default())?;
         let state = RenderState::build(&scene, Some(bench.resolution), StateOptions::default())?;
         let name = scene_name(path);
         let key = reference_key(&scene, &name)?;

@@ -15,7 +15,7 @@ use super::Result;
 use crate::film::AovSet;
 use crate::integrator;
 use crate::render_state::{RenderState, StateOptions};
-use crate::scene::{Refinement, Scene};
+use crate::scene::{OpenOptions, Refinement, Scene};
 
 /// Image size of the sample-rate renders.
 const RESOLUTION: UVec2 = UVec2::new(160, 120);
@@ -36,8 +36,17 @@ pub fn run(scenes: &[PathBuf], level: u32) -> Result<()> {
         println!("| scene | cages | cage triangles | triangles | refine s | added MiB | samples/s before | samples/s after |");
         println!("|---|---:|---:|---:|---:|---:|---:|---:|");
         for path in scenes {
-            let cages = Scene::open_with(path, None, None, Refinement::Cages)?;
-            let refined = Scene::open_with(path, None, None, Refinement::Level(level))?;
+            let open = |refinement| {
+                Scene::open(
+                    path,
+                    &OpenOptions {
+                        refinement,
+                        ..Default::default()
+                    },
+                )
+            };
+            let cages = open(Refinement::Cages)?;
+            let refined = open(Refinement::Level(level))?;
             let s = &refined.subdivision;
             let added = refined.array_bytes().meshes - cages.array_bytes().meshes;
             let before = samples_per_second(&cages)?;

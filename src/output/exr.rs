@@ -66,6 +66,7 @@ impl ExrHeader {
                 state.options.volume_lights.to_string(),
             ),
             attribute("aovs", settings.aovs.to_string()),
+            attribute("shutter", state.camera.shutter().to_string()),
         ];
         let camera = &state.camera;
         let names = |aov: Aov, paths: Vec<String>| settings.aovs.contains(aov).then_some(paths);

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use super::load::MANIFEST_FILE;
+use crate::motion::Shutter;
 
 /// Why an export did not produce a scene folder.
 #[derive(Debug, thiserror::Error)]
@@ -44,18 +45,19 @@ pub enum ExportError {
 /// Exports `input` (any USD file) to the scene folder `out_dir` at USD time
 /// `frame` (the stage's default time when `None`) as seen by the camera prim
 /// `camera` (the render settings' camera, else the first, when `None`; a
-/// path that is not a camera fails, listing the stage's cameras), replacing
-/// `out_dir` if it exists. The exporter's warnings go to stderr as it wrote
-/// them.
+/// path that is not a camera fails, listing the stage's cameras) with
+/// `shutter` (the camera's when `None`), replacing `out_dir` if it exists.
+/// The exporter's warnings go to stderr as it wrote them.
 pub fn export(
     input: &Path,
     out_dir: &Path,
     frame: Option<f64>,
     camera: Option<&str>,
+    shutter: Option<Shutter>,
 ) -> Result<(), ExportError> {
     let tmp = beside(out_dir, "tmp");
     remove_dir(&tmp)?;
-    let result = run_exporter(input, &tmp, frame, camera).and_then(|()| {
+    let result = run_exporter(input, &tmp, (frame, camera, shutter)).and_then(|()| {
         let old = beside(out_dir, "old");
         if out_dir.exists() {
             rename(out_dir, &old)?;
@@ -72,7 +74,7 @@ pub fn export(
 
 /// Exports `input` into the cache (`$XDG_CACHE_HOME/cirrus`, else
 /// `~/.cache/cirrus`) unless an export of the same absolute path, modification
-/// time, frame and camera, by the same exporter sources, is already there, and
+/// time, frame, camera and shutter, by the same exporter sources, is already there, and
 /// returns the scene folder and whether it was already there (its warnings
 /// were then printed by an earlier run; the manifest keeps them). (Layers the
 /// file references are not part of the key: after editing only a sublayer,
@@ -81,6 +83,7 @@ pub fn export_cached(
     input: &Path,
     frame: Option<f64>,
     camera: Option<&str>,
+    shutter: Option<Shutter>,
 ) -> Result<CachedExport, ExportError> {
     let io = |path: &Path| {
         let path = path.to_owned();
@@ -91,7 +94,8 @@ pub fn export_cached(
         .and_then(|m| m.modified())
         .map_err(io(&abs))?;
     let mut hasher = DefaultHasher::new();
-    (&abs, mtime, frame.map(f64::to_bits), camera).hash(&mut hasher);
+    let shutter_bits = shutter.map(|s| (s.open.to_bits(), s.close.to_bits()));
+    (&abs, mtime, frame.map(f64::to_bits), camera, shutter_bits).hash(&mut hasher);
     exporter_sources().hash(&mut hasher);
     let stem = abs.file_stem().unwrap_or_default().to_string_lossy();
     let cache = cache_root();
@@ -100,7 +104,7 @@ pub fn export_cached(
         return Ok(CachedExport { dir, reused: true });
     }
     std::fs::create_dir_all(&cache).map_err(io(&cache))?;
-    match export(&abs, &dir, frame, camera) {
+    match export(&abs, &dir, frame, camera, shutter) {
         // Another process may have exported the same file at the same time.
         Err(_) if dir.join(MANIFEST_FILE).is_file() => Ok(CachedExport { dir, reused: true }),
         result => result.map(|()| CachedExport { dir, reused: false }),
@@ -161,8 +165,7 @@ pub fn cache_root() -> PathBuf {
 fn run_exporter(
     input: &Path,
     out_dir: &Path,
-    frame: Option<f64>,
-    camera: Option<&str>,
+    (frame, camera, shutter): (Option<f64>, Option<&str>, Option<Shutter>),
 ) -> Result<(), ExportError> {
     let root = repo_root();
     let python = root.join(".venv/bin/python");
@@ -174,6 +177,9 @@ fn run_exporter(
     }
     if let Some(c) = camera {
         cmd.arg("--camera").arg(c);
+    }
+    if let Some(s) = shutter {
+        cmd.arg(format!("--shutter={s}"));
     }
     let output = cmd.output().map_err(|error| ExportError::Spawn {
         python: python.clone(),

@@ -303,6 +303,35 @@ pub struct Instances {
     pub source_index: Array<u32>,
     /// Prim paths of instancers, instanceable prims and plain prims.
     pub instance_sources: Vec<String>,
+    /// The instances that move over the shutter; absent when none do
+    /// (and in files written before motion blur).
+    #[serde(default)]
+    pub motion: Option<InstanceMotion>,
+}
+
+/// World-from-prototype transforms of the moving instances at key times
+/// (docs/rendering.md, "Motion blur"): interpolated linearly between keys,
+/// the end keys held outside them. `transform` above keeps each instance's
+/// transform at the frame itself.
+#[derive(Clone, Debug, Deserialize)]
+pub struct InstanceMotion {
+    /// Key times, frames relative to `source.time_code`, strictly increasing.
+    pub times: Vec<f32>,
+    /// Indices of the moving instances, strictly increasing.
+    pub instance: Array<u32>,
+    /// Per moving instance, its transform at every key time, instance-major:
+    /// key k of moving instance i is element `i * times.len() + k`.
+    pub transform: Array<[f32; 12]>,
+}
+
+/// A camera's world-from-camera transform at key times (see
+/// [`InstanceMotion`]).
+#[derive(Clone, Debug, Deserialize)]
+pub struct CameraMotion {
+    /// Key times, frames relative to `source.time_code`, strictly increasing.
+    pub times: Vec<f32>,
+    /// World-from-camera at each key time.
+    pub transforms: Vec<Transform>,
 }
 
 /// A UsdLux light: what every type shares, plus its [`LightShape`].
@@ -412,6 +441,13 @@ pub struct Camera {
     pub f_stop: f32,
     /// `focusDistance` (default 0), scene units.
     pub focus_distance: f32,
+    /// `shutter:open` and `shutter:close`, frames relative to the time code;
+    /// absent when both are USD's default 0 (no motion blur).
+    #[serde(default)]
+    pub shutter: Option<[f32; 2]>,
+    /// The transform over the shutter; absent when the camera does not move.
+    #[serde(default)]
+    pub motion: Option<CameraMotion>,
 }
 
 /// `UsdGeomCamera.projection`.

@@ -293,7 +293,80 @@ impl Checker<'_> {
         for (i, light) in m.lights.iter().enumerate() {
             self.finite(&format!("lights[{i}].transform"), &light.transform)?;
         }
-        self.finite("camera.transform", &m.camera.transform)
+        self.finite("camera.transform", &m.camera.transform)?;
+        self.camera_motion()
+    }
+
+    /// The camera's shutter (finite, close >= open) and motion keys.
+    fn camera_motion(&self) -> Result<(), SceneError> {
+        let camera = &self.manifest.camera;
+        if let Some(shutter) = camera.shutter {
+            crate::motion::Shutter::new(shutter[0], shutter[1])
+                .map_err(|e| self.invalid("camera.shutter", e.to_string()))?;
+        }
+        let Some(motion) = &camera.motion else {
+            return Ok(());
+        };
+        self.key_times("camera.motion.times", &motion.times)?;
+        let keys = motion.transforms.len();
+        self.count(
+            "camera.motion.transforms",
+            keys,
+            motion.times.len(),
+            "key time",
+        )?;
+        self.finite(
+            "camera.motion.transforms",
+            bytemuck::cast_slice(&motion.transforms),
+        )
+    }
+
+    /// Moving instances: indices strictly increasing below the instance
+    /// count, one finite transform per instance and key time.
+    fn instance_motion(&self) -> Result<(), SceneError> {
+        let inst = &self.manifest.instances;
+        let Some(motion) = &inst.motion else {
+            return Ok(());
+        };
+        self.key_times("instances.motion.times", &motion.times)?;
+        let moving = self.array("instances.motion.instance", &motion.instance)?;
+        self.indices(
+            "instances.motion.instance",
+            moving.iter().copied(),
+            inst.count as usize,
+            "instances",
+            None,
+        )?;
+        if moving.windows(2).any(|w| w[0] >= w[1]) {
+            return Err(self.invalid(
+                "instances.motion.instance",
+                "indices must be strictly increasing".into(),
+            ));
+        }
+        let transform = self.array("instances.motion.transform", &motion.transform)?;
+        let want = moving.len() * motion.times.len();
+        self.count(
+            "instances.motion.transform",
+            transform.len(),
+            want,
+            "moving instance and key time",
+        )?;
+        self.finite(
+            "instances.motion.transform",
+            bytemuck::cast_slice(transform),
+        )
+    }
+
+    /// Key times: at least one, finite and strictly increasing.
+    fn key_times(&self, field: &str, times: &[f32]) -> Result<(), SceneError> {
+        self.finite(field, times)?;
+        if times.is_empty() || times.windows(2).any(|w| w[0] >= w[1]) {
+            return Err(self.invalid(
+                field,
+                "expected at least one time, strictly increasing".into(),
+            ));
+        }
+        Ok(())
     }
 
     /// Every texture index a material's inputs name, at any depth.
@@ -513,7 +586,8 @@ impl Checker<'_> {
             None,
         )?;
         let source_index = self.array("instances.source_index", &inst.source_index)?;
-        self.count("instances.source_index", source_index.len(), n, "instances")
+        self.count("instances.source_index", source_index.len(), n, "instances")?;
+        self.instance_motion()
     }
 
     /// Checks an array reference (type, width, alignment, extent) and views it.

@@ -23,13 +23,15 @@ mod subdivide;
 
 use std::path::{Path, PathBuf};
 
+use crate::motion::Shutter;
+
 pub use export::repo_root;
 pub use export::{cache_root, export, export_cached, is_usd, CachedExport, ExportError};
 pub use format::Subdivision;
 pub use format::{
-    affine, Array, Bounds, Camera, Element, Instances, Light, LightShape, Manifest, Mesh, MeshPart,
-    Projection, Prototype, Render, Scalar, Source, Stage, Transform, UpAxis, Volume, VolumeField,
-    VolumePart, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+    affine, Array, Bounds, Camera, CameraMotion, Element, InstanceMotion, Instances, Light,
+    LightShape, Manifest, Mesh, MeshPart, Projection, Prototype, Render, Scalar, Source, Stage,
+    Transform, UpAxis, Volume, VolumeField, VolumePart, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
 pub use material::{
@@ -96,23 +98,36 @@ impl Manifest {
     }
 }
 
+/// How [`Scene::open`] exports and loads a scene; the defaults take the
+/// stage's own frame, camera and shutter and refine subdivision surfaces at
+/// the default level.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OpenOptions<'a> {
+    /// USD time code to export (USD input only).
+    pub frame: Option<f64>,
+    /// Camera prim to render (USD input only).
+    pub camera: Option<&'a str>,
+    /// Replaces the camera's shutter (frames): for USD input the export keys
+    /// motion over it; an exported scene keeps the motion it was exported with.
+    pub shutter: Option<Shutter>,
+    /// How subdivision surfaces are refined.
+    pub refinement: Refinement,
+}
+
 impl Scene {
     /// A scene from a USD file (exported through the cache at `frame`, seen
     /// by the camera prim `camera`, see [`export`]; the
     /// export's warnings are printed to stderr again when the cache already
     /// held it, so a user sees them every time) or from an exported folder
-    /// or its scene.json.
-    pub fn open(path: &Path, frame: Option<f64>, camera: Option<&str>) -> Result<Self, OpenError> {
-        Self::open_with(path, frame, camera, Refinement::default())
-    }
-
-    /// [`Scene::open`], its subdivision meshes refined as `refinement` says.
-    pub fn open_with(
-        path: &Path,
-        frame: Option<f64>,
-        camera: Option<&str>,
-        refinement: Refinement,
-    ) -> Result<Self, OpenError> {
+    /// or its scene.json, as `options` say (their defaults: the stage's own
+    /// frame, camera and shutter, subdivision at the default level).
+    pub fn open(path: &Path, options: &OpenOptions) -> Result<Self, OpenError> {
+        let OpenOptions {
+            frame,
+            camera,
+            shutter,
+            refinement,
+        } = *options;
         if !is_usd(path) {
             let flag = match (frame, camera) {
                 (Some(_), _) => "--frame",
@@ -122,7 +137,7 @@ impl Scene {
             let path = path.to_path_buf();
             return Err(OpenError::UsdOnly { flag, path });
         }
-        let export = export_cached(path, frame, camera)?;
+        let export = export_cached(path, frame, camera, shutter)?;
         let scene = Self::load_with(&export.dir, refinement)?;
         if export.reused {
             for warning in &scene.manifest.warnings {

@@ -121,7 +121,7 @@ pub fn run(options: &ConvergeOptions) -> Result<()> {
 
 /// Every render of one scene: per method, per budget, per seed.
 fn converge_scene(options: &ConvergeOptions, path: &Path, name: &str) -> Result<Vec<Row>> {
-    let scene = crate::scene::Scene::open(path, None, None)?;
+    let scene = crate::scene::Scene::open(path, &Default::default())?;
     let grid = RenderState::build(&scene, Some(options.resolution), StateOptions::default())?;
     let methods: Vec<Method> = if options.methods.is_empty() {
         METHODS

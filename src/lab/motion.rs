@@ -1,0 +1,145 @@
+//! `cirrus bench motion`: what motion blur costs. A stage of N instanceable
+//! spheres, each translating half a unit and turning 30 degrees about +Y
+//! over the shutter (camera shutter 0..1; the exporter halves the key
+//! spacing until no turn exceeds 5 degrees: 9 keys), under a dome, is exported once, then built and
+//! rendered with the shutter closed (`--shutter 0,0`: every instance still,
+//! in the world-space BVH where placed once) and open: top-level BVH build
+//! time (medians), the transform tracks' memory, and samples per second at
+//! equal spp.
+
+use std::fmt::Write as _;
+use std::hint::black_box;
+use std::time::Instant;
+
+use super::machine::machine_line;
+use super::reference::{base_settings, render};
+use super::stats::median;
+use super::{LabError, Result};
+use crate::geometry::Geometry;
+use crate::integrator::Budget;
+use crate::motion::Shutter;
+use crate::render_state::{RenderState, StateOptions};
+use crate::scene::Scene;
+
+/// What to measure.
+pub struct MotionBench {
+    /// Moving instances (at least one), on a square grid.
+    pub instances: usize,
+    /// Image size in pixels.
+    pub resolution: glam::UVec2,
+    /// Samples per pixel of each timed render.
+    pub spp: u32,
+    /// Timed repeats of the BVH build and the render; the table shows medians.
+    pub repeats: usize,
+}
+
+/// Bytes a moving placement's track holds per key: an `Affine3A` (48) and
+/// its time (4).
+const TRACK_BYTES_PER_KEY: usize = 48 + 4;
+
+/// Runs the benchmark and prints its table; the stage and its export go to
+/// a fresh folder under the system temporary folder, removed at the end.
+pub fn run(bench: &MotionBench) -> Result<()> {
+    let dir = std::env::temp_dir().join(format!("cirrus-bench-motion-{}", std::process::id()));
+    let system = |e| LabError::system(dir.display().to_string(), e);
+    std::fs::create_dir_all(&dir).map_err(system)?;
+    let usda = dir.join("motion.usda");
+    std::fs::write(&usda, stage(bench.instances.max(1))).map_err(system)?;
+    let start = Instant::now();
+    crate::scene::export(&usda, &dir.join("scene"), None, None, None)?;
+    let export_s = start.elapsed().as_secs_f64();
+    let scene = Scene::load(&dir.join("scene"))?;
+    let (moving, keys) = scene
+        .manifest
+        .instances
+        .motion
+        .as_ref()
+        .map_or((0, 0), |m| (m.instance.count as usize, m.times.len()));
+    println!("{}\n", machine_line());
+    println!(
+        "{} instanceable spheres ({moving} moving, {keys} keys each), exported in {export_s:.1} s; \
+         {}x{} pixels, {} spp, {} threads; medians of {} repeats.\n",
+        bench.instances,
+        bench.resolution.x,
+        bench.resolution.y,
+        bench.spp,
+        rayon::current_num_threads(),
+        bench.repeats.max(1)
+    );
+    println!("| shutter | BVH build (ms) | transform tracks (MB) | samples/s (M) | render (s) |");
+    println!("|---|---:|---:|---:|---:|");
+    for (name, shutter, tracks) in [
+        ("0,0 (still)", Shutter::CLOSED, 0),
+        (
+            "0,1 (blurred)",
+            Shutter::new(0.0, 1.0).expect("valid"),
+            moving * keys,
+        ),
+    ] {
+        let build = median(
+            (0..bench.repeats.max(1))
+                .map(|_| {
+                    let start = Instant::now();
+                    black_box(Geometry::build(&scene, shutter.blurs()));
+                    start.elapsed().as_secs_f64()
+                })
+                .collect(),
+        );
+        let options = StateOptions {
+            shutter: Some(shutter),
+            ..StateOptions::default()
+        };
+        let state = RenderState::build(&scene, Some(bench.resolution), options)?;
+        let seconds = median(
+            (0..bench.repeats.max(1))
+                .map(|seed| {
+                    let settings = base_settings(Budget::Samples(bench.spp), seed as u64);
+                    render(&state, &settings).1.elapsed.as_secs_f64()
+                })
+                .collect(),
+        );
+        let samples = f64::from(bench.resolution.x * bench.resolution.y * bench.spp);
+        println!(
+            "| {name} | {:.1} | {:.3} | {:.3} | {seconds:.2} |",
+            build * 1e3,
+            (tracks * TRACK_BYTES_PER_KEY) as f64 / 1e6,
+            samples / seconds / 1e6
+        );
+    }
+    std::fs::remove_dir_all(&dir).map_err(system)?;
+    Ok(())
+}
+
+/// The stage: `n` instanceable unit spheres on a square grid 3 units apart
+/// in the y = 0 plane, each sliding 0.5 along +X and turning 30 degrees
+/// over frames 0..1, seen from above at 45 degrees with the shutter open
+/// over the frame, under a white dome.
+fn stage(n: usize) -> String {
+    let side = (n as f64).sqrt().ceil() as usize;
+    let extent = 3.0 * side as f64;
+    let mut usda = format!(
+        "#usda 1.0\n(\n    defaultPrim = \"World\"\n    metersPerUnit = 1\n    upAxis = \"Y\"\n    \
+         startTimeCode = 0\n    endTimeCode = 1\n)\n\nclass Xform \"_Ball\"\n{{\n    def Sphere \"Geo\"\n    \
+         {{\n        double radius = 1\n    }}\n}}\n\ndef Xform \"World\"\n{{\n    def Camera \"Camera\"\n    \
+         {{\n        double3 xformOp:translate = ({c}, {h}, {d})\n        float xformOp:rotateX = -45\n        \
+         uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateX\"]\n        \
+         float focalLength = 18\n        double shutter:open = 0\n        double shutter:close = 1\n    }}\n\n    \
+         def DomeLight \"Dome\"\n    {{\n    }}\n",
+        c = extent / 2.0,
+        h = extent * 0.8,
+        d = extent * 1.3,
+    );
+    for i in 0..n {
+        let (x, z) = (3.0 * (i % side) as f64, 3.0 * (i / side) as f64);
+        let _ = write!(
+            usda,
+            "\n    def Xform \"B{i}\" (\n        instanceable = true\n        prepend references = </_Ball>\n    )\n    \
+             {{\n        double3 xformOp:translate.timeSamples = {{ 0: ({x}, 0, {z}), 1: ({}, 0, {z}) }}\n        \
+             float xformOp:rotateY.timeSamples = {{ 0: 0, 1: 30 }}\n        \
+             uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateY\"]\n    }}\n",
+            x + 0.5
+        );
+    }
+    usda.push_str("}\n");
+    usda
+}

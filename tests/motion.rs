@@ -1,0 +1,418 @@
+//! Motion blur end to end: a render whose shutter is open equals the
+//! average of still renders at stratified times over the shutter (a
+//! translating sphere, a rotating instance, PointInstancer velocities, a
+//! moving camera), within 4 sigma
+//! per band of columns; a shutter closed at the frame renders the still
+//! frame bit for bit; farm parts and resumed renders of a blurred frame stay
+//! bit-identical; bad shutters and non-finite transform samples are refused
+//! or warned about by name.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// Image size of the statistical renders: 8 pixels per scene unit.
+const RES: &str = "64x32";
+const WIDTH: usize = 64;
+const HEIGHT: usize = 32;
+/// Still frames averaged, at the midpoints of K equal parts of the shutter.
+const K: usize = 16;
+/// Samples per pixel of the blurred render and of each still frame.
+const BLURRED_SPP: &str = "64";
+const STILL_SPP: &str = "16";
+/// Columns per band compared.
+const BAND: usize = 4;
+
+/// Runs `cirrus ARGS...`.
+fn cirrus(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// Runs `cirrus ARGS...`, panicking with its log unless it succeeds; the log.
+fn cirrus_ok(args: &[&str]) -> String {
+    let out = cirrus(args);
+    let log = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "cirrus {args:?} failed:\n{log}");
+    log
+}
+
+/// `scenes/tests/NAME.usda` exported once per test process, as its camera
+/// sees it (shutter open, with motion).
+fn exported(name: &str) -> PathBuf {
+    common::exported_test_scene(name, "motion")
+}
+
+/// `scenes/tests/NAME.usda`.
+fn stage(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/tests/{name}.usda"))
+}
+
+/// Renders `scene` to `out` (box filter, beauty and variance, one thread)
+/// with `extra` flags; the G channel and its variance, per pixel.
+fn render(scene: &Path, out: &Path, extra: &[&str]) -> (Vec<f64>, Vec<f64>) {
+    succeeds(render_command(scene, out, extra));
+    let channels = common::channel_bits(out);
+    let plane = |name: &str| -> Vec<f64> {
+        let (_, bits) = channels
+            .iter()
+            .find(|(n, _)| n == name)
+            .unwrap_or_else(|| panic!("{}: no channel {name}", out.display()));
+        bits.iter().map(|&b| f64::from(f32::from_bits(b))).collect()
+    };
+    (plane("G"), plane("variance.G"))
+}
+
+/// The `cirrus render` command of [`render`].
+fn render_command(scene: &Path, out: &Path, extra: &[&str]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_cirrus"));
+    c.arg("render")
+        .arg(scene)
+        .arg("-o")
+        .arg(out)
+        .args(["--res", RES]);
+    c.args(["--filter", "box", "--aovs", "variance", "--threads", "1"]);
+    c.args(extra);
+    c
+}
+
+/// Per band of [`BAND`] columns: the mean of the pixels and its variance.
+fn bands(images: &[(Vec<f64>, Vec<f64>)]) -> Vec<(f64, f64)> {
+    let n = (images.len() * BAND * HEIGHT) as f64;
+    (0..WIDTH / BAND)
+        .map(|band| {
+            let (mut sum, mut variance) = (0.0, 0.0);
+            for (value, var) in images {
+                for y in 0..HEIGHT {
+                    for x in band * BAND..(band + 1) * BAND {
+                        sum += value[y * WIDTH + x];
+                        variance += var[y * WIDTH + x];
+                    }
+                }
+            }
+            (sum / n, variance / (n * n))
+        })
+        .collect()
+}
+
+/// The blurred render of `name` (its camera's shutter 0..1) against the
+/// average of [`K`] still renders at the midpoints of the shutter's K
+/// parts, each a fresh export of the stage at that frame with the shutter
+/// closed: every band of columns agrees within 4 sigma, and the blur is
+/// visible (some band differs from frame 0 by far more).
+fn blurred_equals_average_of_stills(name: &str) {
+    let dir = common::scratch(&format!("motion_{name}"));
+    let frames: Vec<String> = (0..K)
+        .map(|k| format!("{}", (k as f64 + 0.5) / K as f64))
+        .chain(["0".into()])
+        .collect();
+    let mut args = vec![stage(name).to_str().unwrap().to_owned()];
+    args.extend([dir.join("stills").to_str().unwrap().into(), "0,0".into()]);
+    args.extend(frames.iter().cloned());
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    common::run_python(
+        &common::venv_python(),
+        &common::python_script("export_frames.py"),
+        &args,
+    );
+    let blurred = render(
+        &exported(name),
+        &dir.join("blurred.exr"),
+        &["--spp", BLURRED_SPP, "--seed", "1"],
+    );
+    let stills: Vec<_> = (0..K)
+        .map(|k| {
+            let scene = dir.join(format!("stills/frame{k}"));
+            let seed = (100 + k).to_string();
+            let out = dir.join(format!("still{k}.exr"));
+            render(&scene, &out, &["--spp", STILL_SPP, "--seed", &seed])
+        })
+        .collect();
+    let frame_0 = render(
+        &dir.join(format!("stills/frame{K}")),
+        &dir.join("frame0.exr"),
+        &["--spp", STILL_SPP, "--seed", "7"],
+    );
+    let (blurred, stills, frame_0) = (
+        bands(std::slice::from_ref(&blurred)),
+        bands(&stills),
+        bands(std::slice::from_ref(&frame_0)),
+    );
+    let mut widest = 0.0f64;
+    for (band, ((b, vb), (s, vs))) in blurred.iter().zip(&stills).enumerate() {
+        let sigma = (vb + vs).sqrt().max(1e-5 * s);
+        let what = format!("{name} band {band}");
+        eprintln!("{what}: blurred {b:.5}, stills {s:.5}, sigma {sigma:.1e}");
+        assert!(
+            (b - s).abs() <= 4.0 * sigma,
+            "{what}: {b} vs {s} (sigma {sigma})"
+        );
+        let (f, vf) = frame_0[band];
+        widest = widest.max((b - f).abs() / (vb + vf).sqrt().max(1e-9));
+    }
+    assert!(
+        widest > 20.0,
+        "{name}: the blurred render looks like frame 0"
+    );
+}
+
+#[test]
+fn a_translating_sphere_blurs_to_the_average_of_still_frames() {
+    blurred_equals_average_of_stills("motion_sphere");
+}
+
+#[test]
+fn a_rotating_instance_blurs_to_the_average_of_still_frames() {
+    blurred_equals_average_of_stills("motion_instance");
+}
+
+#[test]
+fn point_instancer_velocities_blur_to_the_average_of_still_frames() {
+    blurred_equals_average_of_stills("motion_points");
+}
+
+#[test]
+fn a_moving_camera_blurs_the_still_world_to_the_average_of_still_frames() {
+    blurred_equals_average_of_stills("motion_camera");
+}
+
+/// `--shutter 0,0` on a scene exported with motion renders exactly what the
+/// same stage exported without motion (shutter closed) renders: every
+/// channel, bit for bit.
+#[test]
+fn a_closed_shutter_renders_the_still_frame_bit_identically() {
+    let dir = common::scratch("motion_closed");
+    for name in ["motion_sphere", "motion_instance", "motion_camera"] {
+        let still = dir.join(format!("{name}_still"));
+        let usda = stage(name);
+        let args = [usda.to_str().unwrap(), still.to_str().unwrap(), "0,0", "0"];
+        let script = common::python_script("export_frames.py");
+        common::run_python(&common::venv_python(), &script, &args);
+        let moving = exported(name);
+        let a = dir.join(format!("{name}_closed.exr"));
+        let b = dir.join(format!("{name}_still.exr"));
+        let flags = ["--spp", "8", "--seed", "3"];
+        render(&moving, &a, &[&flags[..], &["--shutter", "0,0"]].concat());
+        render(&still.join("frame0"), &b, &flags);
+        assert!(
+            common::channel_bits(&a) == common::channel_bits(&b),
+            "{name}: --shutter 0,0 differs from the still export"
+        );
+    }
+}
+
+/// `cirrus render STAGE.usda --shutter 0,1` on a stage whose camera has no
+/// shutter exports the motion over that shutter: the same image, bit for
+/// bit, as the stage whose camera authors it.
+#[test]
+fn a_render_time_shutter_reaches_the_exporter() {
+    let dir = common::scratch("motion_forwarded");
+    let text = std::fs::read_to_string(stage("motion_sphere")).unwrap();
+    let usda = dir.join("no_shutter.usda");
+    let without = text
+        .replace("double shutter:open = 0\n", "")
+        .replace("double shutter:close = 1\n", "");
+    assert!(
+        !without.contains("double shutter"),
+        "the test stage changed"
+    );
+    std::fs::write(&usda, without).unwrap();
+    let (a, b) = (dir.join("forwarded.exr"), dir.join("authored.exr"));
+    let flags = ["--spp", "4", "--seed", "2"];
+    let mut forwarded = render_command(&usda, &a, &[&flags[..], &["--shutter", "0,1"]].concat());
+    forwarded.env("XDG_CACHE_HOME", dir.join("cache"));
+    succeeds(forwarded);
+    render(&exported("motion_sphere"), &b, &flags);
+    assert!(
+        common::channel_bits(&a) == common::channel_bits(&b),
+        "--shutter 0,1 did not export the motion"
+    );
+}
+
+/// A shutter closing before it opens is refused, on the command line and
+/// in the stage; a non-finite transform sample inside the shutter is
+/// warned about naming the prim, which is exported without motion.
+#[test]
+fn bad_shutters_and_non_finite_samples_are_refused_or_warned_about() {
+    let dir = common::scratch("motion_bad");
+    let scene = exported("motion_sphere");
+    let sphere = stage("motion_sphere");
+    let out = dir.join("out.exr");
+    for shutter in ["1,0", "nan,1", "0.5"] {
+        let flag = format!("--shutter={shutter}");
+        let result = cirrus(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            &flag,
+        ]);
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert!(!result.status.success(), "--shutter {shutter} was accepted");
+        assert!(stderr.contains(shutter), "--shutter {shutter}: {stderr}");
+    }
+    let text = std::fs::read_to_string(&sphere).unwrap();
+    let backwards = dir.join("backwards.usda");
+    std::fs::write(
+        &backwards,
+        text.replace("shutter:close = 1", "shutter:close = -1"),
+    )
+    .unwrap();
+    let result = cirrus(&[
+        "export",
+        backwards.to_str().unwrap(),
+        "-o",
+        dir.join("b").to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(!result.status.success(), "a backwards shutter was exported");
+    assert!(
+        stderr.contains("camera /World/Camera") && stderr.contains("not before open"),
+        "{stderr}"
+    );
+    let nan = dir.join("nan.usda");
+    let sample = "0: (-1.5, 0, 0),\n            0.5: (nan, 0, 0),";
+    std::fs::write(&nan, text.replace("0: (-1.5, 0, 0),", sample)).unwrap();
+    let nan_scene = dir.join("nan");
+    let result = cirrus(&[
+        "export",
+        nan.to_str().unwrap(),
+        "-o",
+        nan_scene.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(result.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("/World/Ball: a transform over the shutter is not finite"),
+        "{stderr}"
+    );
+    let manifest = std::fs::read_to_string(nan_scene.join("scene.json")).unwrap();
+    assert!(
+        !manifest.contains("\"motion\""),
+        "the NaN instance still moves"
+    );
+
+    // PointInstancer velocities of the wrong length: usd-core ignores them,
+    // and its warning names the prim.
+    let points = std::fs::read_to_string(stage("motion_points")).unwrap();
+    let short = dir.join("short_velocities.usda");
+    let one = "0: [(24, 0, 0)],";
+    std::fs::write(&short, points.replace("0: [(24, 0, 0), (0, 24, 0)],", one)).unwrap();
+    let out = dir.join("short");
+    let result = cirrus(&[
+        "export",
+        short.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(result.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("/World/Points") && stderr.contains("velocities"),
+        "{stderr}"
+    );
+}
+
+/// `cirrus render` of the exported blurred sphere to `out` at `spp` (all
+/// AOVs, seed 5) with `extra` flags, piped.
+fn blurred_command(scene: &Path, out: &Path, spp: u32, extra: &[&str]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_cirrus"));
+    c.arg("render").arg(scene).arg("-o").arg(out);
+    c.args(["--res", "96x48", "--aovs", "all", "--seed", "5"])
+        .args(["--spp", &spp.to_string()])
+        .args(extra)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    c
+}
+
+/// Runs `command`, panicking with its stderr unless it succeeds.
+fn succeeds(mut command: Command) {
+    let out = command.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Time is one of each sample's dimensions: a blurred frame (whose EXR
+/// header states its shutter) split into tiles merges bit-identically to
+/// the whole, and a blurred
+/// render stopped by SIGTERM and resumed equals the uninterrupted one.
+#[test]
+fn blurred_farm_parts_and_resumed_renders_are_bit_identical() {
+    let dir = common::scratch("motion_farm");
+    let scene = exported("motion_sphere");
+    let whole = dir.join("whole.exr");
+    succeeds(blurred_command(&scene, &whole, 16, &["--threads", "2"]));
+    let whole_bits = common::channel_bits(&whole);
+    let meta = exr::meta::MetaData::read_from_file(&whole, false).unwrap();
+    let shutter = meta.headers[0]
+        .own_attributes
+        .other
+        .get(&exr::prelude::Text::from("cirrus/shutter"));
+    assert!(
+        matches!(shutter, Some(exr::meta::attribute::AttributeValue::Text(t)) if t.eq("0,1")),
+        "the header's cirrus/shutter is {shutter:?}"
+    );
+    let mut parts = Vec::new();
+    for (i, flags) in [["--tile", "0/2"], ["--tile", "1/2"]].iter().enumerate() {
+        let part = dir.join(format!("tile{i}.film"));
+        succeeds(blurred_command(
+            &scene,
+            &part,
+            16,
+            &[&flags[..], &["--threads", "1"]].concat(),
+        ));
+        parts.push(part);
+    }
+    let merged = dir.join("merged.exr");
+    let mut args = vec!["merge"];
+    args.extend(parts.iter().map(|p| p.to_str().unwrap()));
+    args.extend(["-o", merged.to_str().unwrap()]);
+    cirrus_ok(&args);
+    assert!(
+        common::channel_bits(&merged) == whole_bits,
+        "merged tiles differ"
+    );
+
+    let spp = 1024;
+    let whole = dir.join("long.exr");
+    succeeds(blurred_command(&scene, &whole, spp, &["--threads", "2"]));
+    let exr = dir.join("resumed.exr");
+    let checkpoint = dir.join("resumed.checkpoint");
+    let flags = ["--threads", "1", "--checkpoint-every", "0.2"];
+    let child = blurred_command(&scene, &exr, spp, &flags).spawn().unwrap();
+    let start = Instant::now();
+    while !checkpoint.exists() {
+        assert!(start.elapsed() < Duration::from_secs(60), "no checkpoint");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(143),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    succeeds(blurred_command(
+        &scene,
+        &exr,
+        spp,
+        &["--threads", "2", "--resume"],
+    ));
+    assert!(
+        common::channel_bits(&exr) == common::channel_bits(&whole),
+        "the resumed blurred render differs"
+    );
+}
