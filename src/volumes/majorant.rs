@@ -33,10 +33,11 @@ use glam::{IVec3, U64Vec3, Vec3};
 use rayon::prelude::*;
 
 use super::grid::blocks_spanned;
+use super::refine::Refinement;
 use super::SparseGrid;
 
 /// Voxels per cell edge, log2, at the finest resolution (one OpenVDB leaf).
-const BLOCK_LOG2: i32 = 3;
+pub(super) const BLOCK_LOG2: i32 = 3;
 /// Most cells kept (14 bytes each: 224 MiB); larger grids get coarser cells.
 const MAX_CELLS: u64 = 1 << 24;
 
@@ -55,19 +56,24 @@ pub(crate) struct OccupiedCell {
     pub density_max: f32,
 }
 
-/// How finely majorants follow the density: per 8^3 block, or one bound for
-/// the whole grid (the baseline, `--majorant global`).
+/// How finely majorants follow the density: per 8^3 block, per block split
+/// where density varies (refine.rs), or one bound for the whole grid (the
+/// baseline, `--majorant global`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum MajorantKind {
     /// One cell per 8^3 voxels (OpenVDB leaf), empty cells skipped.
     #[default]
     Grid,
+    /// The 8^3 cells, split into 2^3, 4^3 or 8^3 sub-cells where
+    /// (sigma_max - sigma_min) x diagonal > 1.44 (refine.rs).
+    Adaptive,
     /// A single cell over the grid's whole bounds.
     Global,
 }
 
 crate::choice::choice!(MajorantKind {
     Grid => "grid",
+    Adaptive => "adaptive",
     Global => "global",
 });
 
@@ -120,6 +126,11 @@ pub struct MajorantGrid {
     pub(super) cells: Vec<DensityRange>,
     /// Per cell, beside `cells`: where its density can be non-zero.
     pub(super) supports: Vec<SupportBox>,
+    /// Per cell, beside `cells`, how it is split (`Adaptive`); empty when no
+    /// cell is.
+    pub(super) refinements: Vec<Refinement>,
+    /// The ranges of split cells' sub-cells (see [`Refinement`]).
+    pub(super) sub_cells: Vec<DensityRange>,
 }
 
 impl MajorantGrid {
@@ -140,14 +151,12 @@ impl MajorantGrid {
     /// non-zero) and its density max. Emission light sampling picks among
     /// these (`emitter.rs`).
     pub(crate) fn occupied_cells(&self) -> impl Iterator<Item = OccupiedCell> + '_ {
-        let d = self.dims;
         (0..self.cells.len()).filter_map(move |slot| {
             let range = self.cells[slot];
             if range.max <= 0.0 {
                 return None;
             }
-            let n = slot as i32;
-            let cell = IVec3::new(n / (d.y * d.z), n / d.z % d.y, n % d.z);
+            let cell = self.cell_of(slot);
             let (lo, hi) = self.support_box(cell, self.supports[slot]);
             Some(OccupiedCell {
                 slot: slot as u32,
@@ -157,6 +166,36 @@ impl MajorantGrid {
                 density_max: range.max,
             })
         })
+    }
+
+    /// The coordinates of the cell in `slot`.
+    #[inline]
+    pub(super) fn cell_of(&self, slot: usize) -> IVec3 {
+        let (n, d) = (slot as i32, self.dims);
+        IVec3::new(n / (d.y * d.z), n / d.z % d.y, n % d.z)
+    }
+
+    /// How the cell in `slot` is split (level 0: not at all).
+    #[inline]
+    pub(super) fn refinement(&self, slot: usize) -> Refinement {
+        self.refinements.get(slot).copied().unwrap_or_default()
+    }
+
+    /// The density range the DDA carries at index-space point `p` of the
+    /// cell `cell` in `slot`: its sub-cell's where it is split.
+    #[inline]
+    pub(super) fn range_at(&self, cell: IVec3, slot: usize, p: Vec3) -> DensityRange {
+        let split = self.refinement(slot);
+        if split.level == 0 {
+            return self.cells[slot];
+        }
+        let res = split.res();
+        let corner = self.lo + cell.as_vec3() * self.cell_size;
+        let sub = ((p - corner) / self.cell_size * res as f32)
+            .floor()
+            .as_ivec3()
+            .clamp(IVec3::ZERO, IVec3::splat(res - 1));
+        self.sub_cells[split.offset as usize + ((sub.x * res + sub.y) * res + sub.z) as usize]
     }
 
     /// Cells along each index axis (slots run x slowest, z fastest) and the
@@ -182,10 +221,12 @@ impl MajorantGrid {
     }
 
     /// The density majorant the DDA carries at index-space point `p`: its
-    /// cell's max inside the cell's support box, 0 elsewhere.
+    /// cell's (or sub-cell's) max inside the cell's support box, 0 elsewhere.
     pub(crate) fn max_at(&self, p: Vec3) -> f32 {
-        self.occupied_slot_at(p)
-            .map_or(0.0, |slot| self.cells[slot as usize].max)
+        self.occupied_slot_at(p).map_or(0.0, |slot| {
+            let slot = slot as usize;
+            self.range_at(self.cell_of(slot), slot, p).max
+        })
     }
 
     /// The index-space box `[lo, hi)` of `cell`'s `support`.
@@ -221,18 +262,33 @@ impl MajorantGrid {
     /// Bytes held (the struct and its cell array).
     pub fn memory_bytes(&self) -> usize {
         std::mem::size_of::<Self>()
-            + self.cells.capacity() * std::mem::size_of::<DensityRange>()
+            + (self.cells.capacity() + self.sub_cells.capacity())
+                * std::mem::size_of::<DensityRange>()
             + self.supports.capacity() * std::mem::size_of::<SupportBox>()
+            + self.refinements.capacity() * std::mem::size_of::<Refinement>()
     }
 
     /// Max and min of the trilinearly interpolated density over each cell of
     /// 8^3 voxels (aligned with the VDB leaves), built in parallel (rayon)
     /// from the grid's leaves and tiles; `Global`: one cell over the same
-    /// bounds, holding the max and min over all of them.
+    /// bounds, holding the max and min over all of them; `Adaptive`: split
+    /// as if density were sigma_t per voxel (see [`Self::build_for`]).
     pub fn build(grid: &SparseGrid, kind: MajorantKind) -> Self {
-        let cells = Self::build_cells(grid, MAX_CELLS);
+        Self::build_for(grid, kind, 1.0)
+    }
+
+    /// [`Self::build`] for a medium where one unit of density gives an
+    /// optical depth of `depth_per_density_voxel` per voxel (densityScale x
+    /// world units per voxel): `Adaptive` splits cells by the optical depth
+    /// their density range spans (refine.rs).
+    pub fn build_for(grid: &SparseGrid, kind: MajorantKind, depth_per_density_voxel: f32) -> Self {
+        let mut cells = Self::build_cells(grid, MAX_CELLS);
         match kind {
             MajorantKind::Grid => cells,
+            MajorantKind::Adaptive => {
+                cells.refine(grid, depth_per_density_voxel);
+                cells
+            }
             MajorantKind::Global => cells.merged(),
         }
     }
@@ -246,6 +302,8 @@ impl MajorantGrid {
                 dims: IVec3::ZERO,
                 cells: Vec::new(),
                 supports: Vec::new(),
+                refinements: Vec::new(),
+                sub_cells: Vec::new(),
             };
         };
         // One block below the data: its +1 footprint reaches the data's first voxel layer.
@@ -268,10 +326,7 @@ impl MajorantGrid {
             .map(|n| {
                 let n = n as i32;
                 let c = lo + IVec3::new(n / (dims.y * dims.z), n / dims.z % dims.y, n % dims.z);
-                let mut range = DensityRange {
-                    max: f32::NEG_INFINITY,
-                    min: f32::INFINITY,
-                };
+                let mut range = DensityRange::EMPTY;
                 // The footprint of the cell's last blocks reaches one block further.
                 let first = c << merge;
                 if grid.blocks_are_empty(first, first + IVec3::splat(blocks_per_cell)) {
@@ -306,32 +361,38 @@ impl MajorantGrid {
             dims,
             cells,
             supports,
+            refinements: Vec::new(),
+            sub_cells: Vec::new(),
         }
     }
 
     /// A copy whose cells `(slot, floor)` hold at least `floor` as their
-    /// density max (the support boxes unchanged): still a majorant, with
-    /// more tentative collisions there (see `EmissionCells::collision_floors`).
+    /// density max, in every sub-cell where split (the support boxes
+    /// unchanged): still a majorant, with more tentative collisions there
+    /// (see `EmissionCells::collision_floors`).
     pub(crate) fn with_floors(&self, floors: impl IntoIterator<Item = (u32, f32)>) -> Self {
         let mut raised = self.clone();
         for (slot, floor) in floors {
+            let split = raised.refinement(slot as usize);
+            let subs = split.offset as usize..split.offset as usize + (split.res().pow(3) as usize);
+            let subs = if split.level == 0 { 0..0 } else { subs };
             let cell = &mut raised.cells[slot as usize];
             cell.max = cell.max.max(floor);
+            for sub in &mut raised.sub_cells[subs] {
+                sub.max = sub.max.max(floor);
+            }
         }
         raised
     }
 
     /// One cell over the same bounds, bounding all of them.
     fn merged(self) -> Self {
-        let all = self.cells.iter().fold(
+        let all = self.cells.iter().copied().fold(
             DensityRange {
                 max: 0.0,
                 min: f32::INFINITY,
             },
-            |acc, c| DensityRange {
-                max: acc.max.max(c.max),
-                min: acc.min.min(c.min),
-            },
+            DensityRange::union,
         );
         Self {
             lo: self.lo,
@@ -347,14 +408,30 @@ impl MajorantGrid {
             } else {
                 vec![SupportBox::FULL]
             },
+            refinements: Vec::new(),
+            sub_cells: Vec::new(),
         }
     }
 }
 
 impl DensityRange {
+    /// The range of no value, to [`Self::include`] values into.
+    pub(super) const EMPTY: Self = Self {
+        max: f32::NEG_INFINITY,
+        min: f32::INFINITY,
+    };
+
+    /// The smallest range holding both.
+    pub(super) fn union(self, other: Self) -> Self {
+        Self {
+            max: self.max.max(other.max),
+            min: self.min.min(other.min),
+        }
+    }
+
     /// Widens the range to hold `v`; NaN and infinities are ignored (media
     /// read them as 0, see `Medium::density`).
-    fn include(&mut self, v: f32) {
+    pub(super) fn include(&mut self, v: f32) {
         if v.is_finite() {
             self.max = self.max.max(v);
             self.min = self.min.min(v);
@@ -362,7 +439,7 @@ impl DensityRange {
     }
 
     /// Negative densities count as zero (see the module doc); `min <= max`.
-    fn clamped(self) -> Self {
+    pub(super) fn clamped(self) -> Self {
         let max = self.max.max(0.0);
         Self {
             max,

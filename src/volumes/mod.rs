@@ -26,6 +26,7 @@ mod majorant;
 mod medium;
 mod phase;
 mod ray_marching;
+mod refine;
 mod stats;
 mod tracking;
 mod vdb;

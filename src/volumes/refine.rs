@@ -1,0 +1,355 @@
+//! Adaptive majorants (`--majorant adaptive`): a [`MajorantGrid`] cell of
+//! 8^3 voxels over which density varies much is split into 2^3, 4^3 or 8^3
+//! sub-cells (edges of 4, 2 or 1 voxels), each holding the max and min of
+//! its own trilinear footprint, so delta tracking there samples against a
+//! tighter bound. A two-level grid: the DDA (dda.rs) walks the 8^3 cells as
+//! before, clipped to their support boxes, and inside a split cell walks its
+//! sub-cells with a second DDA over the same stretch.
+//!
+//! Criterion (Pixar's "Elemental" production talk, which Cycles 5's volume
+//! octree follows): a cell is split while some sub-cell has
+//! (sigma_max - sigma_min) x its diagonal > [`SPLIT_DEPTH`], that is while the
+//! majorant could overshoot the density by more than about 1.44 tentative
+//! collisions across it; a thin cell gains nothing worth a DDA step from a
+//! split. Unlike an octree, every sub-cell of a cell shares one level (the
+//! deepest any of its parts needs): one array per cell, one DDA.
+//!
+//! A sub-cell's footprint is the union of its eight children's, so the
+//! levels are built bottom-up from the one-voxel cells' ranges (the 2^3
+//! voxels at their corners), each as exact as the 8^3 cells' are.
+
+use glam::IVec3;
+use rayon::prelude::*;
+
+use super::majorant::{DensityRange, MajorantGrid, BLOCK_LOG2};
+use super::SparseGrid;
+
+/// Split threshold on (sigma_max - sigma_min) x cell diagonal: an optical
+/// depth (unitless). 1.44 is the "Elemental" value Cycles 5 uses; see
+/// docs/volumes.md for the sweep behind keeping it.
+pub(super) const SPLIT_DEPTH: f32 = 1.44;
+
+/// Deepest level: 8^3 sub-cells of one voxel.
+const MAX_LEVEL: u8 = 3;
+
+/// Sub-cells kept, per cell that holds density: where more cells want
+/// splitting, the deepest level allowed is lowered until they fit. 128 (1
+/// KiB) per occupied cell is about a third of what its 8^3 voxels take in
+/// the [`SparseGrid`] (a 10^3 apron brick of f32).
+const SUB_CELLS_PER_CELL: usize = 128;
+
+/// Sub-cells any grid may keep (512 KiB), whatever its size.
+const MIN_SUB_CELLS: usize = 1 << 16;
+
+/// How one cell is split: `level` 0 (not split) to 3 (8^3 sub-cells), its
+/// `2^(3 level)` sub-cell ranges at `offset` in the grid's `sub_cells`, x
+/// slowest, z fastest.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct Refinement {
+    pub(super) offset: u32,
+    pub(super) level: u8,
+}
+
+impl Refinement {
+    /// Sub-cells along each axis.
+    #[inline]
+    pub(super) fn res(self) -> i32 {
+        1 << self.level
+    }
+}
+
+/// The ranges of one 8^3 cell's sub-cells at every level, finest last.
+struct Pyramid {
+    levels: [Vec<DensityRange>; MAX_LEVEL as usize + 1],
+}
+
+impl Pyramid {
+    /// The ranges over the trilinear footprints of `block`'s sub-cells.
+    fn of(grid: &SparseGrid, block: IVec3) -> Self {
+        const F: usize = (1 << BLOCK_LOG2) + 1;
+        let mut values = [0.0f32; F * F * F];
+        grid.for_each_footprint_value(block, |lo, hi, v| {
+            for x in lo.x..=hi.x {
+                for y in lo.y..=hi.y {
+                    for z in lo.z..=hi.z {
+                        values[((x as usize) * F + y as usize) * F + z as usize] = v;
+                    }
+                }
+            }
+        });
+        let mut finest = Vec::with_capacity(512);
+        for x in 0..F - 1 {
+            for y in 0..F - 1 {
+                for z in 0..F - 1 {
+                    let mut range = DensityRange::EMPTY;
+                    for n in 0..8 {
+                        let (dx, dy, dz) = (n >> 2, (n >> 1) & 1, n & 1);
+                        range.include(values[((x + dx) * F + y + dy) * F + z + dz]);
+                    }
+                    finest.push(range.clamped());
+                }
+            }
+        }
+        let mut levels: [Vec<DensityRange>; 4] = Default::default();
+        levels[MAX_LEVEL as usize] = finest;
+        for level in (0..MAX_LEVEL as usize).rev() {
+            let (res, fine) = (1usize << level, &levels[level + 1]);
+            let mut coarse = Vec::with_capacity(res * res * res);
+            for x in 0..res {
+                for y in 0..res {
+                    for z in 0..res {
+                        let child = |n: usize| {
+                            let (cx, cy, cz) =
+                                (2 * x + (n >> 2), 2 * y + ((n >> 1) & 1), 2 * z + (n & 1));
+                            fine[(cx * 2 * res + cy) * 2 * res + cz]
+                        };
+                        coarse.push(
+                            (0..8)
+                                .map(child)
+                                .fold(DensityRange::EMPTY, DensityRange::union),
+                        );
+                    }
+                }
+            }
+            levels[level] = coarse;
+        }
+        Self { levels }
+    }
+
+    /// The shallowest level at which no sub-cell needs splitting.
+    fn level(&self, depth_per_density_voxel: f32) -> u8 {
+        (0..MAX_LEVEL)
+            .find(|&level| {
+                let edge = (1 << (BLOCK_LOG2 as u8 - level)) as f32;
+                self.levels[level as usize]
+                    .iter()
+                    .all(|r| !needs_split(*r, edge, depth_per_density_voxel))
+            })
+            .unwrap_or(MAX_LEVEL)
+    }
+}
+
+/// The criterion: (max - min) x sigma_t per density x diagonal of a cell
+/// `edge` voxels wide > [`SPLIT_DEPTH`].
+fn needs_split(range: DensityRange, edge: f32, depth_per_density_voxel: f32) -> bool {
+    let diagonal = edge * 3f32.sqrt();
+    (range.max - range.min) * depth_per_density_voxel * diagonal > SPLIT_DEPTH
+}
+
+impl MajorantGrid {
+    /// Splits the cells over which density varies by the "Elemental"
+    /// criterion (see the module doc). `depth_per_density_voxel` is the
+    /// optical depth one unit of density gives over one voxel (densityScale
+    /// x world units per voxel; 1 when density is sigma_t per voxel). Grids
+    /// coarsened past 8^3 voxels per cell (huge ones) are left unsplit.
+    pub(super) fn refine(&mut self, grid: &SparseGrid, depth_per_density_voxel: f32) {
+        let edge = 1 << BLOCK_LOG2;
+        if self.cell_size.x != edge as f32 || !(depth_per_density_voxel > 0.0) {
+            return;
+        }
+        let first_block = self.lo.as_ivec3() >> BLOCK_LOG2;
+        let dims = self.dims;
+        let block = move |slot: usize| {
+            let n = slot as i32;
+            first_block + IVec3::new(n / (dims.y * dims.z), n / dims.z % dims.y, n % dims.z)
+        };
+        let levels: Vec<u8> = (0..self.cells.len())
+            .into_par_iter()
+            .map(|slot| {
+                let range = self.cells[slot];
+                if range.max <= 0.0 || !needs_split(range, edge as f32, depth_per_density_voxel) {
+                    return 0;
+                }
+                Pyramid::of(grid, block(slot)).level(depth_per_density_voxel)
+            })
+            .collect();
+        let occupied = self.cells.iter().filter(|r| r.max > 0.0).count();
+        let budget = (SUB_CELLS_PER_CELL * occupied).max(MIN_SUB_CELLS);
+        let used = |cap: u8| -> usize {
+            levels
+                .iter()
+                .map(|&l| usize::from(l.min(cap) > 0) << (3 * l.min(cap)))
+                .sum()
+        };
+        let cap = (0..=MAX_LEVEL)
+            .rev()
+            .find(|&cap| used(cap) <= budget)
+            .unwrap_or(0);
+        if cap == 0 || levels.iter().all(|&l| l == 0) {
+            return;
+        }
+        let mut offset = 0u32;
+        self.refinements = levels
+            .iter()
+            .map(|&l| {
+                let level = l.min(cap);
+                let r = Refinement { offset, level };
+                offset += u32::from(level > 0) << (3 * level);
+                r
+            })
+            .collect();
+        let split: Vec<Vec<DensityRange>> = (0..self.cells.len())
+            .into_par_iter()
+            .filter(|&slot| self.refinements[slot].level > 0)
+            .map(|slot| {
+                let level = self.refinements[slot].level as usize;
+                std::mem::take(&mut Pyramid::of(grid, block(slot)).levels[level])
+            })
+            .collect();
+        self.sub_cells = split.concat();
+        let count = |level: u8| self.refinements.iter().filter(|r| r.level == level).count();
+        log::info!(
+            "adaptive majorants: of {} cells, {} / {} / {} split into 2^3 / 4^3 / 8^3 \
+             sub-cells ({} KiB)",
+            self.cells.len(),
+            count(1),
+            count(2),
+            count(3),
+            self.sub_cells.len() * std::mem::size_of::<DensityRange>() / 1024
+        );
+    }
+}
+
+#[cfg(test)]
+pub(super) mod tests {
+    use super::*;
+    use crate::sampling::Pcg32;
+    use crate::volumes::majorant::tests::{density, SMOKE, TEAPOT};
+    use crate::volumes::{GridTransform, MajorantKind};
+    use glam::{DAffine3, Vec3};
+
+    /// An analytic ramp: density x / 4 over two leaves (16 x 8 x 8 voxels),
+    /// 0 beyond them. Trilinear density is then exactly linear in x inside
+    /// the data, and drops to 0 over the last voxel layer.
+    pub(in crate::volumes) fn ramp() -> SparseGrid {
+        let origins = [IVec3::ZERO, IVec3::new(8, 0, 0)];
+        let values = origins
+            .iter()
+            .flat_map(|o| (0..512).map(move |i| (o.x + i / 64) as f32 / 4.0))
+            .collect();
+        let identity = GridTransform::new(DAffine3::IDENTITY).unwrap();
+        SparseGrid::build(0.0, &origins, values, &[], identity).unwrap()
+    }
+
+    /// The shared VDBs at their benchmark scenes' optical scale (densityScale
+    /// x world units per voxel: smoke 20 x 0.0095, teapot 0.5 x 0.0077, here
+    /// 10x denser so it splits into 4^3 sub-cells) and the ramp at 1.
+    pub(in crate::volumes) fn split_grids() -> Vec<(&'static str, SparseGrid, MajorantGrid)> {
+        [
+            ("ramp", ramp(), 1.0),
+            ("smoke", density(SMOKE), 0.19),
+            ("teapot", density(TEAPOT), 0.038),
+        ]
+        .into_iter()
+        .map(|(name, grid, depth)| {
+            let mg = MajorantGrid::build_for(&grid, MajorantKind::Adaptive, depth);
+            (name, grid, mg)
+        })
+        .collect()
+    }
+
+    /// Every sub-cell of every split cell holds the exact clamped range of
+    /// the voxels its trilinear footprint reads (read one by one), and
+    /// trilinear density at its 8 corners and 8 random points inside stays
+    /// within it. Cells split at levels 2 and 3 (teapot: 1 and 2).
+    #[test]
+    fn split_cells_bound_every_trilinear_value_inside_them() {
+        let mut rng = Pcg32::new(17, 0);
+        for (name, grid, mg) in split_grids() {
+            let mut per_level = [0usize; 4];
+            for slot in 0..mg.cells.len() {
+                let split = mg.refinement(slot);
+                per_level[split.level as usize] += 1;
+                if split.level == 0 {
+                    continue;
+                }
+                let (res, cell) = (split.res(), mg.cell_of(slot));
+                let edge = 8 / res;
+                let first = mg.lo.as_ivec3() + cell * 8;
+                for n in 0..res * res * res {
+                    let sub = IVec3::new(n / (res * res), n / res % res, n % res);
+                    let range = mg.sub_cells[split.offset as usize + n as usize];
+                    let mut expected = DensityRange::EMPTY;
+                    for x in 0..=edge {
+                        for y in 0..=edge {
+                            for z in 0..=edge {
+                                let at = first + sub * edge + IVec3::new(x, y, z);
+                                expected.include(grid.value(at));
+                            }
+                        }
+                    }
+                    assert_eq!(range, expected.clamped(), "{name} cell {cell} sub {sub}");
+                    let corner = (first + sub * edge).as_vec3();
+                    let corners = (0..8)
+                        .map(|n| Vec3::new((n >> 2) as f32, ((n >> 1) & 1) as f32, (n & 1) as f32));
+                    let inside: Vec<Vec3> = (0..8)
+                        .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()))
+                        .collect();
+                    for u in corners.chain(inside) {
+                        let p = corner + u * edge as f32;
+                        let v = grid.trilinear_index(p).max(0.0);
+                        let slack = 1e-6 * range.max;
+                        assert!(
+                            range.min - slack <= v && v <= range.max + slack,
+                            "{name} {p}: {v} outside {range:?}"
+                        );
+                    }
+                }
+            }
+            println!(
+                "{name}: cells per level {per_level:?}, {} sub-cells",
+                mg.sub_cells.len()
+            );
+            assert!(per_level[2] > 0 || name == "ramp", "{name}: {per_level:?}");
+            assert!(
+                per_level[3] > 0 || name == "teapot",
+                "{name}: {per_level:?}"
+            );
+        }
+    }
+
+    /// The ramp's majorants are as tight as cells can be: every one-voxel
+    /// sub-cell inside the data bounds x / 4 by its value at the far face,
+    /// 1/4 above the near one, where the 8^3 cell's was 2 above.
+    #[test]
+    fn ramp_sub_cells_are_one_voxel_tight() {
+        let grid = ramp();
+        let mg = MajorantGrid::build_for(&grid, MajorantKind::Adaptive, 1.0);
+        let slot = mg.cell_slot(-(mg.lo / 8.0).as_ivec3());
+        let split = mg.refinement(slot);
+        assert_eq!(split.level, 3);
+        for x in 0..8 {
+            let range = mg.sub_cells[split.offset as usize + (x * 64) as usize];
+            assert_eq!(
+                (range.min, range.max),
+                (x as f32 / 4.0, (x + 1) as f32 / 4.0)
+            );
+        }
+        assert_eq!(mg.cells[slot].max - mg.cells[slot].min, 2.0);
+    }
+
+    /// Thin media are not split (nothing to gain), the grid and global
+    /// kinds never are, and when more cells want splitting than the budget
+    /// allows, the deepest level is lowered until they fit.
+    #[test]
+    fn thin_grids_stay_whole_and_the_budget_caps_the_level() {
+        let grid = density(SMOKE);
+        let thin = MajorantGrid::build_for(&grid, MajorantKind::Adaptive, 1e-4);
+        assert!(thin.refinements.is_empty() && thin.sub_cells.is_empty());
+        for kind in [MajorantKind::Grid, MajorantKind::Global] {
+            assert!(MajorantGrid::build_for(&grid, kind, 1e3)
+                .sub_cells
+                .is_empty());
+        }
+        let dense = MajorantGrid::build_for(&grid, MajorantKind::Adaptive, 1e3);
+        let occupied = dense.cells.iter().filter(|r| r.max > 0.0).count();
+        assert!(dense.sub_cells.len() <= SUB_CELLS_PER_CELL * occupied);
+        assert!(SUB_CELLS_PER_CELL * occupied > MIN_SUB_CELLS);
+        let deepest = dense.refinements.iter().map(|r| r.level).max();
+        assert_eq!(
+            deepest,
+            Some(2),
+            "every non-constant cell wants 8^3 sub-cells"
+        );
+    }
+}
