@@ -76,13 +76,7 @@ impl Iterator for MajorantSegments<'_> {
             return Some(segment);
         }
         while self.t < self.t_exit {
-            let axis = if self.t_next.x <= self.t_next.y && self.t_next.x <= self.t_next.z {
-                0
-            } else if self.t_next.y <= self.t_next.z {
-                1
-            } else {
-                2
-            };
+            let axis = nearest_axis(self.t_next);
             let t_min = self.t;
             // Carried over, never recomputed: consecutive segments share this exact value.
             let t_max = self.t_next[axis].min(self.t_exit).max(t_min);
@@ -162,13 +156,7 @@ impl MajorantSegments<'_> {
         let walk = self.sub.as_mut()?;
         let res = walk.split.res();
         while walk.t < walk.t_end {
-            let axis = if walk.t_next.x <= walk.t_next.y && walk.t_next.x <= walk.t_next.z {
-                0
-            } else if walk.t_next.y <= walk.t_next.z {
-                1
-            } else {
-                2
-            };
+            let axis = nearest_axis(walk.t_next);
             let t_min = walk.t;
             let t_max = walk.t_next[axis].min(walk.t_end).max(t_min);
             let c = walk.cell;
@@ -209,6 +197,18 @@ impl MajorantSegments<'_> {
         }
         let (lo, hi) = self.grid.support_box(cell, support);
         clip_to_box(self.origin, self.direction, lo, hi, t_min, t_max)
+    }
+}
+
+/// The axis whose next cell plane the ray reaches first (x on ties, then y).
+#[inline]
+fn nearest_axis(t_next: Vec3) -> usize {
+    if t_next.x <= t_next.y && t_next.x <= t_next.z {
+        0
+    } else if t_next.y <= t_next.z {
+        1
+    } else {
+        2
     }
 }
 

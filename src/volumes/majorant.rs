@@ -503,22 +503,61 @@ pub(super) mod tests {
         let edge = mg.cell_size.x as i32;
         let mut non_empty = 0;
         for c in cell_coords(mg) {
-            let first = mg.lo.as_ivec3() + c * edge;
-            let mut expected = DensityRange {
-                max: f32::NEG_INFINITY,
-                min: f32::INFINITY,
-            };
-            for x in 0..=edge {
-                for y in 0..=edge {
-                    for z in 0..=edge {
-                        expected.include(grid.value(first + IVec3::new(x, y, z)));
-                    }
-                }
-            }
-            assert_eq!(mg.cells[mg.cell_slot(c)], expected.clamped(), "cell {c}");
+            let expected = footprint_range(grid, mg.lo.as_ivec3() + c * edge, edge);
+            assert_eq!(mg.cells[mg.cell_slot(c)], expected, "cell {c}");
             non_empty += usize::from(expected.max > 0.0);
         }
         non_empty
+    }
+
+    /// The clamped range of the voxels `first ..= first + edge` on each
+    /// axis (the trilinear footprint of a box `edge` voxels wide), read one
+    /// by one.
+    pub(in crate::volumes) fn footprint_range(
+        grid: &SparseGrid,
+        first: IVec3,
+        edge: i32,
+    ) -> DensityRange {
+        let mut range = DensityRange::EMPTY;
+        for x in 0..=edge {
+            for y in 0..=edge {
+                for z in 0..=edge {
+                    range.include(grid.value(first + IVec3::new(x, y, z)));
+                }
+            }
+        }
+        range.clamped()
+    }
+
+    /// Asserts trilinear density (clamped to >= 0) stays within `range` at
+    /// the 8 corners of the box at `corner`, `size` voxels wide, and at
+    /// `inside` random points in it; returns the number of probes.
+    pub(in crate::volumes) fn assert_probes_within(
+        grid: &SparseGrid,
+        (corner, size): (Vec3, Vec3),
+        range: DensityRange,
+        inside: usize,
+        rng: &mut Pcg32,
+    ) -> usize {
+        let corners =
+            (0..8).map(|n| Vec3::new((n >> 2) as f32, ((n >> 1) & 1) as f32, (n & 1) as f32));
+        let inside: Vec<Vec3> = (0..inside)
+            .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()))
+            .collect();
+        let mut probes = 0;
+        for u in corners.chain(inside) {
+            let p = corner + u * size;
+            let v = grid.trilinear_index(p).max(0.0);
+            let slack = 1e-6 * range.max;
+            assert!(
+                range.min - slack <= v && v <= range.max + slack,
+                "{p}: {v} outside [{}, {}]",
+                range.min,
+                range.max
+            );
+            probes += 1;
+        }
+        probes
     }
 
     /// Two leaves 300 super-blocks (38,400 voxels) apart on every axis:
@@ -572,23 +611,7 @@ pub(super) mod tests {
             for c in cell_coords(&mg) {
                 let range = mg.cells[mg.cell_slot(c)];
                 let corner = mg.lo + c.as_vec3() * mg.cell_size;
-                let corners = (0..8)
-                    .map(|n| Vec3::new((n >> 2) as f32, ((n >> 1) & 1) as f32, (n & 1) as f32));
-                let inside: Vec<Vec3> = (0..64)
-                    .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()))
-                    .collect();
-                for u in corners.chain(inside) {
-                    let p = corner + u * mg.cell_size;
-                    let v = grid.trilinear_index(p).max(0.0);
-                    let slack = 1e-6 * range.max;
-                    assert!(
-                        range.min - slack <= v && v <= range.max + slack,
-                        "{p}: {v} outside [{}, {}]",
-                        range.min,
-                        range.max
-                    );
-                    probes += 1;
-                }
+                probes += assert_probes_within(&grid, (corner, mg.cell_size), range, 64, &mut rng);
             }
             assert_eq!(probes, 72 * mg.cells.len());
         }
