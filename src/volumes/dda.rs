@@ -9,8 +9,7 @@
 
 use glam::{IVec3, Vec3};
 
-use super::majorant::{MajorantGrid, SupportBox};
-use super::refine::Refinement;
+use super::majorant::{MajorantGrid, Refinement, SupportBox};
 
 /// One stretch of a ray over which extinction is bounded:
 /// `sigma_min <= sigma_t(t) <= sigma_maj` for t in `[t_min, t_max)`.
@@ -324,9 +323,10 @@ impl MajorantGrid {
 mod tests {
     use super::*;
     use crate::sampling::Pcg32;
-    use crate::volumes::majorant::tests::{assert_exact_ranges, density, synthetic, SMOKE, TEAPOT};
+    use crate::volumes::majorant::tests::{
+        assert_exact_ranges, density, split_grids, synthetic, SMOKE, TEAPOT,
+    };
     use crate::volumes::majorant::DensityRange;
-    use crate::volumes::refine::tests::split_grids;
     use crate::volumes::{GridTransform, MajorantKind, SparseGrid};
     use glam::DAffine3;
 

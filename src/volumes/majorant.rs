@@ -33,7 +33,6 @@ use glam::{IVec3, U64Vec3, Vec3};
 use rayon::prelude::*;
 
 use super::grid::blocks_spanned;
-use super::refine::Refinement;
 use super::SparseGrid;
 
 /// Voxels per cell edge, log2, at the finest resolution (one OpenVDB leaf).
@@ -110,6 +109,23 @@ impl SupportBox {
             lo: std::array::from_fn(|a| eighths(lo[a], false)),
             hi: std::array::from_fn(|a| eighths(hi[a], true)),
         }
+    }
+}
+
+/// How one cell is split (`Adaptive`, refine.rs): `level` 0 (not split) to
+/// 3 (8^3 sub-cells), its `2^(3 level)` sub-cell ranges at `offset` in the
+/// grid's `sub_cells`, x slowest, z fastest.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct Refinement {
+    pub(super) offset: u32,
+    pub(super) level: u8,
+}
+
+impl Refinement {
+    /// Sub-cells along each axis.
+    #[inline]
+    pub(super) fn res(self) -> i32 {
+        1 << self.level
     }
 }
 
@@ -487,6 +503,36 @@ pub(super) mod tests {
         };
         let identity = GridTransform::new(DAffine3::IDENTITY).unwrap();
         SparseGrid::build(0.0, &origins, values, &[tile], identity).unwrap()
+    }
+
+    /// An analytic ramp: density x / 4 over two leaves (16 x 8 x 8 voxels),
+    /// 0 beyond them. Trilinear density is then exactly linear in x inside
+    /// the data, and drops to 0 over the last voxel layer.
+    pub(in crate::volumes) fn ramp() -> SparseGrid {
+        let origins = [IVec3::ZERO, IVec3::new(8, 0, 0)];
+        let values = origins
+            .iter()
+            .flat_map(|o| (0..512).map(move |i| (o.x + i / 64) as f32 / 4.0))
+            .collect();
+        let identity = GridTransform::new(DAffine3::IDENTITY).unwrap();
+        SparseGrid::build(0.0, &origins, values, &[], identity).unwrap()
+    }
+
+    /// The shared VDBs at their benchmark scenes' optical scale (densityScale
+    /// x world units per voxel: smoke 20 x 0.0095, teapot 0.5 x 0.0077, here
+    /// 10x denser so it splits into 4^3 sub-cells) and the ramp at 1.
+    pub(in crate::volumes) fn split_grids() -> Vec<(&'static str, SparseGrid, MajorantGrid)> {
+        [
+            ("ramp", ramp(), 1.0),
+            ("smoke", density(SMOKE), 0.19),
+            ("teapot", density(TEAPOT), 0.038),
+        ]
+        .into_iter()
+        .map(|(name, grid, depth)| {
+            let mg = MajorantGrid::build_for(&grid, MajorantKind::Adaptive, depth);
+            (name, grid, mg)
+        })
+        .collect()
     }
 
     fn cell_coords(mg: &MajorantGrid) -> impl Iterator<Item = IVec3> + '_ {

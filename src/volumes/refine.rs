@@ -21,7 +21,7 @@
 use glam::IVec3;
 use rayon::prelude::*;
 
-use super::majorant::{DensityRange, MajorantGrid, BLOCK_LOG2};
+use super::majorant::{DensityRange, MajorantGrid, Refinement, BLOCK_LOG2};
 use super::SparseGrid;
 
 /// Split threshold on (sigma_max - sigma_min) x cell diagonal: an optical
@@ -40,23 +40,6 @@ const SUB_CELLS_PER_CELL: usize = 128;
 
 /// Sub-cells any grid may keep (512 KiB), whatever its size.
 const MIN_SUB_CELLS: usize = 1 << 16;
-
-/// How one cell is split: `level` 0 (not split) to 3 (8^3 sub-cells), its
-/// `2^(3 level)` sub-cell ranges at `offset` in the grid's `sub_cells`, x
-/// slowest, z fastest.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(super) struct Refinement {
-    pub(super) offset: u32,
-    pub(super) level: u8,
-}
-
-impl Refinement {
-    /// Sub-cells along each axis.
-    #[inline]
-    pub(super) fn res(self) -> i32 {
-        1 << self.level
-    }
-}
 
 /// The ranges of one 8^3 cell's sub-cells at every level, finest last.
 struct Pyramid {
@@ -214,44 +197,14 @@ impl MajorantGrid {
 }
 
 #[cfg(test)]
-pub(super) mod tests {
+mod tests {
     use super::*;
     use crate::sampling::Pcg32;
     use crate::volumes::majorant::tests::{
-        assert_probes_within, density, footprint_range, SMOKE, TEAPOT,
+        assert_probes_within, density, footprint_range, ramp, split_grids, SMOKE,
     };
     use crate::volumes::{GridTransform, MajorantKind};
     use glam::{DAffine3, Vec3};
-
-    /// An analytic ramp: density x / 4 over two leaves (16 x 8 x 8 voxels),
-    /// 0 beyond them. Trilinear density is then exactly linear in x inside
-    /// the data, and drops to 0 over the last voxel layer.
-    pub(in crate::volumes) fn ramp() -> SparseGrid {
-        let origins = [IVec3::ZERO, IVec3::new(8, 0, 0)];
-        let values = origins
-            .iter()
-            .flat_map(|o| (0..512).map(move |i| (o.x + i / 64) as f32 / 4.0))
-            .collect();
-        let identity = GridTransform::new(DAffine3::IDENTITY).unwrap();
-        SparseGrid::build(0.0, &origins, values, &[], identity).unwrap()
-    }
-
-    /// The shared VDBs at their benchmark scenes' optical scale (densityScale
-    /// x world units per voxel: smoke 20 x 0.0095, teapot 0.5 x 0.0077, here
-    /// 10x denser so it splits into 4^3 sub-cells) and the ramp at 1.
-    pub(in crate::volumes) fn split_grids() -> Vec<(&'static str, SparseGrid, MajorantGrid)> {
-        [
-            ("ramp", ramp(), 1.0),
-            ("smoke", density(SMOKE), 0.19),
-            ("teapot", density(TEAPOT), 0.038),
-        ]
-        .into_iter()
-        .map(|(name, grid, depth)| {
-            let mg = MajorantGrid::build_for(&grid, MajorantKind::Adaptive, depth);
-            (name, grid, mg)
-        })
-        .collect()
-    }
 
     /// Every sub-cell of every split cell holds the exact clamped range of
     /// the voxels its trilinear footprint reads (read one by one), and
