@@ -499,6 +499,50 @@ fn dense_medium_is_black_finite_and_bounded_in_cost_for_every_estimator() {
     assert!(core.lookups_per_camera_ray < 30.0, "{}", core.text);
 }
 
+/// `--majorant adaptive` (8^3 cells split where (sigma_max - sigma_min) x
+/// diagonal > 1.44, refine.rs) at both ends of optical depth. Dense
+/// absorber (depth 600): its 26 border cells split into 4^3 sub-cells; the
+/// core stays exactly black, the floor clear of it exactly 0.5, and the
+/// lookups per camera ray image-wide stay at or below the grid's. Thin
+/// absorber (depth 0.02): no cell spans enough optical depth to split, so
+/// the render is the grid's, pixel for pixel at the same seed.
+#[test]
+fn adaptive_majorants_split_dense_media_and_leave_thin_ones_alone() {
+    let render = |scene: &str, majorant, spp| {
+        let dir = common::scratch(&format!("stability_adaptive_{}", scene.replace('/', "_")));
+        Render {
+            scene,
+            res: (32, 32),
+            spp,
+            seed: 3,
+            extra: &["--majorant", majorant],
+        }
+        .run_within_majorants(&dir)
+    };
+    let dense = "stability/dense_absorber_shadow";
+    let (grid, _) = render(dense, "grid", 4);
+    let (adaptive, image) = render(dense, "adaptive", 4);
+    eprintln!(
+        "dense, adaptive: {:.1} lookups per camera ray image-wide (grid {:.1})",
+        adaptive.lookups_per_camera_ray, grid.lookups_per_camera_ray
+    );
+    assert!(adaptive.text.contains("split into"), "{}", adaptive.text);
+    assert!(adaptive.lookups_per_camera_ray <= grid.lookups_per_camera_ray);
+    let core = image.pixels(RED, |x, y| over_core(x, y) == Some(true));
+    assert!(core.iter().all(|&v| v == 0.0), "light through depth 600");
+    let clear = image.pixels(RED, |x, y| over_core(x, y) == Some(false));
+    assert!(clear.iter().all(|&v| (v - 0.5).abs() < 1e-5));
+    let thin = "stability/thin_absorber_shadow";
+    let (_, grid) = render(thin, "grid", 16);
+    let (log, adaptive) = render(thin, "adaptive", 16);
+    assert!(!log.text.contains("split into"), "{}", log.text);
+    let same = grid.pixels(RED, |_, _| true) == adaptive.pixels(RED, |_, _| true);
+    assert!(
+        same,
+        "thin: adaptive differs from grid without splitting a cell"
+    );
+}
+
 /// Volumetric white furnace with a strongly forward phase function
 /// (scenes/tests/stability/furnace_forward.usda: albedo 1, g = 0.95,
 /// optical depth 40): every pixel reads the dome's 1 within 4 sigma when

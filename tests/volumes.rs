@@ -93,10 +93,11 @@ fn optical_depth(grid: &SparseGrid, ray: &IndexRay, scale: f32) -> (f64, f64) {
 }
 
 /// The configurations compared, with their sample counts per ray: every
-/// estimator on the grid majorant, and ratio tracking on the global one
-/// (fewer samples: on the teapot it looks density up 5x as often, and its
-/// variance is lower).
-const CONFIGS: [(TransmittanceEstimator, MajorantKind, usize); 5] = [
+/// estimator on the grid majorant, track-length (delta tracking, the one a
+/// too-low majorant biases) on the adaptive one, and ratio tracking on the
+/// global one (fewer samples: on the teapot it looks density up 5x as
+/// often, and its variance is lower).
+const CONFIGS: [(TransmittanceEstimator, MajorantKind, usize); 6] = [
     (
         TransmittanceEstimator::TrackLength,
         MajorantKind::Grid,
@@ -111,6 +112,11 @@ const CONFIGS: [(TransmittanceEstimator, MajorantKind, usize); 5] = [
     (
         TransmittanceEstimator::RayMarching,
         MajorantKind::Grid,
+        2000,
+    ),
+    (
+        TransmittanceEstimator::TrackLength,
+        MajorantKind::Adaptive,
         2000,
     ),
     (TransmittanceEstimator::Ratio, MajorantKind::Global, 500),
@@ -187,8 +193,8 @@ fn transmittance_estimate(
     (e, stats)
 }
 
-/// Every transmittance estimator, on the grid majorant and (ratio tracking)
-/// on the global one, against the exact optical depth along 8 rays through
+/// Every transmittance estimator, on the grid majorant, (track-length) on
+/// the adaptive one and (ratio tracking) on the global one, against the exact optical depth along 8 rays through
 /// each shared VDB: within 4 sigma + quadrature error of exp(-depth) and of
 /// each other, and no density lookup above its majorant. densityScale: the
 /// teapot's 0.5 makes its max sigma_t 25 per voxel (the kept rays graze the
@@ -200,10 +206,13 @@ fn estimators_agree_with_the_exact_optical_depth_on_the_shared_vdbs() {
         let grid = density(path);
         // Trilinear density is then never clamped, and piecewise cubic along rays.
         assert!(grid.stats().min_value >= 0.0, "{path}: negative density");
-        let majorants = [
-            MajorantGrid::build(&grid, MajorantKind::Grid),
-            MajorantGrid::build(&grid, MajorantKind::Global),
+        let kinds = [
+            MajorantKind::Grid,
+            MajorantKind::Adaptive,
+            MajorantKind::Global,
         ];
+        // Adaptive: split as densityScale x 1 world unit per voxel would.
+        let majorants = kinds.map(|kind| MajorantGrid::build_for(&grid, kind, scale));
         let rays = rays_through(&grid, majorants[0].index_box(), scale, 8);
         let results: Vec<_> = rays
             .par_iter()
@@ -213,7 +222,7 @@ fn estimators_agree_with_the_exact_optical_depth_on_the_shared_vdbs() {
                     .iter()
                     .enumerate()
                     .map(|(c, &(estimator, kind, samples))| {
-                        let majorant = &majorants[usize::from(kind == MajorantKind::Global)];
+                        let majorant = &majorants[kinds.iter().position(|&k| k == kind).unwrap()];
                         let mut rng = Pcg32::new(i as u64, c as u64);
                         transmittance_estimate(
                             &grid, majorant, ray, scale, estimator, samples, &mut rng,
@@ -406,7 +415,11 @@ fn overlapping_volumes_add_their_extinctions() {
         ((1.2, 0.6), 0.8),
         ((2.0, 0.6), 0.0),
     ];
-    for kind in [MajorantKind::Grid, MajorantKind::Global] {
+    for kind in [
+        MajorantKind::Grid,
+        MajorantKind::Adaptive,
+        MajorantKind::Global,
+    ] {
         let media = Media::build(&scene, kind).unwrap();
         for (r, &((x, z), depth)) in rays.iter().enumerate() {
             let (origin, t_max) = (Vec3::new(x, 5.0, z), 10.0);
@@ -585,5 +598,81 @@ fn memory_estimates_match_the_built_grids() {
             estimated * 2 >= held && estimated <= 2 * held,
             "{path}: grid estimate {estimated} B, held {held} B"
         );
+    }
+}
+
+/// Adaptive majorants split by world optical depth (densityScale x world
+/// length per voxel), so a scene scaled by 1e-3 and 1e4 with densityScale
+/// divided to match keeps its split: the smoke VDB at 0.02 units per index
+/// unit and densityScale 20 (the bench scene, 622 cells split), and at
+/// 2e-5 / 2e4 and 200 / 2e-3: sigma_maj at corresponding points differs by
+/// the densityScale ratio alone. The control: densityScale kept at 10x the
+/// size (10x the optical depth) splits further, and the ratio is no longer
+/// one number.
+#[test]
+fn adaptive_majorants_split_the_same_at_any_scene_scale() {
+    let dir = common::scratch("volumes_adaptive_scale");
+    let vdb = common::asset(SMOKE);
+    let media = |name: &str, scale: f32, density_scale: f32| {
+        let usda = dir.join(format!("{name}.usda"));
+        let text = format!(
+            r#"#usda 1.0
+(
+    defaultPrim = "World"
+)
+def Xform "World"
+{{
+    def Volume "Smoke"
+    {{
+        rel field:density = </World/Smoke/density>
+        float primvars:densityScale = {density_scale}
+        float3 xformOp:scale = ({scale}, {scale}, {scale})
+        uniform token[] xformOpOrder = ["xformOp:scale"]
+        def OpenVDBAsset "density"
+        {{
+            asset filePath = @{}@
+            token fieldName = "density"
+        }}
+    }}
+}}
+"#,
+            vdb.display()
+        );
+        std::fs::write(&usda, text).unwrap();
+        let out = dir.join(name);
+        scene::export(&usda, &out, None, None).unwrap();
+        Media::build(&Scene::load(&out).unwrap(), MajorantKind::Adaptive).unwrap()
+    };
+    let unit = media("unit", 0.02, 20.0);
+    let mut rng = Pcg32::new(4, 0);
+    // Points of the smoke's index box (about -60..60, 0..225, -60..60 voxels).
+    let points: Vec<Vec3> = (0..20_000)
+        .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()))
+        .map(|u| (Vec3::new(-60.0, 0.0, -60.0) + u * Vec3::new(120.0, 225.0, 120.0)) * 0.02)
+        .collect();
+    // sigma_maj at the points, over sigma_maj of the unit scene there.
+    let ratios = |media: &Media, factor: f32| -> Vec<f32> {
+        points
+            .iter()
+            .filter(|&&p| unit.sigma_maj_at(p) > 0.0)
+            .map(|&p| media.sigma_maj_at(p * factor) / unit.sigma_maj_at(p))
+            .collect()
+    };
+    let occupied = ratios(&unit, 1.0).len();
+    assert!(occupied > 400, "{occupied} points in the smoke");
+    for (name, factor, density_scale, same) in [
+        ("tiny", 1e-3, 2e4, true),
+        ("huge", 1e4, 2e-3, true),
+        ("denser", 10.0, 20.0, false),
+    ] {
+        let r = ratios(&media(name, 0.02 * factor, density_scale), factor);
+        // sigma_t is densityScale x density per world unit, whatever the size.
+        let expected = density_scale / 20.0;
+        let off = r
+            .iter()
+            .filter(|&&x| (x / expected - 1.0).abs() > 1e-3)
+            .count();
+        println!("{name}: {off} of {} points off the scale's ratio", r.len());
+        assert_eq!(off == 0, same, "{name}: {off} of {} points", r.len());
     }
 }

@@ -16,7 +16,7 @@ pub struct ConvergeArgs {
     /// Scenes (USD or exported); default: scenes/bench/smoke.usda.
     scenes: Vec<PathBuf>,
     /// Comma-separated methods: default, sampler-independent, strategy-bsdf,
-    /// strategy-nee, majorant-global, estimator-ratio,
+    /// strategy-nee, majorant-global, majorant-adaptive, estimator-ratio,
     /// estimator-residual-ratio, estimator-track-length, no-equiangular
     /// [all that apply to each scene: the volume ones where it has volumes,
     /// no-equiangular where it also has lights that equiangular sampling

@@ -3,11 +3,13 @@
 //! front to back, as [`MajorantSegment`]s, as pbrt-v4's
 //! `DDAMajorantIterator` does. Each segment is clipped to the box where its
 //! cell's interpolated density can be non-zero (see majorant.rs), so the
-//! empty half of a boundary cell costs nothing.
+//! empty half of a boundary cell costs nothing. Inside a split cell
+//! (`--majorant adaptive`, refine.rs) a second DDA walks its sub-cells over
+//! that clipped stretch, yielding one segment per non-empty sub-cell.
 
 use glam::{IVec3, Vec3};
 
-use super::majorant::{MajorantGrid, SupportBox};
+use super::majorant::{MajorantGrid, Refinement, SupportBox};
 
 /// One stretch of a ray over which extinction is bounded:
 /// `sigma_min <= sigma_t(t) <= sigma_maj` for t in `[t_min, t_max)`.
@@ -46,6 +48,22 @@ pub struct MajorantSegments<'a> {
     /// The largest and smallest channel of the caller's densityScale.
     scale_max: f32,
     scale_min: f32,
+    /// The walk through the sub-cells of the split cell being crossed.
+    sub: Option<SubWalk>,
+}
+
+/// The DDA over one split cell's sub-cells, from `t` to `t_end` (the
+/// cell's stretch, clipped to its support box).
+struct SubWalk {
+    split: Refinement,
+    /// Index-space min corner of the cell.
+    corner: Vec3,
+    /// Sub-cell edge lengths, in voxels.
+    size: Vec3,
+    cell: IVec3,
+    t_next: Vec3,
+    t: f32,
+    t_end: f32,
 }
 
 impl Iterator for MajorantSegments<'_> {
@@ -53,14 +71,11 @@ impl Iterator for MajorantSegments<'_> {
 
     #[inline]
     fn next(&mut self) -> Option<MajorantSegment> {
+        if let Some(segment) = self.next_sub_segment() {
+            return Some(segment);
+        }
         while self.t < self.t_exit {
-            let axis = if self.t_next.x <= self.t_next.y && self.t_next.x <= self.t_next.z {
-                0
-            } else if self.t_next.y <= self.t_next.z {
-                1
-            } else {
-                2
-            };
+            let axis = nearest_axis(self.t_next);
             let t_min = self.t;
             // Carried over, never recomputed: consecutive segments share this exact value.
             let t_max = self.t_next[axis].min(self.t_exit).max(t_min);
@@ -82,7 +97,13 @@ impl Iterator for MajorantSegments<'_> {
             }
             if range.max > 0.0 && t_max > t_min {
                 let (t_min, t_max) = self.clip(cell, self.grid.supports[slot], t_min, t_max);
-                if t_max > t_min {
+                let split = self.grid.refinement(slot);
+                if t_max > t_min && split.level > 0 {
+                    self.sub = Some(self.sub_walk(cell, split, t_min, t_max));
+                    if let Some(segment) = self.next_sub_segment() {
+                        return Some(segment);
+                    }
+                } else if t_max > t_min {
                     return Some(MajorantSegment {
                         t_min,
                         t_max,
@@ -97,6 +118,76 @@ impl Iterator for MajorantSegments<'_> {
 }
 
 impl MajorantSegments<'_> {
+    /// The walk over split `cell`'s sub-cells for `[t_min, t_max)`.
+    fn sub_walk(&self, cell: IVec3, split: Refinement, t_min: f32, t_max: f32) -> SubWalk {
+        let res = split.res();
+        let corner = self.grid.lo + cell.as_vec3() * self.grid.cell_size;
+        let size = self.grid.cell_size / res as f32;
+        let p = self.origin + self.direction * t_min;
+        let sub = ((p - corner) / size)
+            .floor()
+            .as_ivec3()
+            .clamp(IVec3::ZERO, IVec3::splat(res - 1));
+        let t_next = Vec3::from_array(std::array::from_fn(|a| {
+            crossing(
+                corner[a],
+                size[a],
+                self.origin[a],
+                self.direction[a],
+                sub[a],
+                self.step[a],
+            )
+        }));
+        SubWalk {
+            split,
+            corner,
+            size,
+            cell: sub,
+            t_next,
+            t: t_min,
+            t_end: t_max,
+        }
+    }
+
+    /// The next non-empty sub-cell of the split cell being crossed, if any.
+    #[inline]
+    fn next_sub_segment(&mut self) -> Option<MajorantSegment> {
+        let walk = self.sub.as_mut()?;
+        let res = walk.split.res();
+        while walk.t < walk.t_end {
+            let axis = nearest_axis(walk.t_next);
+            let t_min = walk.t;
+            let t_max = walk.t_next[axis].min(walk.t_end).max(t_min);
+            let c = walk.cell;
+            let range = self.grid.sub_cells
+                [walk.split.offset as usize + ((c.x * res + c.y) * res + c.z) as usize];
+            walk.t = t_max;
+            walk.cell[axis] += self.step[axis];
+            if walk.cell[axis] < 0 || walk.cell[axis] >= res {
+                walk.t_end = t_max;
+            } else {
+                walk.t_next[axis] = crossing(
+                    walk.corner[axis],
+                    walk.size[axis],
+                    self.origin[axis],
+                    self.direction[axis],
+                    walk.cell[axis],
+                    self.step[axis],
+                );
+            }
+            if range.max > 0.0 && t_max > t_min {
+                return Some(MajorantSegment {
+                    t_min,
+                    t_max,
+                    sigma_maj: range.max * self.scale_max,
+                    sigma_min: range.min * self.scale_min,
+                });
+            }
+        }
+        self.sub = None;
+        None
+    }
+
     /// `[t_min, t_max)` narrowed to the part inside `cell`'s `support` box.
     #[inline]
     fn clip(&self, cell: IVec3, support: SupportBox, t_min: f32, t_max: f32) -> (f32, f32) {
@@ -106,6 +197,29 @@ impl MajorantSegments<'_> {
         let (lo, hi) = self.grid.support_box(cell, support);
         clip_to_box(self.origin, self.direction, lo, hi, t_min, t_max)
     }
+}
+
+/// The axis whose next cell plane the ray reaches first (x on ties, then y).
+#[inline]
+fn nearest_axis(t_next: Vec3) -> usize {
+    if t_next.x <= t_next.y && t_next.x <= t_next.z {
+        0
+    } else if t_next.y <= t_next.z {
+        1
+    } else {
+        2
+    }
+}
+
+/// Where the ray (`o` and `d` on one axis) leaves cell `cell` of a row of
+/// cells `size` wide from `lo`, stepping by `step`; infinity if it never does.
+#[inline]
+fn crossing(lo: f32, size: f32, o: f32, d: f32, cell: i32, step: i32) -> f32 {
+    if step == 0 {
+        return f32::INFINITY;
+    }
+    let plane = lo + (cell + i32::from(step > 0)) as f32 * size;
+    (plane - o) / d
 }
 
 /// The part of `[t_min, t_max)` where the ray `origin + t direction` lies in
@@ -183,6 +297,7 @@ impl MajorantGrid {
             t_exit,
             scale_max: scale.max_element(),
             scale_min: scale.min_element(),
+            sub: None,
         }
     }
 
@@ -190,11 +305,7 @@ impl MajorantGrid {
     /// on that axis, stepping by `step`), or infinity if it never does.
     #[inline]
     fn crossing(&self, o: f32, d: f32, cell: i32, step: i32, axis: usize) -> f32 {
-        if step == 0 {
-            return f32::INFINITY;
-        }
-        let plane = self.lo[axis] + (cell + i32::from(step > 0)) as f32 * self.cell_size[axis];
-        (plane - o) / d
+        crossing(self.lo[axis], self.cell_size[axis], o, d, cell, step)
     }
 
     fn sign(d: f32) -> i32 {
@@ -212,7 +323,9 @@ impl MajorantGrid {
 mod tests {
     use super::*;
     use crate::sampling::Pcg32;
-    use crate::volumes::majorant::tests::{assert_exact_ranges, density, synthetic, SMOKE, TEAPOT};
+    use crate::volumes::majorant::tests::{
+        assert_exact_ranges, density, split_grids, synthetic, SMOKE, TEAPOT,
+    };
     use crate::volumes::majorant::DensityRange;
     use crate::volumes::{GridTransform, MajorantKind, SparseGrid};
     use glam::DAffine3;
@@ -233,8 +346,9 @@ mod tests {
 
     /// The segments of one ray, checked against a brute-force march: they are
     /// ordered and non-empty, consecutive ones meet exactly or leave a gap of
-    /// empty cells, each carries its cell's range x `scale`, and density at
-    /// every marched point inside one stays under its majorant.
+    /// empty cells, each carries its cell's (or sub-cell's) range x `scale`,
+    /// which `max_at` reports there too, and density at every marched point
+    /// inside one stays under its majorant.
     fn check_ray(
         grid: &SparseGrid,
         mg: &MajorantGrid,
@@ -283,8 +397,13 @@ mod tests {
             let t = enter + (exit - enter) * (k as f64 + 0.5) / steps as f64;
             let p = o64 + d64 * t;
             let u = (p - lo) / mg.cell_size.as_dvec3();
-            // Too close to a plane the ray crosses for f32 to tell the two cells apart.
-            let near_plane = (0..3).any(|a| d64[a] != 0.0 && (u[a] - u[a].round()).abs() < 1e-4);
+            // Too close to a plane the ray crosses (of a cell, of a one-voxel
+            // sub-cell or of a support box, at eighths of a cell) for f32 to
+            // tell the two cells apart.
+            let near_plane = (0..3).any(|a| {
+                let v = 8.0 * u[a];
+                d64[a] != 0.0 && (v - v.round()).abs() < 1e-3
+            });
             if near_plane {
                 continue;
             }
@@ -292,7 +411,7 @@ mod tests {
                 .floor()
                 .as_ivec3()
                 .clamp(IVec3::ZERO, mg.dims - IVec3::ONE);
-            let range = mg.cells[mg.cell_slot(c)];
+            let range = mg.range_at(c, mg.cell_slot(c), p.as_vec3());
             let hit = segments
                 .iter()
                 .find(|s| (s.t_min as f64) <= t && t < s.t_max as f64);
@@ -306,6 +425,7 @@ mod tests {
                         (s.sigma_maj, s.sigma_min),
                         (range.max * scale, range.min * scale)
                     );
+                    assert_eq!(mg.max_at(p.as_vec3()) * scale, s.sigma_maj, "t = {t}");
                     let v = grid.trilinear_index(p.as_vec3()) * scale;
                     assert!(
                         v <= s.sigma_maj * (1.0 + 1e-5),
@@ -370,6 +490,24 @@ mod tests {
             }
             // Empty parts of cells yield nothing: 33 on the synthetic grid.
             assert!(yielded > 25, "{yielded} segments");
+        }
+    }
+
+    /// The same through split cells (`Adaptive`, refine.rs) of the ramp,
+    /// the smoke and the teapot cloud: the sub-cell walk tiles each cell's
+    /// clipped stretch exactly and every segment carries its sub-cell's
+    /// range. Split cells yield more segments than whole ones.
+    #[test]
+    fn dda_walks_split_cells_exactly() {
+        for (name, grid, mg) in split_grids() {
+            let whole = MajorantGrid::build(&grid, MajorantKind::Grid);
+            let (mut split, mut unsplit) = (0, 0);
+            for (o, d, t0, t1) in random_rays(&mg, 21, 150) {
+                split += check_ray(&grid, &mg, o, d, t0, t1).len();
+                unsplit += whole.segments(o, d, t0, t1, Vec3::ONE).count();
+            }
+            println!("{name}: {split} segments split, {unsplit} whole");
+            assert!(split > unsplit, "{name}: {split} vs {unsplit}");
         }
     }
 

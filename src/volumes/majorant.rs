@@ -36,7 +36,7 @@ use super::grid::blocks_spanned;
 use super::SparseGrid;
 
 /// Voxels per cell edge, log2, at the finest resolution (one OpenVDB leaf).
-const BLOCK_LOG2: i32 = 3;
+pub(super) const BLOCK_LOG2: i32 = 3;
 /// Most cells kept (14 bytes each: 224 MiB); larger grids get coarser cells.
 const MAX_CELLS: u64 = 1 << 24;
 
@@ -55,19 +55,24 @@ pub(crate) struct OccupiedCell {
     pub density_max: f32,
 }
 
-/// How finely majorants follow the density: per 8^3 block, or one bound for
-/// the whole grid (the baseline, `--majorant global`).
+/// How finely majorants follow the density: per 8^3 block, per block split
+/// where density varies (refine.rs), or one bound for the whole grid (the
+/// baseline, `--majorant global`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum MajorantKind {
     /// One cell per 8^3 voxels (OpenVDB leaf), empty cells skipped.
     #[default]
     Grid,
+    /// The 8^3 cells, split into 2^3, 4^3 or 8^3 sub-cells where
+    /// (sigma_max - sigma_min) x diagonal > 1.44 (refine.rs).
+    Adaptive,
     /// A single cell over the grid's whole bounds.
     Global,
 }
 
 crate::choice::choice!(MajorantKind {
     Grid => "grid",
+    Adaptive => "adaptive",
     Global => "global",
 });
 
@@ -107,6 +112,23 @@ impl SupportBox {
     }
 }
 
+/// How one cell is split (`Adaptive`, refine.rs): `level` 0 (not split) to
+/// 3 (8^3 sub-cells), its `2^(3 level)` sub-cell ranges at `offset` in the
+/// grid's `sub_cells`, x slowest, z fastest.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct Refinement {
+    pub(super) offset: u32,
+    pub(super) level: u8,
+}
+
+impl Refinement {
+    /// Sub-cells along each axis.
+    #[inline]
+    pub(super) fn res(self) -> i32 {
+        1 << self.level
+    }
+}
+
 /// Conservative density bounds over a dense array of axis-aligned cells in a
 /// grid's index space; see the module doc.
 #[derive(Clone, Debug)]
@@ -120,6 +142,11 @@ pub struct MajorantGrid {
     pub(super) cells: Vec<DensityRange>,
     /// Per cell, beside `cells`: where its density can be non-zero.
     pub(super) supports: Vec<SupportBox>,
+    /// Per cell, beside `cells`, how it is split (`Adaptive`); empty when no
+    /// cell is.
+    pub(super) refinements: Vec<Refinement>,
+    /// The ranges of split cells' sub-cells (see [`Refinement`]).
+    pub(super) sub_cells: Vec<DensityRange>,
 }
 
 impl MajorantGrid {
@@ -140,14 +167,12 @@ impl MajorantGrid {
     /// non-zero) and its density max. Emission light sampling picks among
     /// these (`emitter.rs`).
     pub(crate) fn occupied_cells(&self) -> impl Iterator<Item = OccupiedCell> + '_ {
-        let d = self.dims;
         (0..self.cells.len()).filter_map(move |slot| {
             let range = self.cells[slot];
             if range.max <= 0.0 {
                 return None;
             }
-            let n = slot as i32;
-            let cell = IVec3::new(n / (d.y * d.z), n / d.z % d.y, n % d.z);
+            let cell = self.cell_of(slot);
             let (lo, hi) = self.support_box(cell, self.supports[slot]);
             Some(OccupiedCell {
                 slot: slot as u32,
@@ -157,6 +182,36 @@ impl MajorantGrid {
                 density_max: range.max,
             })
         })
+    }
+
+    /// The coordinates of the cell in `slot`.
+    #[inline]
+    pub(super) fn cell_of(&self, slot: usize) -> IVec3 {
+        let (n, d) = (slot as i32, self.dims);
+        IVec3::new(n / (d.y * d.z), n / d.z % d.y, n % d.z)
+    }
+
+    /// How the cell in `slot` is split (level 0: not at all).
+    #[inline]
+    pub(super) fn refinement(&self, slot: usize) -> Refinement {
+        self.refinements.get(slot).copied().unwrap_or_default()
+    }
+
+    /// The density range the DDA carries at index-space point `p` of the
+    /// cell `cell` in `slot`: its sub-cell's where it is split.
+    #[inline]
+    pub(super) fn range_at(&self, cell: IVec3, slot: usize, p: Vec3) -> DensityRange {
+        let split = self.refinement(slot);
+        if split.level == 0 {
+            return self.cells[slot];
+        }
+        let res = split.res();
+        let corner = self.lo + cell.as_vec3() * self.cell_size;
+        let sub = ((p - corner) / self.cell_size * res as f32)
+            .floor()
+            .as_ivec3()
+            .clamp(IVec3::ZERO, IVec3::splat(res - 1));
+        self.sub_cells[split.offset as usize + ((sub.x * res + sub.y) * res + sub.z) as usize]
     }
 
     /// Cells along each index axis (slots run x slowest, z fastest) and the
@@ -182,10 +237,12 @@ impl MajorantGrid {
     }
 
     /// The density majorant the DDA carries at index-space point `p`: its
-    /// cell's max inside the cell's support box, 0 elsewhere.
+    /// cell's (or sub-cell's) max inside the cell's support box, 0 elsewhere.
     pub(crate) fn max_at(&self, p: Vec3) -> f32 {
-        self.occupied_slot_at(p)
-            .map_or(0.0, |slot| self.cells[slot as usize].max)
+        self.occupied_slot_at(p).map_or(0.0, |slot| {
+            let slot = slot as usize;
+            self.range_at(self.cell_of(slot), slot, p).max
+        })
     }
 
     /// The index-space box `[lo, hi)` of `cell`'s `support`.
@@ -221,18 +278,33 @@ impl MajorantGrid {
     /// Bytes held (the struct and its cell array).
     pub fn memory_bytes(&self) -> usize {
         std::mem::size_of::<Self>()
-            + self.cells.capacity() * std::mem::size_of::<DensityRange>()
+            + (self.cells.capacity() + self.sub_cells.capacity())
+                * std::mem::size_of::<DensityRange>()
             + self.supports.capacity() * std::mem::size_of::<SupportBox>()
+            + self.refinements.capacity() * std::mem::size_of::<Refinement>()
     }
 
     /// Max and min of the trilinearly interpolated density over each cell of
     /// 8^3 voxels (aligned with the VDB leaves), built in parallel (rayon)
     /// from the grid's leaves and tiles; `Global`: one cell over the same
-    /// bounds, holding the max and min over all of them.
+    /// bounds, holding the max and min over all of them; `Adaptive`: split
+    /// as if density were sigma_t per voxel (see [`Self::build_for`]).
     pub fn build(grid: &SparseGrid, kind: MajorantKind) -> Self {
-        let cells = Self::build_cells(grid, MAX_CELLS);
+        Self::build_for(grid, kind, 1.0)
+    }
+
+    /// [`Self::build`] for a medium where one unit of density gives an
+    /// optical depth of `depth_per_density_voxel` per voxel (densityScale x
+    /// world units per voxel): `Adaptive` splits cells by the optical depth
+    /// their density range spans (refine.rs).
+    pub fn build_for(grid: &SparseGrid, kind: MajorantKind, depth_per_density_voxel: f32) -> Self {
+        let mut cells = Self::build_cells(grid, MAX_CELLS);
         match kind {
             MajorantKind::Grid => cells,
+            MajorantKind::Adaptive => {
+                cells.refine(grid, depth_per_density_voxel);
+                cells
+            }
             MajorantKind::Global => cells.merged(),
         }
     }
@@ -246,6 +318,8 @@ impl MajorantGrid {
                 dims: IVec3::ZERO,
                 cells: Vec::new(),
                 supports: Vec::new(),
+                refinements: Vec::new(),
+                sub_cells: Vec::new(),
             };
         };
         // One block below the data: its +1 footprint reaches the data's first voxel layer.
@@ -268,10 +342,7 @@ impl MajorantGrid {
             .map(|n| {
                 let n = n as i32;
                 let c = lo + IVec3::new(n / (dims.y * dims.z), n / dims.z % dims.y, n % dims.z);
-                let mut range = DensityRange {
-                    max: f32::NEG_INFINITY,
-                    min: f32::INFINITY,
-                };
+                let mut range = DensityRange::EMPTY;
                 // The footprint of the cell's last blocks reaches one block further.
                 let first = c << merge;
                 if grid.blocks_are_empty(first, first + IVec3::splat(blocks_per_cell)) {
@@ -306,32 +377,38 @@ impl MajorantGrid {
             dims,
             cells,
             supports,
+            refinements: Vec::new(),
+            sub_cells: Vec::new(),
         }
     }
 
     /// A copy whose cells `(slot, floor)` hold at least `floor` as their
-    /// density max (the support boxes unchanged): still a majorant, with
-    /// more tentative collisions there (see `EmissionCells::collision_floors`).
+    /// density max, in every sub-cell where split (the support boxes
+    /// unchanged): still a majorant, with more tentative collisions there
+    /// (see `EmissionCells::collision_floors`).
     pub(crate) fn with_floors(&self, floors: impl IntoIterator<Item = (u32, f32)>) -> Self {
         let mut raised = self.clone();
         for (slot, floor) in floors {
+            let split = raised.refinement(slot as usize);
+            let subs = split.offset as usize..split.offset as usize + (split.res().pow(3) as usize);
+            let subs = if split.level == 0 { 0..0 } else { subs };
             let cell = &mut raised.cells[slot as usize];
             cell.max = cell.max.max(floor);
+            for sub in &mut raised.sub_cells[subs] {
+                sub.max = sub.max.max(floor);
+            }
         }
         raised
     }
 
     /// One cell over the same bounds, bounding all of them.
     fn merged(self) -> Self {
-        let all = self.cells.iter().fold(
+        let all = self.cells.iter().copied().fold(
             DensityRange {
                 max: 0.0,
                 min: f32::INFINITY,
             },
-            |acc, c| DensityRange {
-                max: acc.max.max(c.max),
-                min: acc.min.min(c.min),
-            },
+            DensityRange::union,
         );
         Self {
             lo: self.lo,
@@ -347,14 +424,30 @@ impl MajorantGrid {
             } else {
                 vec![SupportBox::FULL]
             },
+            refinements: Vec::new(),
+            sub_cells: Vec::new(),
         }
     }
 }
 
 impl DensityRange {
+    /// The range of no value, to [`Self::include`] values into.
+    pub(super) const EMPTY: Self = Self {
+        max: f32::NEG_INFINITY,
+        min: f32::INFINITY,
+    };
+
+    /// The smallest range holding both.
+    pub(super) fn union(self, other: Self) -> Self {
+        Self {
+            max: self.max.max(other.max),
+            min: self.min.min(other.min),
+        }
+    }
+
     /// Widens the range to hold `v`; NaN and infinities are ignored (media
     /// read them as 0, see `Medium::density`).
-    fn include(&mut self, v: f32) {
+    pub(super) fn include(&mut self, v: f32) {
         if v.is_finite() {
             self.max = self.max.max(v);
             self.min = self.min.min(v);
@@ -362,7 +455,7 @@ impl DensityRange {
     }
 
     /// Negative densities count as zero (see the module doc); `min <= max`.
-    fn clamped(self) -> Self {
+    pub(super) fn clamped(self) -> Self {
         let max = self.max.max(0.0);
         Self {
             max,
@@ -412,6 +505,36 @@ pub(super) mod tests {
         SparseGrid::build(0.0, &origins, values, &[tile], identity).unwrap()
     }
 
+    /// An analytic ramp: density x / 4 over two leaves (16 x 8 x 8 voxels),
+    /// 0 beyond them. Trilinear density is then exactly linear in x inside
+    /// the data, and drops to 0 over the last voxel layer.
+    pub(in crate::volumes) fn ramp() -> SparseGrid {
+        let origins = [IVec3::ZERO, IVec3::new(8, 0, 0)];
+        let values = origins
+            .iter()
+            .flat_map(|o| (0..512).map(move |i| (o.x + i / 64) as f32 / 4.0))
+            .collect();
+        let identity = GridTransform::new(DAffine3::IDENTITY).unwrap();
+        SparseGrid::build(0.0, &origins, values, &[], identity).unwrap()
+    }
+
+    /// The shared VDBs at their benchmark scenes' optical scale (densityScale
+    /// x world units per voxel: smoke 20 x 0.0095, teapot 0.5 x 0.0077, here
+    /// 10x denser so it splits into 4^3 sub-cells) and the ramp at 1.
+    pub(in crate::volumes) fn split_grids() -> Vec<(&'static str, SparseGrid, MajorantGrid)> {
+        [
+            ("ramp", ramp(), 1.0),
+            ("smoke", density(SMOKE), 0.19),
+            ("teapot", density(TEAPOT), 0.038),
+        ]
+        .into_iter()
+        .map(|(name, grid, depth)| {
+            let mg = MajorantGrid::build_for(&grid, MajorantKind::Adaptive, depth);
+            (name, grid, mg)
+        })
+        .collect()
+    }
+
     fn cell_coords(mg: &MajorantGrid) -> impl Iterator<Item = IVec3> + '_ {
         let d = mg.dims;
         (0..d.x).flat_map(move |x| {
@@ -426,22 +549,61 @@ pub(super) mod tests {
         let edge = mg.cell_size.x as i32;
         let mut non_empty = 0;
         for c in cell_coords(mg) {
-            let first = mg.lo.as_ivec3() + c * edge;
-            let mut expected = DensityRange {
-                max: f32::NEG_INFINITY,
-                min: f32::INFINITY,
-            };
-            for x in 0..=edge {
-                for y in 0..=edge {
-                    for z in 0..=edge {
-                        expected.include(grid.value(first + IVec3::new(x, y, z)));
-                    }
-                }
-            }
-            assert_eq!(mg.cells[mg.cell_slot(c)], expected.clamped(), "cell {c}");
+            let expected = footprint_range(grid, mg.lo.as_ivec3() + c * edge, edge);
+            assert_eq!(mg.cells[mg.cell_slot(c)], expected, "cell {c}");
             non_empty += usize::from(expected.max > 0.0);
         }
         non_empty
+    }
+
+    /// The clamped range of the voxels `first ..= first + edge` on each
+    /// axis (the trilinear footprint of a box `edge` voxels wide), read one
+    /// by one.
+    pub(in crate::volumes) fn footprint_range(
+        grid: &SparseGrid,
+        first: IVec3,
+        edge: i32,
+    ) -> DensityRange {
+        let mut range = DensityRange::EMPTY;
+        for x in 0..=edge {
+            for y in 0..=edge {
+                for z in 0..=edge {
+                    range.include(grid.value(first + IVec3::new(x, y, z)));
+                }
+            }
+        }
+        range.clamped()
+    }
+
+    /// Asserts trilinear density (clamped to >= 0) stays within `range` at
+    /// the 8 corners of the box at `corner`, `size` voxels wide, and at
+    /// `inside` random points in it; returns the number of probes.
+    pub(in crate::volumes) fn assert_probes_within(
+        grid: &SparseGrid,
+        (corner, size): (Vec3, Vec3),
+        range: DensityRange,
+        inside: usize,
+        rng: &mut Pcg32,
+    ) -> usize {
+        let corners =
+            (0..8).map(|n| Vec3::new((n >> 2) as f32, ((n >> 1) & 1) as f32, (n & 1) as f32));
+        let inside: Vec<Vec3> = (0..inside)
+            .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()))
+            .collect();
+        let mut probes = 0;
+        for u in corners.chain(inside) {
+            let p = corner + u * size;
+            let v = grid.trilinear_index(p).max(0.0);
+            let slack = 1e-6 * range.max;
+            assert!(
+                range.min - slack <= v && v <= range.max + slack,
+                "{p}: {v} outside [{}, {}]",
+                range.min,
+                range.max
+            );
+            probes += 1;
+        }
+        probes
     }
 
     /// Two leaves 300 super-blocks (38,400 voxels) apart on every axis:
@@ -495,23 +657,7 @@ pub(super) mod tests {
             for c in cell_coords(&mg) {
                 let range = mg.cells[mg.cell_slot(c)];
                 let corner = mg.lo + c.as_vec3() * mg.cell_size;
-                let corners = (0..8)
-                    .map(|n| Vec3::new((n >> 2) as f32, ((n >> 1) & 1) as f32, (n & 1) as f32));
-                let inside: Vec<Vec3> = (0..64)
-                    .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()))
-                    .collect();
-                for u in corners.chain(inside) {
-                    let p = corner + u * mg.cell_size;
-                    let v = grid.trilinear_index(p).max(0.0);
-                    let slack = 1e-6 * range.max;
-                    assert!(
-                        range.min - slack <= v && v <= range.max + slack,
-                        "{p}: {v} outside [{}, {}]",
-                        range.min,
-                        range.max
-                    );
-                    probes += 1;
-                }
+                probes += assert_probes_within(&grid, (corner, mg.cell_size), range, 64, &mut rng);
             }
             assert_eq!(probes, 72 * mg.cells.len());
         }

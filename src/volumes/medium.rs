@@ -505,6 +505,21 @@ impl Media {
         // Emission light cells and the majorant grid raised where the volume
         // emits, per Volume prim: shared by its placements.
         let mut emitters: HashMap<u32, EmittingGrids> = HashMap::new();
+        // Per density grid, its densest placement's sigma_t per unit density
+        // x world length per index unit: what adaptive majorants split by.
+        let mut depth_scales: HashMap<FieldKey, f32> = HashMap::new();
+        for (world_from_prototype, &prototype) in transforms.iter().zip(prototypes) {
+            for part in &m.prototypes[prototype as usize].volumes {
+                let volume = &m.volumes[part.volume as usize];
+                if let Some(field) = volume.fields.get("density") {
+                    let placed = affine(world_from_prototype) * affine(&part.transform);
+                    let scale = Vec3::from(volume.density_scale).max_element()
+                        * longest_axis(to_f64(&placed).matrix3);
+                    let entry = depth_scales.entry(field_key(field)).or_insert(0.0);
+                    *entry = entry.max(scale);
+                }
+            }
+        }
         let mut media = Vec::new();
         for (world_from_prototype, &prototype) in transforms.iter().zip(prototypes) {
             for part in &m.prototypes[prototype as usize].volumes {
@@ -528,7 +543,9 @@ impl Media {
                                 grid.background()
                             );
                         }
-                        let majorant = MajorantGrid::build(&grid, kind);
+                        let voxel = longest_axis(grid.transform().world_from_index.matrix3);
+                        let depth = depth_scales[&key] * voxel;
+                        let majorant = MajorantGrid::build_for(&grid, kind, depth);
                         let entry = (Arc::new(grid), Arc::new(majorant));
                         grids.insert(key, entry.clone());
                         entry
@@ -658,7 +675,7 @@ impl Medium {
             );
             return (None, None);
         };
-        let raised = (kind == MajorantKind::Grid).then(|| {
+        let raised = (kind != MajorantKind::Global).then(|| {
             let per_density = 1.0 / self.density_scale.max_element();
             let floors = cells.collision_floors().iter();
             Arc::new(
@@ -722,6 +739,14 @@ fn field_key(field: &VolumeField) -> FieldKey {
 /// Reads `field`'s float grid from its VDB file.
 fn read_field(field: &VolumeField) -> Result<SparseGrid, VolumeError> {
     VdbFile::open(&field.file)?.read_float_grid(&field.grid, field.index as usize)
+}
+
+/// The longest of `m`'s axes: world length per unit along it, at most.
+fn longest_axis(m: glam::DMat3) -> f32 {
+    m.x_axis
+        .length()
+        .max(m.y_axis.length())
+        .max(m.z_axis.length()) as f32
 }
 
 fn to_f64(a: &Affine3A) -> DAffine3 {

@@ -8,8 +8,10 @@
 //! where voxel values sit and how density is scaled.
 //!
 //! Rendering: [`Media`] places every Volume in the world; a [`MajorantGrid`]
-//! per grid bounds its trilinear density per 8^3-voxel cell and is walked by
-//! a 3D DDA (Amanatides and Woo 1987) into [`MajorantSegment`]s; over those,
+//! per grid bounds its trilinear density per 8^3-voxel cell (split into
+//! sub-cells where density varies, with `MajorantKind::Adaptive`: the
+//! criterion of Pixar's "Elemental" talk, refine.rs) and is walked by a 3D
+//! DDA (Amanatides and Woo 1987) into [`MajorantSegment`]s; over those,
 //! [`walk_tentative_collisions`] samples free flights and [`transmittance`] estimates
 //! shadow-ray transmittance by ratio, residual ratio (Novák et al. 2014,
 //! "Residual Ratio Tracking for Estimating Attenuation in Participating
@@ -26,6 +28,7 @@ mod majorant;
 mod medium;
 mod phase;
 mod ray_marching;
+mod refine;
 mod stats;
 mod tracking;
 mod vdb;

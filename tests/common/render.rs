@@ -69,6 +69,18 @@ impl Render<'_> {
         (RenderLog::parse(log), image)
     }
 
+    /// [`Self::run_logged`] for a whole image, asserting no density lookup
+    /// exceeded its majorant.
+    pub fn run_within_majorants(&self, dir: &Path) -> (RenderLog, Image) {
+        let (log, image) = self.run_logged(dir);
+        assert!(
+            !log.text.contains("exceeded their majorant"),
+            "{}",
+            log.text
+        );
+        (log, image.expect("a whole image, not a crop"))
+    }
+
     /// The output file in `dir`, named after every setting, with extension
     /// `ext`.
     fn output(&self, dir: &Path, ext: &str) -> PathBuf {

@@ -28,12 +28,13 @@ pub enum Method {
 }
 
 /// Every method, in table and chart order.
-pub(crate) const METHODS: [Method; 9] = [
+pub(crate) const METHODS: [Method; 10] = [
     Method::Default,
     Method::Sampler(SamplerKind::Independent),
     Method::Strategy(Strategy::Bsdf),
     Method::Strategy(Strategy::Nee),
     Method::Majorant(MajorantKind::Global),
+    Method::Majorant(MajorantKind::Adaptive),
     Method::Estimator(VolumeEstimator::Ratio),
     Method::Estimator(VolumeEstimator::ResidualRatio),
     Method::Estimator(VolumeEstimator::TrackLength),

@@ -131,15 +131,18 @@ fn converge_scene(options: &ConvergeOptions, path: &Path, name: &str) -> Result<
     } else {
         options.methods.clone()
     };
-    let global = if methods.iter().any(|m| m.majorant() == MajorantKind::Global) {
-        Some(RenderState::build(
-            &scene,
-            Some(options.resolution),
-            StateOptions::global_majorant(),
-        )?)
-    } else {
-        None
-    };
+    // One render state per other majorant a method needs.
+    let mut others: Vec<(MajorantKind, RenderState)> = Vec::new();
+    for kind in methods.iter().map(|m| m.majorant()) {
+        if kind != MajorantKind::Grid && others.iter().all(|(k, _)| *k != kind) {
+            let state_options = StateOptions {
+                majorant: kind,
+                ..StateOptions::default()
+            };
+            let state = RenderState::build(&scene, Some(options.resolution), state_options)?;
+            others.push((kind, state));
+        }
+    }
     let key = reference_key(&scene, name)?;
     drop(scene);
     let reference = cached_reference(&grid, &options.out, &key, options.reference_spp)?;
@@ -150,10 +153,11 @@ fn converge_scene(options: &ConvergeOptions, path: &Path, name: &str) -> Result<
     };
     let mut rows = Vec::new();
     for method in methods {
-        let state = match method.majorant() {
-            MajorantKind::Grid => &grid,
-            MajorantKind::Global => global.as_ref().expect("built when a method needs it"),
-        };
+        let kind = method.majorant();
+        let state = others
+            .iter()
+            .find(|(k, _)| *k == kind)
+            .map_or(&grid, |(_, state)| state);
         for spp in budgets(options.spp_max) {
             rows.extend(study.render_seeds(state, method, spp));
         }
