@@ -640,7 +640,7 @@ def Xform "World"
         );
         std::fs::write(&usda, text).unwrap();
         let out = dir.join(name);
-        scene::export(&usda, &out, None, None).unwrap();
+        scene::export(&usda, &out, None, None, None).unwrap();
         Media::build(&Scene::load(&out).unwrap(), MajorantKind::Adaptive).unwrap()
     };
     let unit = media("unit", 0.02, 20.0);

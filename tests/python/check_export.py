@@ -234,13 +234,17 @@ def material_path(prim: Usd.Prim) -> str | None:
 
 
 def check_materials(scene: Scene, prim: Usd.Prim, mesh: int, label: str) -> None:
-    """The exported per-triangle materials are the prim's binding and its GeomSubsets' bindings."""
+    """The exported per-triangle materials are the prim's binding and its GeomSubsets' bindings
+    (the displayColor look standing for no binding)."""
     subsets = UsdGeom.Subset.GetGeomSubsets(UsdGeom.Imageable(prim), UsdGeom.Tokens.face,
                                             UsdShade.Tokens.materialBind)
     allowed = {material_path(p) for p in [prim, *(s.GetPrim() for s in subsets)]}
     records = scene.manifest["materials"]
     ref = scene.manifest["meshes"][mesh]["triangle_materials"]
-    used = {None if i == NO_MATERIAL else without_prototype(records[i]["path"])
+    # A mesh without a material is shaded by its displayColor (a record the exporter makes, as
+    # Hydra does): usd-core binds nothing there.
+    used = {None if i == NO_MATERIAL or records[i].get("shader") == "displayColor"
+            else without_prototype(records[i]["path"])
             for i in np.unique(scene.array(ref, "triangle_materials"))}
     if not used <= allowed or (not subsets and used != allowed):
         scene.errors.append(f"{label}: materials {sorted(map(str, used))}, usd-core binds {sorted(map(str, allowed))}")
