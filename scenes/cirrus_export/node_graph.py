@@ -177,7 +177,9 @@ class GraphResolver:
             return self._image(node)
         if category == "geompropvalue":
             return self._primvar(node, str(self._arg(node, "geomprop")), self._optional(node, "default"))
-        if category.startswith("UsdPrimvarReader_"):
+        # UsdPrimvarReader_<type> in UsdPreviewSurface networks; UsdPrimvarReader (node
+        # definitions ND_UsdPrimvarReader_<type>) in MaterialX networks written in USD.
+        if category.startswith("UsdPrimvarReader"):
             return self._primvar(node, str(self._arg(node, "varname")), self._optional(node, "fallback"))
         if category == "UsdUVTexture":
             return {"texture": self._textures.usd_texture(node), "channel": output}

@@ -62,6 +62,13 @@ class _Translated:
         return ""
 
 
+def _has_effect(surface: Node, name: str) -> bool:
+    """Whether input `name` is connected, or authored with a value other than its default:
+    an authored default (tools write every input) changes nothing, so nothing is lost."""
+    source = surface.source(name)
+    return source is not None and (isinstance(source, Link) or source != surface.default(name))
+
+
 def open_pbr_record(surface: Node, resolver: GraphResolver, warn, material: str) -> dict:
     """The record fields of an open_pbr material (`open_pbr`, `geometry_*`) for a surface
     node of category open_pbr_surface or standard_surface."""
@@ -73,7 +80,7 @@ def open_pbr_record(surface: Node, resolver: GraphResolver, warn, material: str)
     if inputs["subsurface_weight"] != 0.0:
         warn(f"material {material}: subsurface is rendered as OpenPBR's diffuse fallback tinted by "
              f"subsurface_color (no subsurface scattering; radius and scale are not used)")
-    dropped = [name for name in NOT_MODELLED[surface.category] if surface.source(name) is not None]
+    dropped = [name for name in NOT_MODELLED[surface.category] if _has_effect(surface, name)]
     if dropped:
         warn(f"material {material}: {surface.category} inputs {', '.join(dropped)} are not modelled; ignored")
     return {"open_pbr": inputs, "geometry_thin_walled": bool(thin_walled) if isinstance(thin_walled, bool) else False,
