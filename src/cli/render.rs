@@ -25,7 +25,7 @@ use cirrus::integrator::{
     Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH,
 };
 use cirrus::memory;
-use cirrus::output::{write_film_preview, AovFiles, ExrHeader};
+use cirrus::output::{preview_path, write_film_preview, AovFiles, ExrHeader};
 use cirrus::render_state::{self, RenderState, StateOptions};
 use cirrus::sampling::SamplerKind;
 use cirrus::volumes::MajorantKind;
@@ -312,7 +312,7 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
         }
     };
     let preview = |s: &Snapshot| {
-        if let Err(e) = write_film_preview(&args.output.with_extension("png"), &s.film) {
+        if let Err(e) = write_film_preview(&preview_path(&args.output), &s.film) {
             log::warn!("preview not written: {e}");
         }
     };

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use super::FarmError;
 use crate::file_error::FileError;
 use crate::film::AovSet;
-use crate::output::AovFiles;
+use crate::output::{preview_path, AovFiles};
 
 /// The files a render of `-o OUT.exr` writes.
 pub struct OutputFiles {
@@ -36,7 +36,7 @@ impl OutputFiles {
     pub fn new(exr: &Path, files: AovFiles, aovs: &AovSet) -> Self {
         let mut finals = vec![exr.to_path_buf()];
         if !is_film_output(exr) {
-            finals.push(exr.with_extension("png"));
+            finals.push(preview_path(exr));
             if files == AovFiles::Separate {
                 let per_aov = aovs.aovs().iter();
                 finals.extend(per_aov.map(|a| exr.with_extension(format!("{}.exr", a.name()))));

@@ -11,7 +11,7 @@ use super::slurm::quote_path;
 use super::{write_snapshot, FarmError, OutputFiles, RenderIdentity};
 use crate::image::Compression;
 use crate::integrator::{RenderStats, Snapshot};
-use crate::output::{write_film, write_film_preview, AovFiles};
+use crate::output::{preview_path, write_film, write_film_preview, AovFiles};
 
 /// How the image of a render is written.
 #[derive(Clone, Copy, Debug)]
@@ -38,7 +38,7 @@ pub fn write_finished(
         write_snapshot(output, identity, end).map(|()| vec![output.to_path_buf()])
     } else {
         let (header, film) = (&identity.exr, &end.film);
-        let preview = output.with_extension("png");
+        let preview = preview_path(output);
         write_film(
             output,
             format.aov_files,

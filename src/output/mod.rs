@@ -9,4 +9,4 @@ mod preview;
 
 pub use contact_sheet::{write_contact_sheet, ContactSheet, SheetTile};
 pub use exr::{write_beauty, write_bytes_for, write_film, AovFiles, ExrHeader};
-pub use preview::{write_film_preview, write_preview};
+pub use preview::{preview_path, write_film_preview, write_preview};

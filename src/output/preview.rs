@@ -1,7 +1,7 @@
 //! The PNG preview beside every EXR: the only tone-mapped output (the EXR
 //! stays linear scene-referred radiance, docs/conventions.md, "Output").
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::film::Film;
 use crate::image::{write_exr, Channel, Compression, ExrImage, ImageError, PixelType};
@@ -31,6 +31,11 @@ pub fn write_preview(path: &Path, width: u32, height: u32, rgb: &[f32]) -> Resul
             matrices: Vec::new(),
         },
     )
+}
+
+/// The PNG preview written beside the image `exr`: `OUT.png` for `OUT.exr`.
+pub fn preview_path(exr: &Path) -> PathBuf {
+    exr.with_extension("png")
 }
 
 /// Writes the preview of `film` (its window's pixels) to `path`.
