@@ -231,6 +231,78 @@ fn a_render_time_shutter_reaches_the_exporter() {
         common::channel_bits(&a) == common::channel_bits(&b),
         "--shutter 0,1 did not export the motion"
     );
+    // `cirrus export --shutter` keys the same motion into a folder, and
+    // `cirrus farm submit --shutter` exports its frames with it.
+    let folder = dir.join("exported");
+    let (usda, folder_s) = (usda.to_str().unwrap(), folder.to_str().unwrap());
+    cirrus_ok(&["export", usda, "-o", folder_s, "--shutter", "0,1"]);
+    let c = dir.join("exported.exr");
+    render(&folder, &c, &flags);
+    assert!(
+        common::channel_bits(&c) == common::channel_bits(&b),
+        "cirrus export --shutter 0,1 did not export the motion"
+    );
+    let jobs = dir.join("jobs");
+    let out = dir.join("farm.exr");
+    cirrus_ok(&[
+        "farm",
+        "submit",
+        usda,
+        "-o",
+        out.to_str().unwrap(),
+        "--shutter",
+        "0,1",
+        "--dry-run",
+        "--job-dir",
+        jobs.to_str().unwrap(),
+    ]);
+    let manifest = std::fs::read_to_string(jobs.join("scenes/default/scene.json")).unwrap();
+    let exported_manifest = std::fs::read_to_string(folder.join("scene.json")).unwrap();
+    assert_eq!(
+        manifest, exported_manifest,
+        "farm submit --shutter exported another scene than cirrus export --shutter"
+    );
+}
+
+/// A blurring `--shutter` on an exported scene must be the shutter it was
+/// exported with: its motion keys cover only that, and anything else would
+/// render what moves as still without a word.
+#[test]
+fn a_shutter_the_export_did_not_key_is_refused() {
+    let dir = common::scratch("motion_unkeyed");
+    let still = dir.join("still");
+    let usda = stage("motion_sphere");
+    let args = [usda.to_str().unwrap(), still.to_str().unwrap(), "0,0", "0"];
+    common::run_python(
+        &common::venv_python(),
+        &common::python_script("export_frames.py"),
+        &args,
+    );
+    let frame = still.join("frame0");
+    let out = dir.join("refused.exr");
+    let refused = cirrus(&[
+        "render",
+        frame.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--shutter",
+        "0,1",
+    ]);
+    let log = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success(),
+        "an unkeyed shutter rendered:\n{log}"
+    );
+    assert!(
+        log.contains("exported with shutter 0,0") && log.contains("cirrus export --shutter 0,1"),
+        "the refusal does not say what to do:\n{log}"
+    );
+    assert!(!out.exists(), "a refused render wrote {}", out.display());
+    // The shutter it was exported with, or a closed one, renders.
+    let moving = exported("motion_sphere");
+    let ok = dir.join("keyed.exr");
+    render(&moving, &ok, &["--spp", "1", "--shutter", "0,1"]);
+    render(&frame, &ok, &["--spp", "1", "--shutter", "0,0"]);
 }
 
 /// A shutter closing before it opens is refused, on the command line and

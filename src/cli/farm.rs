@@ -41,6 +41,10 @@ pub struct SubmitArgs {
     /// Image size WIDTHxHEIGHT (default: the stage's).
     #[arg(long, value_parser = super::render::parse_resolution)]
     res: Option<UVec2>,
+    /// Shutter OPEN,CLOSE (frames) each frame is exported and rendered with
+    /// (default: the camera's).
+    #[arg(long, value_name = "OPEN,CLOSE", allow_hyphen_values = true)]
+    shutter: Option<cirrus::motion::Shutter>,
     /// Further `cirrus render` flags given to every part (e.g. "--aovs all --seed 3").
     #[arg(long, allow_hyphen_values = true, default_value = "")]
     render_args: String,
@@ -72,6 +76,7 @@ fn submit(args: SubmitArgs) -> Result<()> {
         split_by: args.split_by,
         spp: args.spp,
         res: args.res,
+        shutter: args.shutter,
         render_args: args.render_args,
         cpus_per_task: args.cpus_per_task,
         job_dir: args.job_dir,

@@ -50,6 +50,9 @@ enum Command {
         /// Camera prim to export (default: the render settings' camera, else the first).
         #[arg(long)]
         camera: Option<String>,
+        /// Shutter OPEN,CLOSE (frames) to key motion over (default: the camera's).
+        #[arg(long, value_name = "OPEN,CLOSE", allow_hyphen_values = true)]
+        shutter: Option<cirrus::motion::Shutter>,
     },
     /// Render a scene to an EXR (and a PNG preview beside it).
     Render(render::RenderArgs),
@@ -84,7 +87,8 @@ pub fn run() -> ExitCode {
             output,
             frame,
             camera,
-        } => export(&input, &output, frame, camera.as_deref()),
+            shutter,
+        } => export(&input, &output, (frame, camera.as_deref(), shutter)),
         Command::Render(args) => render::run(args),
         Command::Merge(args) => split::merge(args),
         Command::Farm(f) => farm::run(f),
@@ -116,8 +120,12 @@ fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Val
 
 /// `cirrus export`: runs the exporter, then loads the result so a scene that
 /// the renderer would refuse is reported now rather than at render time.
-fn export(input: &Path, output: &Path, frame: Option<f64>, camera: Option<&str>) -> Result<()> {
-    cirrus::scene::export(input, output, frame, camera, None)?;
+fn export(
+    input: &Path,
+    output: &Path,
+    (frame, camera, shutter): (Option<f64>, Option<&str>, Option<cirrus::motion::Shutter>),
+) -> Result<()> {
+    cirrus::scene::export(input, output, frame, camera, shutter)?;
     let scene = Scene::load(output)?;
     let m = &scene.manifest;
     println!(

@@ -19,6 +19,7 @@ use glam::UVec2;
 
 use super::FarmError;
 use crate::file_error::FileError;
+use crate::motion::Shutter;
 
 /// How a frame is split into parts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -55,6 +56,9 @@ pub struct SlurmJob {
     pub spp: u32,
     /// Image size (default: the stage's).
     pub res: Option<UVec2>,
+    /// Shutter each frame is exported with (default: the camera's); the
+    /// parts render the exported frames, so with their motion keys.
+    pub shutter: Option<Shutter>,
     /// Further `cirrus render` flags given to every part.
     pub render_args: String,
     /// CPUs per part (the render uses as many threads).
@@ -136,10 +140,17 @@ pub fn submit(job: &SlurmJob) -> Result<Submitted, FarmError> {
     for &frame in &frames {
         let scene = dir.join("scenes").join(label(frame));
         if crate::scene::is_usd(&args.scene) {
-            crate::scene::export(&args.scene, &scene, frame.map(|f| f as f64), None, None)?;
-        } else if frame.is_some() {
+            crate::scene::export(
+                &args.scene,
+                &scene,
+                frame.map(|f| f as f64),
+                None,
+                args.shutter,
+            )?;
+        } else if frame.is_some() || args.shutter.is_some() {
             return Err(FarmError::Refused(format!(
-                "--frames needs a USD scene; {} is exported",
+                "--frames and --shutter need a USD scene; {} is exported (its shutter is the \
+                 one it was exported with: `cirrus export --shutter`)",
                 args.scene.display()
             )));
         } else {

@@ -68,6 +68,21 @@ pub enum OpenError {
         /// The exported scene.
         path: PathBuf,
     },
+    /// `--shutter` differs from the shutter an exported scene's motion
+    /// keys were written for.
+    #[error(
+        "--shutter {asked}: {} was exported with shutter {exported}, and its motion covers only \
+         that; export it again with `cirrus export --shutter {asked}`, or render the USD file",
+        path.display()
+    )]
+    ShutterNotExported {
+        /// The shutter asked for, frames.
+        asked: Shutter,
+        /// The shutter the scene was exported with, frames.
+        exported: Shutter,
+        /// The exported scene.
+        path: PathBuf,
+    },
 }
 
 /// Bytes of bulk data a scene holds, by what they describe.
@@ -132,7 +147,7 @@ impl Scene {
             let flag = match (frame, camera) {
                 (Some(_), _) => "--frame",
                 (_, Some(_)) => "--camera",
-                _ => return Ok(Self::load_with(path, refinement)?),
+                _ => return Self::load_exported(path, shutter, refinement),
             };
             let path = path.to_path_buf();
             return Err(OpenError::UsdOnly { flag, path });
@@ -145,6 +160,33 @@ impl Scene {
             }
         }
         Ok(scene)
+    }
+
+    /// Loads an exported scene for [`Scene::open`]. A shutter that blurs
+    /// must be the one the scene was exported with: its motion keys cover
+    /// that interval only, and rendering another would leave what moves
+    /// still without a word.
+    fn load_exported(
+        path: &Path,
+        shutter: Option<Shutter>,
+        refinement: Refinement,
+    ) -> Result<Self, OpenError> {
+        let scene = Self::load_with(path, refinement)?;
+        let exported = scene
+            .manifest
+            .camera
+            .shutter
+            .map_or(Shutter::CLOSED, |[open, close]| Shutter { open, close });
+        match shutter {
+            Some(asked) if asked.blurs() && asked != exported => {
+                Err(OpenError::ShutterNotExported {
+                    asked,
+                    exported,
+                    path: path.to_path_buf(),
+                })
+            }
+            _ => Ok(scene),
+        }
     }
 
     /// Loads a scene from its folder or its `scene.json`, validating everything
