@@ -114,7 +114,6 @@ impl RenderState {
         }
         let media = Media::build(scene, options.majorant)?;
         let materials = Materials::build(scene)?;
-        let lights = Lights::build(scene, &materials, &media, options.volume_lights)?;
         // The camera first: its shutter says whether geometry moves.
         let camera = Camera::new(&scene.manifest.camera, resolution)?;
         let camera = match options.shutter {
@@ -122,11 +121,12 @@ impl RenderState {
             None => camera,
         };
         let shutter = camera.shutter();
+        let lights = Lights::build(scene, &materials, &media, options.volume_lights, shutter)?;
         if shutter.blurs() {
             log::info!("shutter {shutter} frames: motion blur on");
             let m = &scene.manifest;
             if m.camera.shutter.is_none() && m.instances.motion.is_none() {
-                log::warn!("the scene was exported with a closed shutter: nothing moves (render the USD stage itself with --shutter {shutter}, or export it with export_usd.py --shutter {shutter})");
+                log::warn!("the scene was exported with a closed shutter: nothing moves (render the USD stage itself with --shutter {shutter}, or export it with `cirrus export --shutter {shutter}`)");
             }
         }
         let geometry = Geometry::build(scene, shutter.blurs());

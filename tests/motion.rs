@@ -176,6 +176,11 @@ fn point_instancer_velocities_blur_to_the_average_of_still_frames() {
 }
 
 #[test]
+fn a_moving_emitter_lights_the_floor_as_the_average_of_still_frames() {
+    blurred_equals_average_of_stills("motion_emitter");
+}
+
+#[test]
 fn a_moving_camera_blurs_the_still_world_to_the_average_of_still_frames() {
     blurred_equals_average_of_stills("motion_camera");
 }
@@ -487,4 +492,44 @@ fn blurred_farm_parts_and_resumed_renders_are_bit_identical() {
         common::channel_bits(&exr) == common::channel_bits(&whole),
         "the resumed blurred render differs"
     );
+}
+
+/// Motion the export does not carry yet (a moving light, time-sampled or
+/// velocity-driven points, a skeletal animation) is warned about by prim
+/// when the shutter is open, and not at all when it is closed.
+#[test]
+fn motion_not_blurred_yet_is_warned_about_by_prim() {
+    let dir = common::scratch("motion_unblurred");
+    let usda = stage("motion_unblurred");
+    let export = |name: &str, shutter: &str| {
+        let out = dir.join(name);
+        let args = [
+            "export",
+            usda.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        let log = cirrus_ok(&[&args[..], &["--frame", "0", "--shutter", shutter]].concat());
+        log.lines()
+            .filter(|l| l.starts_with("warning:"))
+            .map(str::to_owned)
+            .collect::<Vec<_>>()
+    };
+    let open = export("open", "0,1");
+    for (prim, what) in [
+        ("/World/Lamp", "the light's transform changes"),
+        ("/World/Waving", "points deform it"),
+        ("/World/Drifting", "velocities deform it"),
+        ("/World/Walk", "the skeletal animation changes"),
+    ] {
+        let said = open.iter().filter(|w| w.contains(prim) && w.contains(what));
+        assert_eq!(
+            said.count(),
+            1,
+            "{prim}: expected one warning '{what}' in {open:#?}"
+        );
+    }
+    assert_eq!(open.len(), 4, "unexpected warnings: {open:#?}");
+    let closed = export("closed", "0,0");
+    assert!(closed.is_empty(), "a closed shutter warned: {closed:#?}");
 }

@@ -13,7 +13,7 @@ scene with a closed shutter, exports byte-identical to one exported without this
 import math
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom
+from pxr import Gf, Usd, UsdGeom, UsdLux, UsdSkel
 
 from .report import Report
 from .xforms import as_array, to_3x4, to_3x4_list
@@ -84,6 +84,59 @@ def key_times(stage: Usd.Stage, start: float, end: float) -> list[float]:
                          instancer.GetScalesAttr()):
                 times.update(attr.GetTimeSamplesInInterval(interval))
     return sorted(t for t in times if start <= t <= end)
+
+
+def warn_unblurred(stage: Usd.Stage, frame_time: float, start: float, end: float,
+                   report: Report) -> None:
+    """One warning per prim whose motion over the shutter [start, end] (absolute time codes)
+    the export does not carry, so it renders as it is at the frame: lights whose transform
+    changes, point-based prims whose points are time-sampled inside the shutter or that
+    author non-zero velocities or accelerations, and skeletal animations animated inside it."""
+    interval = Gf.Interval(start, end)
+    frame = Usd.TimeCode(frame_time)
+    caches = [UsdGeom.XformCache(Usd.TimeCode(t)) for t in (frame_time, start, end)]
+
+    def samples_inside(attr: Usd.Attribute) -> bool:
+        return bool(attr) and len(attr.GetTimeSamplesInInterval(interval)) > 0
+
+    def non_zero(attr: Usd.Attribute) -> bool:
+        value = attr.Get(frame) if attr and attr.HasAuthoredValue() else None
+        return value is not None and bool(np.any(np.asarray(value) != 0))
+
+    for prim in Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()):
+        path = prim.GetPath()
+        if prim.HasAPI(UsdLux.LightAPI):
+            at_frame = caches[0].GetLocalToWorldTransform(prim)
+            if any(c.GetLocalToWorldTransform(prim) != at_frame for c in caches[1:]) or \
+                    samples_inside_xform(prim, interval):
+                report.warn(f"{path}: the light's transform changes over the shutter; rendered "
+                            f"where it is at the frame (moving lights are not blurred yet)")
+        points = UsdGeom.PointBased(prim)
+        if points:
+            moved = [a.GetName() for a in (points.GetPointsAttr(),) if samples_inside(a)]
+            moved += [a.GetName() for a in (points.GetVelocitiesAttr(),
+                                            points.GetAccelerationsAttr()) if non_zero(a)]
+            if moved:
+                report.warn(f"{path}: {', '.join(moved)} deform it over the shutter; rendered "
+                            f"as it is at the frame (deforming motion blur is not supported yet)")
+        animation = UsdSkel.Animation(prim)
+        if animation:
+            attrs = (animation.GetTranslationsAttr(), animation.GetRotationsAttr(),
+                     animation.GetScalesAttr(), animation.GetBlendShapeWeightsAttr())
+            if any(samples_inside(a) for a in attrs):
+                report.warn(f"{path}: the skeletal animation changes over the shutter; the "
+                            f"meshes it drives are posed at the frame (skinned motion blur is not "
+                            f"supported yet)")
+
+
+def samples_inside_xform(prim: Usd.Prim, interval: Gf.Interval) -> bool:
+    """Whether `prim` or an ancestor has transform time samples inside `interval`."""
+    while prim and not prim.IsPseudoRoot():
+        xformable = UsdGeom.Xformable(prim)
+        if xformable and xformable.GetTimeSamplesInInterval(interval):
+            return True
+        prim = prim.GetParent()
+    return False
 
 
 def _rotation_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -209,6 +262,7 @@ def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, wal
                     f"blur around; exported without motion (pass --frame or author startTimeCode)")
         return
     t0 = time.GetValue()
+    warn_unblurred(stage, t0, t0 + open_, t0 + close, report)
     matrices, source = frame
     reference = walker_at(time)
 

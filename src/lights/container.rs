@@ -4,7 +4,7 @@
 //! which the integrator samples lights, finds them along rays and weighs
 //! them for MIS.
 
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap, HashSet};
 
 use glam::{Vec2, Vec3};
 
@@ -14,6 +14,7 @@ use super::volume::VolumeLight;
 use super::{Emitters, Light, LightError, LightHit, LightSample, LOG_TARGET};
 use crate::geometry::SurfacePoint;
 use crate::materials::Materials;
+use crate::motion::Shutter;
 use crate::scene::{Light as LightRecord, LightShape, Scene};
 use crate::volumes::Media;
 
@@ -198,12 +199,18 @@ impl Lights {
     /// Every UsdLux light of the scene and every placed mesh with emissive
     /// triangles, then the power-based selection over them. Lights of zero
     /// power (black, zero size without `normalize`) are left out with a
-    /// warning; unusable values are a [`LightError`].
+    /// warning; unusable values are a [`LightError`]. When `shutter` blurs,
+    /// emissive meshes of moving instances are left out too, with a warning
+    /// naming the mesh: a light sample would sit where the mesh is at the
+    /// frame while rays meet it at their own time, so only rays that hit it
+    /// find its light (BSDF sampling alone, unbiased: their MIS weight is
+    /// then 1, as [`Lights::mesh_pdf`] is 0 for them).
     pub fn build(
         scene: &Scene,
         materials: &Materials,
         media: &Media,
         volume_lights: bool,
+        shutter: Shutter,
     ) -> Result<Self, LightError> {
         let radius = select::scene_radius(&scene.manifest.bounds);
         let mut lights = Vec::new();
@@ -215,12 +222,25 @@ impl Lights {
                 log::warn!(target: LOG_TARGET, "light {} emits nothing; left out", record.path);
             }
         }
+        let moving = moving_instances(scene, shutter);
         let mut meshes = HashMap::new();
+        let mut unsampled = BTreeSet::new();
         for (key, mesh) in MeshLight::build_all(scene, materials) {
-            if mesh.power() > 0.0 {
+            if moving.contains(&key.0) {
+                unsampled.insert(mesh.mesh());
+            } else if mesh.power() > 0.0 {
                 meshes.insert(key, lights.len());
                 lights.push(Light::Mesh(mesh));
             }
+        }
+        let any_mesh_emits = !meshes.is_empty() || !unsampled.is_empty();
+        for mesh in unsampled {
+            log::warn!(
+                target: LOG_TARGET,
+                "emissive mesh {} moves over the shutter: its light is found only by rays that \
+                 hit it, not light-sampled (unbiased, noisier)",
+                scene.manifest.meshes[mesh as usize].path
+            );
         }
         let emitters: Vec<_> = media.emitters().collect();
         let mut volumes = Vec::new();
@@ -241,8 +261,8 @@ impl Lights {
         }
         // Fire counts as a light here whether or not it is light-sampled,
         // so `--volume-light-sampling off` renders the same image.
-        if lights.len() == volumes.len() && scene.manifest.lights.is_empty() && emitters.is_empty()
-        {
+        let emits = !scene.manifest.lights.is_empty() || any_mesh_emits || !emitters.is_empty();
+        if lights.len() == volumes.len() && !emits {
             log::warn!(
                 target: LOG_TARGET,
                 "the scene has no lights: lighting it with a white dome of radiance 1 \
@@ -330,6 +350,14 @@ fn default_dome() -> LightRecord {
     }
 }
 
+/// The instances that move over `shutter` (none when it does not blur).
+fn moving_instances(scene: &Scene, shutter: Shutter) -> HashSet<u32> {
+    match &scene.manifest.instances.motion {
+        Some(motion) if shutter.blurs() => scene.view(&motion.instance).iter().copied().collect(),
+        _ => HashSet::new(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -366,7 +394,7 @@ mod tests {
             &[far],
         );
         let materials = Materials::build(&scene).unwrap();
-        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true).unwrap();
+        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true, Shutter::CLOSED).unwrap();
         assert_eq!(lights.lights.len(), 3);
         let probabilities: Vec<f32> = (0..3).map(|i| lights.probability(Vec3::ZERO, i)).collect();
         assert!((probabilities.iter().sum::<f32>() - 1.0).abs() < 1e-5);
@@ -418,7 +446,7 @@ mod tests {
         let placed = [1., 0., 0., -0.5, 0., -1., 0., 0.5, 0., 0., -1., 1.];
         let scene = scene_with("mesh", serde_json::json!([]), [2.0, 2.0, 2.0], &[placed]);
         let materials = Materials::build(&scene).unwrap();
-        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true).unwrap();
+        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true, Shutter::CLOSED).unwrap();
         let e = estimate(20_000, 22, |u| {
             let (_, s) = lights.sample(emitters(&materials), Vec3::ZERO, 0.5, u)?;
             let p = s.wi * s.distance;
@@ -471,7 +499,7 @@ mod tests {
         bad["normalize"] = true.into();
         let scene = scene_with("bad", serde_json::json!([bad]), [0.0; 3], &[]);
         let materials = Materials::build(&scene).unwrap();
-        let err = Lights::build(&scene, &materials, &NO_MEDIA, true)
+        let err = Lights::build(&scene, &materials, &NO_MEDIA, true, Shutter::CLOSED)
             .err()
             .unwrap();
         assert!(err.to_string().contains("/World/Bad"), "{err}");
@@ -483,7 +511,7 @@ mod tests {
     fn a_scene_without_lights_gets_the_default_dome() {
         let empty = scene_with("empty", serde_json::json!([]), [0.0; 3], &[]);
         let materials = Materials::build(&empty).unwrap();
-        let lights = Lights::build(&empty, &materials, &NO_MEDIA, true).unwrap();
+        let lights = Lights::build(&empty, &materials, &NO_MEDIA, true, Shutter::CLOSED).unwrap();
         let mut seen = Vec::new();
         lights.escaped(
             Vec3::ZERO,
@@ -521,7 +549,7 @@ mod tests {
             &[],
         );
         let materials = Materials::build(&scene).unwrap();
-        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true).unwrap();
+        let lights = Lights::build(&scene, &materials, &NO_MEDIA, true, Shutter::CLOSED).unwrap();
         let p_dome = lights.probability(Vec3::ZERO, 0);
         assert!(p_dome > 0.0 && p_dome < 1.0);
         assert!((p_dome + lights.probability(Vec3::ZERO, 1) - 1.0).abs() < 1e-6);

@@ -124,6 +124,11 @@ impl MeshLight {
         self.power
     }
 
+    /// Index of the mesh in the scene's meshes.
+    pub fn mesh(&self) -> u32 {
+        self.mesh
+    }
+
     /// One light per placed mesh with emissive triangles, with the
     /// (instance, prototype mesh) pair that names it in `SurfacePoint`.
     /// Zero-area triangles and placements are left out.
