@@ -50,6 +50,9 @@ enum Command {
         /// Camera prim to export (default: the render settings' camera, else the first).
         #[arg(long)]
         camera: Option<String>,
+        /// UsdRender.Settings prim to export (default: renderSettingsPrimPath, else the only one).
+        #[arg(long)]
+        settings: Option<String>,
     },
     /// Render a scene to an EXR (and a PNG preview beside it).
     Render(render::RenderArgs),
@@ -84,7 +87,17 @@ pub fn run() -> ExitCode {
             output,
             frame,
             camera,
-        } => export(&input, &output, frame, camera.as_deref()),
+            settings,
+        } => {
+            let (camera, settings) = (camera.as_deref(), settings.as_deref());
+            let options = cirrus::scene::ExportOptions {
+                frame,
+                camera,
+                settings,
+                shutter: None,
+            };
+            export(&input, &output, &options)
+        }
         Command::Render(args) => render::run(args),
         Command::Merge(args) => split::merge(args),
         Command::Farm(f) => farm::run(f),
@@ -116,8 +129,8 @@ fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Val
 
 /// `cirrus export`: runs the exporter, then loads the result so a scene that
 /// the renderer would refuse is reported now rather than at render time.
-fn export(input: &Path, output: &Path, frame: Option<f64>, camera: Option<&str>) -> Result<()> {
-    cirrus::scene::export(input, output, frame, camera, None)?;
+fn export(input: &Path, output: &Path, options: &cirrus::scene::ExportOptions) -> Result<()> {
+    cirrus::scene::export(input, output, options)?;
     let scene = Scene::load(output)?;
     let m = &scene.manifest;
     println!(

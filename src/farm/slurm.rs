@@ -136,7 +136,11 @@ pub fn submit(job: &SlurmJob) -> Result<Submitted, FarmError> {
     for &frame in &frames {
         let scene = dir.join("scenes").join(label(frame));
         if crate::scene::is_usd(&args.scene) {
-            crate::scene::export(&args.scene, &scene, frame.map(|f| f as f64), None, None)?;
+            let options = crate::scene::ExportOptions {
+                frame: frame.map(|f| f as f64),
+                ..Default::default()
+            };
+            crate::scene::export(&args.scene, &scene, &options)?;
         } else if frame.is_some() {
             return Err(FarmError::Refused(format!(
                 "--frames needs a USD scene; {} is exported",
