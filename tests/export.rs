@@ -303,6 +303,20 @@ fn bad_inputs_fail_with_one_clear_message() {
 
     let broken = write_usda(&dir, "broken.usda", "#usda 1.0\ndef Mesh \"M\" {{{\n");
     assert_clean_failure(&export(&broken, &out, ""), &["broken.usda"]);
+    // `cirrus export`'s error names the input once (issue 25; it was three times).
+    for input in [&missing, &broken] {
+        let result = Command::new(env!("CARGO_BIN_EXE_cirrus"))
+            .arg("export")
+            .arg(input)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        let name = input.file_name().unwrap().to_string_lossy();
+        assert!(!result.status.success());
+        assert_eq!(stderr.matches(name.as_ref()).count(), 1, "{stderr}");
+    }
 
     let empty = write_usda(&dir, "empty.usda", "#usda 1.0\n");
     assert_clean_failure(

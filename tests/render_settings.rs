@@ -203,3 +203,31 @@ fn data_window_renders_its_pixels_and_leaves_the_rest_empty() {
         "the image shows something"
     );
 }
+
+#[test]
+fn several_settings_and_none_named_use_none_with_a_warning() {
+    let dir = common::scratch("render_settings_several");
+    let text = std::fs::read_to_string(stage()).unwrap();
+    let metadata = "    renderSettingsPrimPath = \"/Render/shot\"\n";
+    assert!(text.contains(metadata));
+    let unnamed = dir.join("unnamed.usda");
+    std::fs::write(&unnamed, text.replace(metadata, "")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .current_dir(&dir)
+        .arg("render")
+        .arg(&unnamed)
+        .args(["-o", "out.exr", "--res", "8x4", "--spp", "1"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains("RenderSettings prims and none chosen"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    for settings in ["/Render/shot", "/Render/odd", "/Render/crop"] {
+        assert!(warnings[0].contains(settings), "{}", warnings[0]);
+    }
+    assert!(!dir.join("shot.0001.exr").exists() && dir.join("out.exr").exists());
+}

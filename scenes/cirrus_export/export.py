@@ -34,7 +34,7 @@ def open_stage(path: Path, report: Report) -> Usd.Stage:
     try:
         stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
     except Tf.ErrorException as error:
-        raise ExportError(f"{path}: cannot be read as USD: {tf_messages(error)}") from None
+        raise ExportError(f"{path}: cannot be read as USD: {tf_messages(error, path)}") from None
     if stage is None:
         raise ExportError(f"{path}: cannot be read as USD")
     report_composition_errors(stage, path, report)
@@ -58,11 +58,17 @@ def report_composition_errors(stage: Usd.Stage, path: Path, report: Report) -> N
                     f"(first {sites[0]}); their content from it is not exported")
 
 
-def tf_messages(error: Tf.ErrorException) -> str:
-    """The quoted messages of a Tf error, without the C++ function and source locations."""
+def tf_messages(error: Tf.ErrorException, path: Path) -> str:
+    """The quoted messages of a Tf error about the file `path`, without the C++ function and
+    source locations, and without naming `path` again (the caller names it once): USD's
+    closing "Failed to open layer @path@" is dropped, `<path>` and `path:` prefixes shortened."""
     text = " ".join(str(error).split())
-    messages = re.findall(r" : '(.*?)'(?= Error in |$)", text)
-    return "; ".join(m.strip() for m in messages) or text
+    messages = [m.strip() for m in re.findall(r" : '(.*?)'(?= Error in |$)", text)]
+    names = {str(path), str(path.resolve())}
+    kept = [m for m in messages if not any(m == f"Failed to open layer @{n}@" for n in names)]
+    for name in sorted(names, key=len, reverse=True):
+        kept = [m.replace(f"<{name}> ", "it ").replace(f"{name}:", "line ") for m in kept]
+    return "; ".join(kept) or text
 
 
 def pick_time(stage: Usd.Stage, frame: float | None) -> Usd.TimeCode:
