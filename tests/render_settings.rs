@@ -176,7 +176,7 @@ fn settings_naming_another_prim_is_refused_listing_the_settings() {
     assert!(!out.status.success());
     let error: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
     assert_eq!(error.len(), 1, "{stderr}");
-    for needle in ["/World/Ball", "/Render/shot", "/Render/odd", "/Render/crop"] {
+    for needle in ["/World/Ball", "/Render/shot", "/Render/odd", "/Render/pair"] {
         assert!(error[0].contains(needle), "{needle} not in {}", error[0]);
     }
 }
@@ -230,4 +230,28 @@ fn several_settings_and_none_named_use_none_with_a_warning() {
         assert!(warnings[0].contains(settings), "{}", warnings[0]);
     }
     assert!(!dir.join("shot.0001.exr").exists() && dir.join("out.exr").exists());
+}
+
+#[test]
+fn products_sharing_the_render_are_written_from_one_film() {
+    let dir = common::scratch("render_settings_pair");
+    let stderr = render_ok(&dir, &["--settings", "/Render/pair"]);
+    let layers = |file: &str| -> Vec<String> { channels(&dir.join(file)).into_keys().collect() };
+    assert_eq!(
+        layers("pair_a.exr"),
+        ["diffuse.B", "diffuse.G", "diffuse.R"]
+    );
+    assert_eq!(layers("pair_b.exr"), ["A", "B", "G", "R", "depth"]);
+    // pair_c differs in resolution: not rendered, one warning naming it.
+    assert!(!dir.join("pair_c.exr").exists());
+    let warned = stderr
+        .lines()
+        .filter(|l| l.contains("/Render/Products/pair_c"))
+        .count();
+    assert_eq!(warned, 1, "{stderr}");
+    assert_eq!(
+        stderr.matches("wrote ").count(),
+        0,
+        "'wrote' goes to stdout"
+    );
 }

@@ -1,8 +1,9 @@
 //! The files a render writes as the stage's USD render settings ask
 //! (`RenderProduct`s and their `RenderVar`s, exported into `scene.json`),
 //! with the command line's flags winning: `-o` replaces the first product's
-//! `productName`, `--aovs` its vars, `--res` and `--camera` apply to every
-//! product.
+//! `productName`, `--aovs` every product's vars, `--res` and `--camera`
+//! apply to every product. A part of a frame (`-o PART.film`) is the first
+//! product's alone.
 //!
 //! The products share one render: those whose camera, resolution, pixel
 //! aspect and data window equal the first's are written from its film; any
@@ -12,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use glam::UVec2;
 
-use super::{Claim, FarmError, OutputFiles};
+use super::{is_film_output, Claim, FarmError, OutputFiles};
 use crate::film::{AovSet, Tile};
 use crate::image::PixelType;
 use crate::output::{layer_of, AovFiles, LayerSource, Layers, NamedLayer, VarAttributes};
@@ -106,7 +107,12 @@ pub fn plan_outputs(
     let frame = time_code.map_or(1, |t| t.round() as i64);
     let mut outputs = Vec::new();
     let mut aovs = Vec::new();
-    for (i, product) in render.products.iter().enumerate() {
+    // A part's film state (-o PART.film) is the first product's alone.
+    let count = match flags.output {
+        Some(output) if is_film_output(output) => 1,
+        _ => render.products.len(),
+    };
+    for (i, product) in render.products.iter().enumerate().take(count) {
         if i > 0 && !shares_render(first, product, flags) {
             log::warn!(
                 "render product {}: its camera, resolution, pixelAspectRatio or dataWindowNDC differs from {}'s, which is the one rendered; not written (give it its own RenderSettings and render those with --settings)",
