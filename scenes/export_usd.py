@@ -2,7 +2,7 @@
 """Exports a USD stage to a Cirrus scene folder (scene.json + scene.bin, see FORMAT.md).
 
 Usage: python scenes/export_usd.py IN.usd[a|c|z] -o OUT_DIR [--frame F] [--camera PRIM_PATH]
-       [--shutter OPEN,CLOSE]
+       [--shutter OPEN,CLOSE] [--settings PRIM_PATH]
 
 Exit codes: 0 exported (warnings, if any, on stderr and in the manifest);
 2 unusable input (missing file, parse error, nothing to export), one `error:` line;
@@ -34,6 +34,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                         help="camera prim path (default: the render settings' camera, else the first)")
     parser.add_argument("--shutter", type=shutter_interval, default=None,
                         help="OPEN,CLOSE in frames relative to --frame (default: the camera's)")
+    parser.add_argument("--settings", default=None,
+                        help="UsdRender.Settings prim path (default: the stage's renderSettingsPrimPath, "
+                             "else the only one)")
     return parser.parse_args(argv)
 
 
@@ -50,7 +53,7 @@ def main(argv: list[str]) -> int:
     """Runs the export; an unusable input is one clear line on stderr, never a traceback."""
     args = parse_args(argv)
     try:
-        warnings = export(args.input, args.out, args.frame, args.camera, args.shutter)
+        warnings = export(args.input, args.out, args.frame, args.camera, args.shutter, args.settings)
     except ExportError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_UNUSABLE_INPUT

@@ -176,9 +176,65 @@ fn fallbacks_are_warned_once_each() {
         "",
         &dir,
     );
-    assert!(manifest(&out)["warnings"]
-        .to_string()
-        .contains("ground.ACEScg.exr"));
+    // Its missing image once; its image node without a file (mtlximage2)
+    // reads its default as asked, without a warning.
+    let warnings = manifest(&out)["warnings"].to_string();
+    assert_eq!(
+        warnings.matches("ground.ACEScg.exr").count(),
+        1,
+        "{warnings}"
+    );
+    assert!(!warnings.contains("mtlximage2"), "{warnings}");
+}
+
+/// A UsdUVTexture without a file (unauthored, or `@@`) reads its fallback
+/// as asked, without a warning; a missing file is warned about once.
+#[test]
+fn texture_nodes_without_a_file_do_not_warn() {
+    let dir = scratch("export_textures_without_files");
+    let texture = |name: &str, file: &str| {
+        format!(
+            "def Shader \"{name}\" {{\n uniform token info:id = \"UsdUVTexture\"\n {file}\n float4 inputs:fallback = (0.2, 0.2, 0.2, 1)\n float3 outputs:rgb\n}}"
+        )
+    };
+    let stage = format!(
+        r#"#usda 1.0
+def Mesh "Plane" (prepend apiSchemas = ["MaterialBindingAPI"]) {{
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0)]
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    rel material:binding = </Look>
+}}
+def DomeLight "Dome" {{
+}}
+def Material "Look" {{
+    token outputs:surface.connect = </Look/Surface.outputs:surface>
+    def Shader "Surface" {{
+        uniform token info:id = "UsdPreviewSurface"
+        color3f inputs:diffuseColor.connect = </Look/Unset.outputs:rgb>
+        color3f inputs:emissiveColor.connect = </Look/Empty.outputs:rgb>
+        color3f inputs:specularColor.connect = </Look/Missing.outputs:rgb>
+        int inputs:useSpecularWorkflow = 1
+        token outputs:surface
+    }}
+    {}
+    {}
+    {}
+}}
+"#,
+        texture("Unset", ""),
+        texture("Empty", "asset inputs:file = @@"),
+        texture("Missing", "asset inputs:file = @gone.png@"),
+    );
+    let input = write_usda(&dir, "textures.usda", &stage);
+    let out = dir.join("out");
+    export_file_ok(&input, &out);
+    let warnings = manifest(&out)["warnings"].to_string();
+    assert!(
+        !warnings.contains("/Look/Unset") && !warnings.contains("/Look/Empty"),
+        "{warnings}"
+    );
+    assert_eq!(warnings.matches("gone.png").count(), 1, "{warnings}");
 }
 
 /// Textures inside a `.usdz` are extracted into the scene folder and named
@@ -247,6 +303,20 @@ fn bad_inputs_fail_with_one_clear_message() {
 
     let broken = write_usda(&dir, "broken.usda", "#usda 1.0\ndef Mesh \"M\" {{{\n");
     assert_clean_failure(&export(&broken, &out, ""), &["broken.usda"]);
+    // `cirrus export`'s error names the input once (issue 25; it was three times).
+    for input in [&missing, &broken] {
+        let result = Command::new(env!("CARGO_BIN_EXE_cirrus"))
+            .arg("export")
+            .arg(input)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        let name = input.file_name().unwrap().to_string_lossy();
+        assert!(!result.status.success());
+        assert_eq!(stderr.matches(name.as_ref()).count(), 1, "{stderr}");
+    }
 
     let empty = write_usda(&dir, "empty.usda", "#usda 1.0\n");
     assert_clean_failure(

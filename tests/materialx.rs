@@ -21,7 +21,7 @@ fn looks() -> (std::path::PathBuf, Value) {
     let dir = DIR.get_or_init(|| {
         let stage = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/tests/materialx/looks.usda");
         let out = common::scratch("materialx_looks").join("looks");
-        cirrus::scene::export(&stage, &out, None, None, None).unwrap();
+        cirrus::scene::export(&stage, &out, &Default::default()).unwrap();
         out
     });
     (dir.clone(), manifest(dir))
@@ -55,7 +55,7 @@ fn material<'a>(scene: &'a Value, path: &str) -> &'a Value {
 fn chess_set_exports_every_look() {
     let stage = common::asset("usd-wg/full_assets/OpenChessSet/chess_set.usda");
     let out = common::scratch("materialx_chess").join("chess");
-    cirrus::scene::export(&stage, &out, None, None, None).unwrap();
+    cirrus::scene::export(&stage, &out, &Default::default()).unwrap();
     let scene = manifest(&out);
     let materials = scene["materials"].as_array().unwrap();
     assert_eq!(materials.len(), 21);

@@ -306,7 +306,7 @@ def Camera "cam"
     for (frames, out, why) in [
         ("3-1", "r.####.exr", "expected frames A-B[xSTEP]"),
         ("1-3x0", "r.####.exr", "expected frames A-B[xSTEP]"),
-        ("1-3", "r.exr", "has no run of # for the frame number"),
+        ("1-3", "r.exr", "has no frame token for the frame number"),
     ] {
         let mut c = run(out, &["--frames", frames]);
         let out = c.output().unwrap();

@@ -864,7 +864,7 @@ fn instancing_stress_stage_is_deterministic_and_exports_every_instance() {
     assert!(stages[0] == stages[1], "two runs wrote different stages");
 
     let out = dir.join("out");
-    cirrus::scene::export(&dir.join("a.usdc"), &out, None, None, None).unwrap();
+    cirrus::scene::export(&dir.join("a.usdc"), &out, &Default::default()).unwrap();
     let scene = Scene::load(&out).unwrap();
     let m = &scene.manifest;
     assert_eq!(m.instances.count, 1000);

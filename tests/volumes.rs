@@ -406,7 +406,7 @@ fn overlapping_volumes_add_their_extinctions() {
         "/scenes/tests/volume_overlap.usda"
     );
     let dir = common::scratch("volumes_overlap");
-    scene::export(usda.as_ref(), &dir, None, None, None).unwrap();
+    scene::export(usda.as_ref(), &dir, &Default::default()).unwrap();
     let scene = Scene::load(&dir).unwrap();
     // (x, z) of the ray down from y = 5, and its optical depth.
     let rays: [((f32, f32), f64); 4] = [
@@ -640,7 +640,7 @@ def Xform "World"
         );
         std::fs::write(&usda, text).unwrap();
         let out = dir.join(name);
-        scene::export(&usda, &out, None, None, None).unwrap();
+        scene::export(&usda, &out, &Default::default()).unwrap();
         Media::build(&Scene::load(&out).unwrap(), MajorantKind::Adaptive).unwrap()
     };
     let unit = media("unit", 0.02, 20.0);

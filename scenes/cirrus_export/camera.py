@@ -1,5 +1,5 @@
-"""The render camera and resolution: --camera, else UsdRender.Settings' camera, else the first
-Camera, else a default.
+"""The render camera and resolution: --camera, else the first render product's camera (else
+its UsdRender.Settings' camera), else the first Camera, else a default.
 
 The default camera (path null) looks at the centre of the scene bounds from the front
 (along -Z for Y-up, +Y for Z-up) and DEFAULT_PITCH_DEG above, from far enough to see
@@ -11,6 +11,7 @@ import math
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdRender
 
+from .render_settings import render_products
 from .report import ExportError, Report
 from .xforms import as_array, to_3x4_list
 
@@ -19,19 +20,6 @@ DEFAULT_FOCAL = 50.0
 DEFAULT_APERTURE = (20.955, 15.2908)
 # How far above the horizontal the default camera looks down at the scene, degrees.
 DEFAULT_PITCH_DEG = 25.0
-
-
-def _render_settings(stage: Usd.Stage) -> UsdRender.Settings | None:
-    """The stage's renderSettingsPrimPath settings, else the first RenderSettings prim."""
-    path = stage.GetMetadata("renderSettingsPrimPath")
-    if path:
-        settings = UsdRender.Settings(stage.GetPrimAtPath(path))
-        if settings:
-            return settings
-    for prim in stage.Traverse():
-        if prim.IsA(UsdRender.Settings):
-            return UsdRender.Settings(prim)
-    return None
 
 
 def chosen_camera(stage: Usd.Stage, path: str | None) -> Usd.Prim | None:
@@ -48,15 +36,17 @@ def chosen_camera(stage: Usd.Stage, path: str | None) -> Usd.Prim | None:
     raise ExportError(f"--camera {path} {what} of the stage; its cameras: {listed}")
 
 
-def _camera_prim(stage: Usd.Stage, settings: UsdRender.Settings | None, report: Report) -> Usd.Prim | None:
-    """The settings' camera, else the first Camera prim of the stage."""
+def _camera_prim(stage: Usd.Stage, settings: UsdRender.Settings | None, products: list[dict],
+                 report: Report) -> Usd.Prim | None:
+    """The first render product's camera (else the settings'), else the stage's first Camera."""
     if settings:
         targets = settings.GetCameraRel().GetForwardedTargets()
-        if targets:
-            prim = stage.GetPrimAtPath(targets[0])
+        camera = products[0]["camera"] if products else (str(targets[0]) if targets else None)
+        if camera:
+            prim = stage.GetPrimAtPath(camera)
             if prim and prim.IsA(UsdGeom.Camera):
                 return prim
-            report.warn(f"render settings {settings.GetPath()}: camera {targets[0]} is not a Camera; ignored")
+            report.warn(f"render settings {settings.GetPath()}: camera {camera} is not a Camera; ignored")
     for prim in stage.Traverse():
         if prim.IsA(UsdGeom.Camera):
             return prim
@@ -64,13 +54,17 @@ def _camera_prim(stage: Usd.Stage, settings: UsdRender.Settings | None, report: 
 
 
 def export_render(stage: Usd.Stage, time: Usd.TimeCode, bounds: tuple[np.ndarray, np.ndarray],
-                  report: Report, chosen: Usd.Prim | None = None) -> tuple[dict, dict]:
-    """The manifest `camera` and `render` objects; `chosen` (see chosen_camera) overrides the
-    stage's camera."""
-    settings = _render_settings(stage)
-    resolution = settings.GetResolutionAttr().Get(time) if settings else None
-    render = {"resolution": [int(resolution[0]), int(resolution[1])] if resolution else None}
-    prim = chosen or _camera_prim(stage, settings, report)
+                  report: Report, chosen: Usd.Prim | None = None,
+                  settings: UsdRender.Settings | None = None) -> tuple[dict, dict]:
+    """The manifest `camera` and `render` objects from `settings` (see chosen_settings);
+    `chosen` (see chosen_camera) overrides the stage's camera."""
+    products = render_products(settings, time, report) if settings else []
+    resolution = products[0]["resolution"] if products else \
+        settings.GetResolutionAttr().Get(time) if settings else None
+    render = {"resolution": [int(resolution[0]), int(resolution[1])] if resolution else None,
+              "settings": str(settings.GetPath()) if settings else None,
+              "products": products}
+    prim = chosen or _camera_prim(stage, settings, products, report)
     if prim is None:
         return _default_camera(bounds, UsdGeom.GetStageUpAxis(stage)), render
     return _usd_camera(prim, time), render

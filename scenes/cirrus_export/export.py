@@ -18,6 +18,7 @@ from .materials import MaterialTable
 from .mtlx import MtlxDocuments
 from .motion import Recorder, add_motion, replaying_walker
 from .prototypes import MeshTable, Prototypes
+from .render_settings import chosen_settings
 from .report import ExportError, Report
 from .skinning import Skinning
 from .volumes import VolumeTable
@@ -33,7 +34,7 @@ def open_stage(path: Path, report: Report) -> Usd.Stage:
     try:
         stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
     except Tf.ErrorException as error:
-        raise ExportError(f"{path}: cannot be read as USD: {tf_messages(error)}") from None
+        raise ExportError(f"{path}: cannot be read as USD: {tf_messages(error, path)}") from None
     if stage is None:
         raise ExportError(f"{path}: cannot be read as USD")
     report_composition_errors(stage, path, report)
@@ -57,11 +58,17 @@ def report_composition_errors(stage: Usd.Stage, path: Path, report: Report) -> N
                     f"(first {sites[0]}); their content from it is not exported")
 
 
-def tf_messages(error: Tf.ErrorException) -> str:
-    """The quoted messages of a Tf error, without the C++ function and source locations."""
+def tf_messages(error: Tf.ErrorException, path: Path) -> str:
+    """The quoted messages of a Tf error about the file `path`, without the C++ function and
+    source locations, and without naming `path` again (the caller names it once): USD's
+    closing "Failed to open layer @path@" is dropped, `<path>` and `path:` prefixes shortened."""
     text = " ".join(str(error).split())
-    messages = re.findall(r" : '(.*?)'(?= Error in |$)", text)
-    return "; ".join(m.strip() for m in messages) or text
+    messages = [m.strip() for m in re.findall(r" : '(.*?)'(?= Error in |$)", text)]
+    names = {str(path), str(path.resolve())}
+    kept = [m for m in messages if not any(m == f"Failed to open layer @{n}@" for n in names)]
+    for name in sorted(names, key=len, reverse=True):
+        kept = [m.replace(f"<{name}> ", "it ").replace(f"{name}:", "line ") for m in kept]
+    return "; ".join(kept) or text
 
 
 def pick_time(stage: Usd.Stage, frame: float | None) -> Usd.TimeCode:
@@ -88,13 +95,14 @@ def world_bounds(prototype_boxes: list, prototype: np.ndarray, matrices: np.ndar
 
 
 def export(path: Path, out_dir: Path, frame: float | None, camera: str | None = None,
-           shutter: tuple[float, float] | None = None) -> list[str]:
+           shutter: tuple[float, float] | None = None, settings: str | None = None) -> list[str]:
     """Exports `path` to `out_dir` as seen by the camera prim `camera` (default: the stage's)
-    with `shutter` (frames; default: the camera's); returns the warnings. Raises ExportError
-    for unusable input."""
+    with `shutter` (frames; default: the camera's) and the render settings prim `settings`
+    (default: see chosen_settings); returns the warnings. Raises ExportError for unusable
+    input."""
     report = Report()
     with report.usd_diagnostics():
-        manifest, writer = collect(path, out_dir, frame, report, camera, shutter)
+        manifest, writer = collect(path, out_dir, frame, report, (camera, settings), shutter)
     manifest["warnings"] = report.warnings
     bad = first_non_finite(manifest)
     if bad is not None:
@@ -126,10 +134,13 @@ def first_non_finite(value, field: str = "", prim: str | None = None):
 
 
 def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
-            camera: str | None = None, shutter: tuple[float, float] | None = None) -> tuple[dict, BinWriter]:
-    """Reads the stage into the manifest (warnings not yet filled in) and the scene.bin arrays."""
+            prims: tuple[str | None, str | None] = (None, None),
+            shutter: tuple[float, float] | None = None) -> tuple[dict, BinWriter]:
+    """Reads the stage into the manifest (warnings not yet filled in) and the scene.bin arrays;
+    `prims` are the --camera and --settings prim paths."""
     stage = open_stage(path, report)
-    chosen = chosen_camera(stage, camera)
+    chosen = chosen_camera(stage, prims[0])
+    settings = chosen_settings(stage, prims[1], report)
     time = pick_time(stage, frame)
     frame_label = "default" if time.IsDefault() else f"{time.GetValue():g}"
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -153,7 +164,7 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
             "the stage holds no visible mesh, gprim, volume or light"
         raise ExportError(f"{path}: nothing to export from /: {problems}")
     lo, hi = world_bounds(prototypes.boxes, prototype, matrices)
-    camera, render = export_render(stage, time, (lo, hi), report, chosen)
+    camera, render = export_render(stage, time, (lo, hi), report, chosen, settings)
     add_motion(stage, time, shutter, replaying_walker(Walker, recorder, skinning, stage),
                (camera, instances), (matrices, sink.arrays()["source"]), writer, report)
     manifest = {

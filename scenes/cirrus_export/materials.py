@@ -217,17 +217,21 @@ class MaterialTable:
         """The manifest index of a UsdUVTexture, stored once per distinct record."""
         attrs = texture.GetInput("file").GetValueProducingAttributes()
         resolved = self._resolver.resolve(attrs[0], self._time) if attrs else None
-        file, exists = resolved if resolved else ("", False)
+        # No file authored (or an empty one) reads the fallback as asked, silently; a missing
+        # file is reported here once, and recorded as none so the loader does not again.
+        file, exists = resolved if resolved else ("", True)
+        fallback = input_value(texture, "fallback", [0.0, 0.0, 0.0, 1.0])
         if not exists:
-            self._report.warn(f"material {material_path}: texture file {file or '(none)'} of "
-                              f"{texture.GetPath()} is missing; its fallback value is used")
+            self._report.warn(f"material {material_path}: image file {file} of {texture.GetPath()} "
+                              f"is missing; its fallback {[float(f'{v:.6g}') for v in fallback]} is used")
+            file = ""
         record = {
             "file": file,
             "wrap_s": WRAP_MODES.get(input_value(texture, "wrapS", "useMetadata"), "repeat"),
             "wrap_t": WRAP_MODES.get(input_value(texture, "wrapT", "useMetadata"), "repeat"),
             "scale": input_value(texture, "scale", [1.0, 1.0, 1.0, 1.0]),
             "bias": input_value(texture, "bias", [0.0, 0.0, 0.0, 0.0]),
-            "fallback": input_value(texture, "fallback", [0.0, 0.0, 0.0, 1.0]),
+            "fallback": fallback,
             "color_space": self._color_space(texture, material_path),
             "st_transform": self._st_transform(texture),
         }

@@ -82,9 +82,10 @@ class MtlxNode:
         return as_value(inp.getValue()) if inp is not None and inp.getValue() is not None else None
 
     def file(self, name: str) -> tuple[str, bool] | None:
-        """A filename input with `fileprefix` applied, relative to the document's folder."""
+        """A filename input with `fileprefix` applied, relative to the document's folder;
+        None when unauthored or empty."""
         inp = self._element.getInput(name)
-        if inp is None or not inp.getValue() is not None:
+        if inp is None or not inp.getValue():
             return None
         if inp.getInterfaceName() and self._interface is not None:
             return self._interface.file(inp.getInterfaceName())

@@ -254,14 +254,16 @@ class GraphResolver:
         return {"primvar": name, "channel": "r" if width == 1 else "rgb", "fallback": fallback}
 
     def _image(self, node: Node):
-        """A MaterialX image / tiledimage as a texture input; a missing file gives the node's
-        `default`, with one warning."""
+        """A MaterialX image / tiledimage as a texture input; no file gives the node's
+        `default`, and a missing file too, with one warning."""
         default = self._optional(node, "default")
         default = 0.0 if default is None else default
         found = node.file("file")
-        if found is None or not found[1]:
-            self._warn(f"material {self._material}: image file {found[0] if found else '(none)'} of "
-                       f"{node.path} is missing; its default {default} is used")
+        if found is None:  # no file authored: the default, as asked
+            return default
+        if not found[1]:
+            self._warn(f"material {self._material}: image file {found[0]} of {node.path} is "
+                       f"missing; its default {default} is used")
             return default
         width = WIDTHS.get(node.type, 3)
         space = node.color_space("file")

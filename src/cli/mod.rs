@@ -53,6 +53,9 @@ enum Command {
         /// Shutter OPEN,CLOSE (frames) to key motion over (default: the camera's).
         #[arg(long, value_name = "OPEN,CLOSE", allow_hyphen_values = true)]
         shutter: Option<cirrus::motion::Shutter>,
+        /// UsdRender.Settings prim to export (default: renderSettingsPrimPath, else the only one).
+        #[arg(long)]
+        settings: Option<String>,
     },
     /// Render a scene to an EXR (and a PNG preview beside it).
     Render(render::RenderArgs),
@@ -87,8 +90,18 @@ pub fn run() -> ExitCode {
             output,
             frame,
             camera,
+            settings,
             shutter,
-        } => export(&input, &output, (frame, camera.as_deref(), shutter)),
+        } => {
+            let (camera, settings) = (camera.as_deref(), settings.as_deref());
+            let options = cirrus::scene::ExportOptions {
+                frame,
+                camera,
+                settings,
+                shutter,
+            };
+            export(&input, &output, &options)
+        }
         Command::Render(args) => render::run(args),
         Command::Merge(args) => split::merge(args),
         Command::Farm(f) => farm::run(f),
@@ -120,12 +133,8 @@ fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Val
 
 /// `cirrus export`: runs the exporter, then loads the result so a scene that
 /// the renderer would refuse is reported now rather than at render time.
-fn export(
-    input: &Path,
-    output: &Path,
-    (frame, camera, shutter): (Option<f64>, Option<&str>, Option<cirrus::motion::Shutter>),
-) -> Result<()> {
-    cirrus::scene::export(input, output, frame, camera, shutter)?;
+fn export(input: &Path, output: &Path, options: &cirrus::scene::ExportOptions) -> Result<()> {
+    cirrus::scene::export(input, output, options)?;
     let scene = Scene::load(output)?;
     let m = &scene.manifest;
     println!(

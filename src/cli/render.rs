@@ -12,9 +12,9 @@ use glam::UVec2;
 use super::signal::{Interrupted, StopSignal};
 use super::split::PartArgs;
 use cirrus::farm::{
-    frame_output, has_frame_number, is_film_output, resume, save_interrupted, write_finished,
-    write_snapshot, Claim, Fingerprint, FrameRange, ImageFormat, OutputFiles, PartInfo,
-    RenderIdentity,
+    data_window, frame_output, has_frame_number, is_film_output, plan_outputs, resume,
+    save_interrupted, write_finished, write_snapshot, Fingerprint, FrameRange, ImageFormat,
+    OutputFlags, PartInfo, RenderIdentity,
 };
 use cirrus::film::AovSet;
 use cirrus::film::Film;
@@ -38,9 +38,10 @@ const DEFAULT_SPP: u32 = 64;
 pub struct RenderArgs {
     /// A USD file (.usd/.usda/.usdc/.usdz), a scene folder, or its scene.json.
     scene: PathBuf,
-    /// The EXR to write; a tone-mapped PNG preview is written beside it.
+    /// The EXR to write (default: the render settings' first product's
+    /// productName); a tone-mapped PNG preview is written beside it.
     #[arg(short, long)]
-    output: PathBuf,
+    output: Option<PathBuf>,
     /// Samples per pixel [default: 64].
     #[arg(long, conflicts_with = "time")]
     spp: Option<u32>,
@@ -92,9 +93,10 @@ pub struct RenderArgs {
     /// comma-separated list (emission, diffuse_direct, diffuse_indirect,
     /// specular_direct, specular_indirect, transmission, volume_direct,
     /// volume_indirect, albedo, N, P, Z, sample_count, variance,
-    /// CryptoObject, CryptoMaterial).
-    #[arg(long, default_value = "default")]
-    aovs: AovSet,
+    /// CryptoObject, CryptoMaterial) [default: the render products'
+    /// RenderVars, else default].
+    #[arg(long)]
+    aovs: Option<AovSet>,
     /// One multi-channel EXR, or one file per AOV (OUT.<aov>.exr).
     #[arg(long, value_parser = super::choice::<AovFiles>(), default_value_t)]
     aov_files: AovFiles,
@@ -116,6 +118,13 @@ pub struct RenderArgs {
     /// the render settings' camera, else the stage's first).
     #[arg(long, value_name = "PRIM_PATH")]
     camera: Option<String>,
+    /// UsdRender.Settings prim whose products and vars to render (USD input
+    /// only; default: the stage's renderSettingsPrimPath, else the only one).
+    #[arg(long, value_name = "PRIM_PATH")]
+    settings: Option<String>,
+    /// Set for each frame of --frames: product names need a frame token.
+    #[arg(skip)]
+    sequence: bool,
     /// Subdivision level of meshes that do not author primvars:cirrus:subdivisionLevel.
     #[arg(long, default_value_t = cirrus::subdivision::DEFAULT_LEVEL)]
     subdiv_level: u32,
@@ -175,11 +184,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         return render_frame(args, &signal);
     };
     let frames: Vec<i64> = range.frames().collect();
-    if frames.len() > 1 && !has_frame_number(&args.output) {
-        bail!(
-            "--frames: -o {} has no run of # for the frame number (e.g. out/shot.####.exr)",
-            args.output.display()
-        );
+    if frames.len() > 1 && args.output.as_ref().is_some_and(|o| !has_frame_number(o)) {
+        bail!("--frames: -o has no frame token for the frame number (e.g. out/shot.####.exr)");
     }
     if !cirrus::scene::is_usd(&args.scene) {
         bail!(
@@ -189,11 +195,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     for (i, &frame) in frames.iter().enumerate() {
         log::info!("frame {frame} ({} of {})", i + 1, frames.len());
-        let output = frame_output(&args.output, Some(frame));
+        let output = args.output.as_ref().map(|o| frame_output(o, Some(frame)));
         render_frame(
             RenderArgs {
                 frame: Some(frame as f64),
                 output,
+                sequence: frames.len() > 1,
                 ..args.clone()
             },
             &signal,
@@ -224,9 +231,9 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
             volume_estimator: args.volume_estimator,
             equiangular: !args.no_equiangular,
         },
-        aovs: args.aovs,
+        aovs: AovSet::default(),
     };
-    let film_output = is_film_output(&args.output);
+    let film_output = args.output.as_deref().is_some_and(is_film_output);
     let part = args.part.request();
     if film_output && args.preview_every.is_some() {
         bail!("--preview-every: a film state (-o *.film) has no preview; write an EXR");
@@ -240,14 +247,6 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
         Budget::Time(_) => 0,
     };
     let samples = part.samples(frame_spp)?;
-    let files = OutputFiles::new(&args.output, args.aov_files, &settings.aovs);
-    if files.claim(args.skip_existing, args.resume)? == Claim::Complete {
-        println!(
-            "{} is complete; --skip-existing renders nothing",
-            args.output.display()
-        );
-        return Ok(());
-    }
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
         pool = pool.num_threads(n.into());
@@ -257,12 +256,31 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
     let options = cirrus::scene::OpenOptions {
         frame: args.frame,
         camera: args.camera.as_deref(),
+        settings: args.settings.as_deref(),
         shutter: args.shutter,
         refinement: cirrus::scene::Refinement::Level(args.subdiv_level),
     };
     let scene = cirrus::scene::Scene::open(&args.scene, &options)?;
+    let flags = OutputFlags {
+        output: args.output.as_deref(),
+        aovs: args.aovs.as_ref(),
+        resolution: args.res.is_some(),
+        camera: args.camera.is_some(),
+        sequence: args.sequence,
+    };
+    let m = &scene.manifest;
+    let plan = plan_outputs(&m.render, m.source.time_code, &flags)?;
+    settings.aovs = plan.aovs.clone();
+    let Some(files) = plan.claim(args.aov_files, args.skip_existing, args.resume)? else {
+        let first = plan.outputs[0].path.display();
+        println!("{first} is complete; --skip-existing renders nothing");
+        return Ok(());
+    };
     let resolution = render_state::resolution_for(&scene, args.res);
-    let window = part.window(resolution)?;
+    let window = match plan.data_window_ndc {
+        Some(ndc) if !part.is_part() => data_window(ndc, resolution)?,
+        _ => part.window(resolution)?,
+    };
     let needs = pool.install(|| memory::estimate(&scene, window.size, &settings.aovs))?;
     memory::check(&needs, args.memory_limit)?;
     log::debug!("estimated peak memory: {needs}");
@@ -288,10 +306,10 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
     let film = Film::cropped(state.resolution, window, settings.aovs.clone());
     let fresh = Snapshot::new(film, samples.start);
     let resumed = if args.resume {
-        let resumed = resume(&files.checkpoint, &identity, &fresh, &settings)?;
+        let resumed = resume(&files[0].checkpoint, &identity, &fresh, &settings)?;
         log::info!(
             "resuming {} at {} spp",
-            files.checkpoint.display(),
+            files[0].checkpoint.display(),
             resumed.progress.samples_per_pixel()
         );
         resumed
@@ -307,12 +325,12 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
     );
     let progress = cirrus::progress_bar::ProgressDisplay::new();
     let save = |s: &Snapshot| {
-        if let Err(e) = write_snapshot(&files.checkpoint, &identity, s) {
+        if let Err(e) = write_snapshot(&files[0].checkpoint, &identity, s) {
             log::warn!("checkpoint not saved: {e:#}");
         }
     };
     let preview = |s: &Snapshot| {
-        if let Err(e) = write_film_preview(&preview_path(&args.output), &s.film) {
+        if let Err(e) = write_film_preview(&preview_path(files[0].output()), &s.film) {
             log::warn!("preview not written: {e}");
         }
     };
@@ -337,18 +355,22 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
         let message = if end.progress.is_empty() {
             "interrupted before the first sample; nothing written".into()
         } else {
-            save_interrupted(&files, &identity, &end, &stats, args.compression)
+            save_interrupted(&files[0], &identity, &end, &stats, args.compression)
                 .context("interrupted, and the checkpoint could not be saved")?;
-            let (c, p) = (files.checkpoint.display(), files.partial.display());
+            let (c, p) = (files[0].checkpoint.display(), files[0].partial.display());
             format!("interrupted at {spp} spp: saved {c} and {p}; run the same command with --resume to finish")
         };
         return Err(Interrupted { signal, message }.into());
     }
-    let format = ImageFormat {
-        aov_files: args.aov_files,
-        compression: args.compression,
-    };
-    let written = write_finished(&files, &identity, &end, &stats, format)?;
+    let mut written = Vec::new();
+    for (files, product) in files.iter().zip(&plan.outputs) {
+        let format = ImageFormat {
+            aov_files: args.aov_files,
+            compression: args.compression,
+            layers: &product.layers,
+        };
+        written.extend(write_finished(files, &identity, &end, &stats, format)?);
+    }
     report(&written, &stats);
     Ok(())
 }

@@ -1,7 +1,7 @@
 //! Frame sequences: `A-B[xSTEP]` ranges (`cirrus render --frames`, `cirrus
 //! farm submit --frames`) and the output name of each frame, where a run of
 //! `#` becomes the zero-padded frame number (`shot.####.exr`, as husk and
-//! Nuke write sequences).
+//! Nuke write sequences), as do husk's `$F4` and `<F4>` (`$F`, `<F>`: unpadded).
 
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
@@ -46,25 +46,64 @@ impl FromStr for FrameRange {
     }
 }
 
-/// Whether `pattern` holds a run of `#` for the frame number.
+/// Whether `pattern` holds a frame token (see [`frame_output`]).
 pub fn has_frame_number(pattern: &Path) -> bool {
-    pattern.to_string_lossy().contains('#')
+    let text = pattern.to_string_lossy();
+    text.char_indices()
+        .any(|(at, _)| frame_token(&text[at..]).is_some())
 }
 
-/// The output path of `frame`: the first run of `#` replaced by the
-/// zero-padded number (`None`, or no `#`: the pattern itself).
+/// The frame token at the start of `text`, as (its length in bytes, the
+/// number's width): a run of `#` (its length), `$F` or `$F<n>`, `<F>` or
+/// `<F<n>>` (width n, 1..=9; husk's and Houdini's forms).
+fn frame_token(text: &str) -> Option<(usize, usize)> {
+    let hashes = text.bytes().take_while(|&b| b == b'#').count();
+    if hashes > 0 {
+        return Some((hashes, hashes));
+    }
+    let digit = |at: usize| {
+        text.as_bytes()
+            .get(at)
+            .filter(|b| (b'1'..=b'9').contains(b))
+            .map(|b| usize::from(b - b'0'))
+    };
+    if text.starts_with("$F") {
+        return Some(digit(2).map_or((2, 1), |width| (3, width)));
+    }
+    if text.starts_with("<F>") {
+        return Some((3, 1));
+    }
+    let width = digit(2).filter(|_| text.starts_with("<F"))?;
+    (text.as_bytes().get(3) == Some(&b'>')).then_some((4, width))
+}
+
+/// The output path of `frame`: every frame token (a run of `#`, `$F4`,
+/// `<F4>`, ...) replaced by the number zero-padded to the token's width
+/// (`None`, or no token: the pattern itself).
 pub fn frame_output(pattern: &Path, frame: Option<i64>) -> PathBuf {
     let text = pattern.to_string_lossy();
-    let (Some(frame), Some(start)) = (frame, text.find('#')) else {
+    let Some(frame) = frame else {
         return pattern.to_path_buf();
     };
-    let width = text[start..].chars().take_while(|&c| c == '#').count();
-    let number = format!("{frame:0width$}");
-    PathBuf::from(format!(
-        "{}{number}{}",
-        &text[..start],
-        &text[start + width..]
-    ))
+    let mut out = String::with_capacity(text.len());
+    let mut at = 0;
+    while at < text.len() {
+        match frame_token(&text[at..]) {
+            Some((length, width)) => {
+                out += &format!("{frame:0width$}");
+                at += length;
+            }
+            None => {
+                let c = text[at..]
+                    .chars()
+                    .next()
+                    .expect("at < len, on a char boundary");
+                out.push(c);
+                at += c.len_utf8();
+            }
+        }
+    }
+    PathBuf::from(out)
 }
 
 #[cfg(test)]
@@ -95,5 +134,13 @@ mod tests {
             frame_output(Path::new("/o/a.exr"), Some(3)),
             Path::new("/o/a.exr")
         );
+        let husk = |p: &str| frame_output(Path::new(p), Some(7));
+        assert_eq!(husk("s.$F4.exr"), Path::new("s.0007.exr"));
+        assert_eq!(husk("s.$F.exr"), Path::new("s.7.exr"));
+        assert_eq!(husk("s.<F3>.exr"), Path::new("s.007.exr"));
+        assert_eq!(husk("s_<F>_$F2.exr"), Path::new("s_7_07.exr"));
+        assert_eq!(husk("s.<Fx>.exr"), Path::new("s.<Fx>.exr"));
+        assert!(has_frame_number(Path::new("a.$F4.exr")));
+        assert!(!has_frame_number(Path::new("a.<F.exr")));
     }
 }

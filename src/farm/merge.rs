@@ -9,7 +9,7 @@ use super::{prepare_folder, read_snapshot, FarmError, OutputFiles, SnapshotHeade
 use crate::film::{Film, Tile};
 use crate::image::Compression;
 use crate::integrator::{RayCounts, RenderStats};
-use crate::output::{preview_path, write_film, write_film_preview, AovFiles};
+use crate::output::{preview_path, write_film, write_film_preview, AovFiles, Layers};
 use crate::volumes::TrackingStats;
 
 /// One part read back.
@@ -79,7 +79,15 @@ pub fn merge(
     }
     stats.non_finite = frame.non_finite;
     let header = &first.header.identity.exr;
-    write_film(output, aov_files, &frame, header, &stats, compression)?;
+    write_film(
+        output,
+        aov_files,
+        &frame,
+        header,
+        &stats,
+        compression,
+        &Layers::Film,
+    )?;
     let preview = preview_path(output);
     write_film_preview(&preview, &frame)?;
     if paths.contains(&files.checkpoint) {

@@ -6,13 +6,15 @@
 //! frame after checking they fit (`merge.rs`). The files a render writes,
 //! checked writable before it starts (`files.rs`), and written or, when that
 //! fails, rescued as a film state with the command that writes them
-//! (`rescue.rs`); frame sequences and their file names (`frames.rs`), split over a Slurm cluster as job arrays
+//! (`rescue.rs`), as `-o` or the stage's USD render products say
+//! (`products.rs`); frame sequences and their file names (`frames.rs`), split over a Slurm cluster as job arrays
 //! (`slurm.rs`).
 
 mod files;
 mod frames;
 mod merge;
 mod part;
+mod products;
 mod rescue;
 mod slurm;
 mod snapshot;
@@ -28,6 +30,7 @@ pub use files::{is_film_output, prepare_folder, Claim, OutputFiles};
 pub use frames::{frame_output, has_frame_number, FrameRange};
 pub use merge::{merge, Merged};
 pub use part::{PartInfo, PartRequest};
+pub use products::{data_window, plan_outputs, OutputFlags, OutputPlan, ProductOutput};
 pub use rescue::{save_interrupted, write_finished, ImageFormat};
 pub use slurm::{submit, SlurmJob, SplitBy, Submitted};
 pub use snapshot::{

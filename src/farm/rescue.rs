@@ -9,35 +9,51 @@ use std::path::{Path, PathBuf};
 use super::files::is_film_output;
 use super::slurm::quote_path;
 use super::{write_snapshot, FarmError, OutputFiles, RenderIdentity};
+use crate::film::Film;
 use crate::image::Compression;
 use crate::integrator::{RenderStats, Snapshot};
-use crate::output::{preview_path, write_film, write_film_preview, AovFiles};
+use crate::output::{preview_path, write_film, write_film_preview, AovFiles, Layers};
 
 /// How the image of a render is written.
 #[derive(Clone, Copy, Debug)]
-pub struct ImageFormat {
+pub struct ImageFormat<'a> {
     /// One multi-channel EXR, or one per AOV.
     pub aov_files: AovFiles,
     /// EXR compression.
     pub compression: Compression,
+    /// The layers and their names.
+    pub layers: &'a Layers,
 }
 
 /// Writes the finished render `end` to `files` (the film state of a part,
 /// or the EXRs and the PNG preview) and removes its checkpoint and partial
-/// image; returns the files written. When writing fails, the film state is
+/// image; returns the files written. A film of a window of the image (a
+/// render product's `dataWindowNDC`) is written at the image's size, black
+/// and transparent outside the window. When writing fails, the film state is
 /// saved by [`rescue`] and the error says where and how to write the image.
 pub fn write_finished(
     files: &OutputFiles,
     identity: &RenderIdentity,
     end: &Snapshot,
     stats: &RenderStats,
-    format: ImageFormat,
+    format: ImageFormat<'_>,
 ) -> Result<Vec<PathBuf>, FarmError> {
     let output = files.output();
     let written = if is_film_output(output) {
         write_snapshot(output, identity, end).map(|()| vec![output.to_path_buf()])
     } else {
-        let (header, film) = (&identity.exr, &end.film);
+        let header = &identity.exr;
+        let whole;
+        let film = if end.film.window.size == end.film.resolution {
+            &end.film
+        } else {
+            whole = {
+                let mut whole = Film::new(end.film.resolution, end.film.aov_set().clone());
+                whole.add_part(&end.film);
+                whole
+            };
+            &whole
+        };
         let preview = preview_path(output);
         write_film(
             output,
@@ -46,6 +62,7 @@ pub fn write_finished(
             header,
             stats,
             format.compression,
+            format.layers,
         )
         .and_then(|()| write_film_preview(&preview, film))
         .map(|()| vec![output.to_path_buf(), preview])
@@ -66,7 +83,7 @@ fn rescue(
     files: &OutputFiles,
     identity: &RenderIdentity,
     end: &Snapshot,
-    format: ImageFormat,
+    format: ImageFormat<'_>,
     error: FarmError,
 ) -> FarmError {
     let output = files.output();
@@ -147,6 +164,7 @@ pub fn save_interrupted(
         header,
         stats,
         compression,
+        &Layers::Film,
     )?;
     Ok(())
 }

@@ -140,13 +140,12 @@ pub fn submit(job: &SlurmJob) -> Result<Submitted, FarmError> {
     for &frame in &frames {
         let scene = dir.join("scenes").join(label(frame));
         if crate::scene::is_usd(&args.scene) {
-            crate::scene::export(
-                &args.scene,
-                &scene,
-                frame.map(|f| f as f64),
-                None,
-                args.shutter,
-            )?;
+            let options = crate::scene::ExportOptions {
+                frame: frame.map(|f| f as f64),
+                shutter: args.shutter,
+                ..Default::default()
+            };
+            crate::scene::export(&args.scene, &scene, &options)?;
         } else if frame.is_some() || args.shutter.is_some() {
             return Err(FarmError::Refused(format!(
                 "--frames and --shutter need a USD scene; {} is exported (its shutter is the \

@@ -242,6 +242,16 @@ impl AovSet {
     }
 }
 
+impl FromIterator<Aov> for AovSet {
+    /// The set of these AOVs, sorted, without repeats.
+    fn from_iter<I: IntoIterator<Item = Aov>>(aovs: I) -> Self {
+        let mut aovs: Vec<Aov> = aovs.into_iter().collect();
+        aovs.sort();
+        aovs.dedup();
+        Self(aovs)
+    }
+}
+
 impl Default for AovSet {
     fn default() -> Self {
         Self(ALL.into_iter().filter(|a| a.in_default_set()).collect())

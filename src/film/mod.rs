@@ -12,7 +12,7 @@ mod filter;
 mod state;
 mod sums;
 
-pub use aov::{Aov, AovSample, AovSet, CameraHit};
+pub use aov::{Aov, AovSample, AovSet, CameraHit, ALL as ALL_AOVS};
 pub use cryptomatte::{layer_key, name_to_id, CryptoCoverage, CryptoLayer};
 pub use filter::{FilterKind, PixelFilter};
 pub use state::{read_film_state, write_film_state, FilmStateError, FILM_STATE_VERSION};

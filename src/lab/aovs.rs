@@ -81,6 +81,7 @@ fn run_scenes(bench: &AovsBench) -> Result<()> {
                         &header,
                         &stats,
                         Compression::Zip,
+                        &Default::default(),
                     )?;
                     let write = start.elapsed().as_secs_f64();
                     let bytes = std::fs::metadata(&exr).map_err(LabError::Os)?.len();

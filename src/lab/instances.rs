@@ -146,7 +146,7 @@ fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Re
     generate(&stage, instances, triangles)?;
     let scene_dir = dir.join(format!("stress_{instances}"));
     let start = Instant::now();
-    crate::scene::export(&stage, &scene_dir, None, None, None)?;
+    crate::scene::export(&stage, &scene_dir, &Default::default())?;
     let export_s = start.elapsed().as_secs_f64();
 
     let [after_load, after_build, peak] = memory_in_child(&scene_dir)?;

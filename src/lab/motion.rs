@@ -46,7 +46,7 @@ pub fn run(bench: &MotionBench) -> Result<()> {
     let usda = dir.join("motion.usda");
     std::fs::write(&usda, stage(bench.instances.max(1))).map_err(system)?;
     let start = Instant::now();
-    crate::scene::export(&usda, &dir.join("scene"), None, None, None)?;
+    crate::scene::export(&usda, &dir.join("scene"), &Default::default())?;
     let export_s = start.elapsed().as_secs_f64();
     let scene = Scene::load(&dir.join("scene"))?;
     let (moving, keys) = scene

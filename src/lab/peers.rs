@@ -109,7 +109,7 @@ pub(crate) fn check_peer(peer: Peer) -> Result<()> {
 /// folder of the scene.json given).
 pub(crate) fn exported_folder(path: &Path) -> Result<PathBuf> {
     if is_usd(path) {
-        Ok(crate::scene::export_cached(path, None, None, None)?.dir)
+        Ok(crate::scene::export_cached(path, &Default::default())?.dir)
     } else if path.is_dir() {
         Ok(path.to_owned())
     } else {

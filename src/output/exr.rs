@@ -14,6 +14,8 @@ use crate::image::{write_exr, Channel, Compression, ExrImage, ImageError, PixelT
 use crate::integrator::{RenderSettings, RenderStats};
 use crate::render_state::RenderState;
 
+use super::render_vars::{LayerSource, Layers, NamedLayer};
+
 /// How AOVs are split over files (`--aov-files`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum AovFiles {
@@ -118,9 +120,10 @@ pub fn write_bytes_for(pixels: u64, aovs: &AovSet) -> u64 {
     pixels * layers.max(preview)
 }
 
-/// Writes the film: the beauty layer and every chosen AOV, in one EXR or
-/// one per AOV (`OUT.<aov>.exr`), each with the header, the run's
-/// statistics and a Cryptomatte's own metadata.
+/// Writes the film: its `layers` (the beauty and every chosen AOV, or a
+/// render product's vars), in one EXR or one per AOV (`OUT.<layer>.exr`,
+/// the beauty in OUT.exr), each with the header, the run's statistics and
+/// a Cryptomatte's own metadata.
 pub fn write_film(
     output: &Path,
     files: AovFiles,
@@ -128,6 +131,7 @@ pub fn write_film(
     header: &ExrHeader,
     stats: &RenderStats,
     compression: Compression,
+    layers: &Layers,
 ) -> Result<(), ImageError> {
     let crypto = header.crypto_layers(film.aov_set());
     let crypto_of = |aov| match aov {
@@ -135,37 +139,102 @@ pub fn write_film(
         Aov::CryptoMaterial => crypto[1].as_ref(),
         _ => None,
     };
-    let layers: Vec<(Aov, Layer)> = film
-        .aov_set()
-        .aovs()
-        .iter()
-        .map(|&aov| (aov, film.aov_layer(aov, crypto_of(aov))))
-        .collect();
-    let beauty = film.beauty_layer();
-    let write = |path: &Path, layers: &[&Layer], strings: Vec<(String, String)>| {
+    let beauty = || FileLayer {
+        name: None,
+        layer: film.beauty_layer(),
+        metadata: Vec::new(),
+    };
+    let mut all = match layers {
+        Layers::Film => std::iter::once(beauty())
+            .chain(film.aov_set().aovs().iter().map(|&aov| {
+                let crypto = crypto_of(aov);
+                FileLayer {
+                    name: Some(aov.name().to_string()),
+                    layer: film.aov_layer(aov, crypto),
+                    metadata: crypto.map(CryptoLayer::metadata).unwrap_or_default(),
+                }
+            }))
+            .collect(),
+        Layers::Named(named) => named
+            .iter()
+            .map(|n| named_layer(film, header, n))
+            .collect::<Vec<_>>(),
+    };
+    let write = |path: &Path, layers: &[&FileLayer]| {
         let image = Image {
             size: film.window.size,
-            layers,
+            layers: &layers.iter().map(|l| &l.layer).collect::<Vec<_>>(),
             compression,
         };
-        write_layers(path, &image, strings, header, stats)
+        let metadata = layers.iter().flat_map(|l| l.metadata.clone()).collect();
+        write_layers(path, &image, metadata, header, stats)
     };
     match files {
-        AovFiles::Single => {
-            let mut all = vec![&beauty];
-            all.extend(layers.iter().map(|(_, l)| l));
-            let crypto_metadata = crypto.iter().flatten().flat_map(CryptoLayer::metadata);
-            write(output, &all, crypto_metadata.collect())
-        }
+        AovFiles::Single => write(output, &all.iter().collect::<Vec<_>>()),
         AovFiles::Separate => {
-            write(output, &[&beauty], Vec::new())?;
-            for (aov, layer) in &layers {
-                let path = output.with_extension(format!("{}.exr", aov.name()));
-                let metadata = crypto_of(*aov).map(CryptoLayer::metadata);
-                write(&path, &[layer], metadata.unwrap_or_default())?;
+            // The beauty in OUT.exr (the film's, when the layers hold none).
+            if all.iter().all(|l| l.name.is_some()) {
+                all.insert(0, beauty());
+            }
+            let (base, others): (Vec<&FileLayer>, Vec<&FileLayer>) =
+                all.iter().partition(|l| l.name.is_none());
+            write(output, &base)?;
+            for layer in others {
+                let name = layer.name.as_deref().unwrap_or_default();
+                write(&output.with_extension(format!("{name}.exr")), &[layer])?;
             }
             Ok(())
         }
+    }
+}
+
+/// One layer of a file: its name (`None`: the unprefixed beauty), pixels
+/// and header attributes (a Cryptomatte's).
+struct FileLayer {
+    name: Option<String>,
+    layer: Layer,
+    metadata: Vec<(String, String)>,
+}
+
+/// A render product's layer: the film's beauty, or the sum of its AOVs'
+/// layers with the channels renamed after the var (`N.X` -> `normal.X`,
+/// `Z` -> `depth`, `CryptoObject00.R` -> `crypto_object00.R`).
+fn named_layer(film: &Film, header: &ExrHeader, named: &NamedLayer) -> FileLayer {
+    let (name, mut layer, metadata) = match &named.source {
+        LayerSource::Beauty => (None, film.beauty_layer(), Vec::new()),
+        LayerSource::Aovs(aovs) => {
+            let aov = aovs[0];
+            let names = match aov {
+                Aov::CryptoObject => header.crypto_names[0].clone(),
+                Aov::CryptoMaterial => header.crypto_names[1].clone(),
+                _ => None,
+            };
+            let crypto = names.map(|names| CryptoLayer::new(&named.name, names));
+            let mut layer = film.aov_layer(aov, crypto.as_ref());
+            for other in &aovs[1..] {
+                let more = film.aov_layer(*other, None);
+                layer
+                    .pixels
+                    .iter_mut()
+                    .zip(&more.pixels)
+                    .for_each(|(v, m)| *v += m);
+            }
+            for channel in &mut layer.channels {
+                let suffix = channel.name.strip_prefix(aov.name()).unwrap_or_default();
+                channel.name = format!("{}{suffix}", named.name);
+            }
+            let metadata = crypto.as_ref().map(CryptoLayer::metadata);
+            let metadata = metadata.unwrap_or_default();
+            (Some(named.name.clone()), layer, metadata)
+        }
+    };
+    for channel in &mut layer.channels {
+        channel.pixel_type = named.pixel_type;
+    }
+    FileLayer {
+        name,
+        layer,
+        metadata,
     }
 }
 

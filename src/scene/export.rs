@@ -42,22 +42,28 @@ pub enum ExportError {
     },
 }
 
-/// Exports `input` (any USD file) to the scene folder `out_dir` at USD time
-/// `frame` (the stage's default time when `None`) as seen by the camera prim
-/// `camera` (the render settings' camera, else the first, when `None`; a
-/// path that is not a camera fails, listing the stage's cameras) with
-/// `shutter` (the camera's when `None`), replacing `out_dir` if it exists.
-/// The exporter's warnings go to stderr as it wrote them.
-pub fn export(
-    input: &Path,
-    out_dir: &Path,
-    frame: Option<f64>,
-    camera: Option<&str>,
-    shutter: Option<Shutter>,
-) -> Result<(), ExportError> {
+/// What an export takes of the stage; the defaults are the stage's own.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ExportOptions<'a> {
+    /// USD time code to export (default: the stage's start time, else the default time).
+    pub frame: Option<f64>,
+    /// Camera prim (default: the render product's or settings' camera, else
+    /// the first); a path that is not a camera fails, listing the stage's cameras.
+    pub camera: Option<&'a str>,
+    /// `UsdRender.Settings` prim (default: the stage's `renderSettingsPrimPath`,
+    /// else the only one); a path that is not one fails, listing them.
+    pub settings: Option<&'a str>,
+    /// Shutter interval, frames (default: the camera's).
+    pub shutter: Option<Shutter>,
+}
+
+/// Exports `input` (any USD file) to the scene folder `out_dir` as
+/// `options` say, replacing `out_dir` if it exists. The exporter's warnings
+/// go to stderr as it wrote them.
+pub fn export(input: &Path, out_dir: &Path, options: &ExportOptions) -> Result<(), ExportError> {
     let tmp = beside(out_dir, "tmp");
     remove_dir(&tmp)?;
-    let result = run_exporter(input, &tmp, (frame, camera, shutter)).and_then(|()| {
+    let result = run_exporter(input, &tmp, options).and_then(|()| {
         let old = beside(out_dir, "old");
         if out_dir.exists() {
             rename(out_dir, &old)?;
@@ -74,17 +80,12 @@ pub fn export(
 
 /// Exports `input` into the cache (`$XDG_CACHE_HOME/cirrus`, else
 /// `~/.cache/cirrus`) unless an export of the same absolute path, modification
-/// time, frame, camera and shutter, by the same exporter sources, is already there, and
+/// time and `options`, by the same exporter sources, is already there, and
 /// returns the scene folder and whether it was already there (its warnings
 /// were then printed by an earlier run; the manifest keeps them). (Layers the
 /// file references are not part of the key: after editing only a sublayer,
 /// touch the top file or run `cirrus export`.)
-pub fn export_cached(
-    input: &Path,
-    frame: Option<f64>,
-    camera: Option<&str>,
-    shutter: Option<Shutter>,
-) -> Result<CachedExport, ExportError> {
+pub fn export_cached(input: &Path, options: &ExportOptions) -> Result<CachedExport, ExportError> {
     let io = |path: &Path| {
         let path = path.to_owned();
         move |error| ExportError::Io { path, error }
@@ -94,8 +95,10 @@ pub fn export_cached(
         .and_then(|m| m.modified())
         .map_err(io(&abs))?;
     let mut hasher = DefaultHasher::new();
-    let shutter_bits = shutter.map(|s| (s.open.to_bits(), s.close.to_bits()));
-    (&abs, mtime, frame.map(f64::to_bits), camera, shutter_bits).hash(&mut hasher);
+    let o = options;
+    let shutter_bits = o.shutter.map(|s| (s.open.to_bits(), s.close.to_bits()));
+    let frame_bits = o.frame.map(f64::to_bits);
+    (&abs, mtime, frame_bits, o.camera, o.settings, shutter_bits).hash(&mut hasher);
     exporter_sources().hash(&mut hasher);
     let stem = abs.file_stem().unwrap_or_default().to_string_lossy();
     let cache = cache_root();
@@ -104,7 +107,7 @@ pub fn export_cached(
         return Ok(CachedExport { dir, reused: true });
     }
     std::fs::create_dir_all(&cache).map_err(io(&cache))?;
-    match export(&abs, &dir, frame, camera, shutter) {
+    match export(&abs, &dir, options) {
         // Another process may have exported the same file at the same time.
         Err(_) if dir.join(MANIFEST_FILE).is_file() => Ok(CachedExport { dir, reused: true }),
         result => result.map(|()| CachedExport { dir, reused: false }),
@@ -162,23 +165,22 @@ pub fn cache_root() -> PathBuf {
     base.join("cirrus")
 }
 
-fn run_exporter(
-    input: &Path,
-    out_dir: &Path,
-    (frame, camera, shutter): (Option<f64>, Option<&str>, Option<Shutter>),
-) -> Result<(), ExportError> {
+fn run_exporter(input: &Path, out_dir: &Path, options: &ExportOptions) -> Result<(), ExportError> {
     let root = repo_root();
     let python = root.join(".venv/bin/python");
     let script = root.join("scenes/export_usd.py");
     let mut cmd = Command::new(&python);
     cmd.arg(&script).arg(input).arg("-o").arg(out_dir);
-    if let Some(f) = frame {
+    if let Some(f) = options.frame {
         cmd.arg("--frame").arg(f.to_string());
     }
-    if let Some(c) = camera {
+    if let Some(c) = options.camera {
         cmd.arg("--camera").arg(c);
     }
-    if let Some(s) = shutter {
+    if let Some(s) = options.settings {
+        cmd.arg("--settings").arg(s);
+    }
+    if let Some(s) = options.shutter {
         cmd.arg(format!("--shutter={s}"));
     }
     let output = cmd.output().map_err(|error| ExportError::Spawn {

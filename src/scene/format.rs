@@ -542,6 +542,50 @@ pub struct VolumeField {
 /// Render settings from `UsdRender.Settings`.
 #[derive(Clone, Debug, Deserialize)]
 pub struct Render {
-    /// `resolution` in pixels (width, height); `null` when the stage has none.
+    /// `resolution` in pixels (width, height): the first render product's,
+    /// else the settings'; `null` when the stage has no settings.
     pub resolution: Option<[u32; 2]>,
+    /// The chosen `UsdRender.Settings` prim (absent in older scenes: none).
+    #[serde(default)]
+    pub settings: Option<String>,
+    /// Its raster `RenderProduct`s in `products` order (absent: none).
+    #[serde(default)]
+    pub products: Vec<RenderProduct>,
+}
+
+/// A raster `UsdRender.Product`: one image file. Each field is the
+/// product's own value when authored, else its settings'.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct RenderProduct {
+    /// The product prim.
+    pub path: String,
+    /// `productName`: the file to write, frame tokens unsubstituted
+    /// (`$F4`, `<F4>`, `####`), relative to the working folder unless absolute.
+    pub name: String,
+    /// `resolution` in pixels (width, height).
+    pub resolution: [u32; 2],
+    /// `pixelAspectRatio`: a pixel's width over its height.
+    pub pixel_aspect_ratio: f32,
+    /// `dataWindowNDC` `[xmin, ymin, xmax, ymax]`: the rendered part of the
+    /// image in NDC (0,0 bottom left, 1,1 top right).
+    pub data_window_ndc: [f32; 4],
+    /// `camera`'s first target (the product's, else the settings').
+    pub camera: Option<String>,
+    /// `orderedVars` in order.
+    pub vars: Vec<RenderVar>,
+}
+
+/// A `UsdRender.Var`: one layer of a product's image, as authored.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct RenderVar {
+    /// The var prim.
+    pub path: String,
+    /// Its prim name: the EXR layer's name.
+    pub name: String,
+    /// `sourceName`: what to write (an LPE, `P`, `N`, `depth`, ...).
+    pub source_name: String,
+    /// `sourceType`: `raw`, `primvar`, `lpe` or `intrinsic`.
+    pub source_type: String,
+    /// `dataType`: `color3f`, `float`, `half3`, ...
+    pub data_type: String,
 }

@@ -26,12 +26,15 @@ use std::path::{Path, PathBuf};
 use crate::motion::Shutter;
 
 pub use export::repo_root;
-pub use export::{cache_root, export, export_cached, is_usd, CachedExport, ExportError};
+pub use export::{
+    cache_root, export, export_cached, is_usd, CachedExport, ExportError, ExportOptions,
+};
 pub use format::Subdivision;
 pub use format::{
     affine, Array, Bounds, Camera, CameraMotion, Element, InstanceMotion, Instances, Light,
-    LightShape, Manifest, Mesh, MeshPart, Projection, Prototype, Render, Scalar, Source, Stage,
-    Transform, UpAxis, Volume, VolumeField, VolumePart, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+    LightShape, Manifest, Mesh, MeshPart, Projection, Prototype, Render, RenderProduct, RenderVar,
+    Scalar, Source, Stage, Transform, UpAxis, Volume, VolumeField, VolumePart, FORMAT_NAME,
+    FORMAT_VERSION, NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
 pub use material::{
@@ -63,7 +66,7 @@ pub enum OpenError {
     /// A USD time code or camera (`flag`) was asked of an exported scene.
     #[error("{flag} applies to USD input only; {} is an exported scene", path.display())]
     UsdOnly {
-        /// `--frame` or `--camera`.
+        /// `--frame`, `--camera` or `--settings`.
         flag: &'static str,
         /// The exported scene.
         path: PathBuf,
@@ -122,6 +125,9 @@ pub struct OpenOptions<'a> {
     pub frame: Option<f64>,
     /// Camera prim to render (USD input only).
     pub camera: Option<&'a str>,
+    /// `UsdRender.Settings` prim whose products and vars drive the render
+    /// (USD input only; default: see [`ExportOptions::settings`]).
+    pub settings: Option<&'a str>,
     /// Replaces the camera's shutter (frames): for USD input the export keys
     /// motion over it; an exported scene keeps the motion it was exported with.
     pub shutter: Option<Shutter>,
@@ -140,19 +146,29 @@ impl Scene {
         let OpenOptions {
             frame,
             camera,
+            settings,
             shutter,
             refinement,
         } = *options;
         if !is_usd(path) {
-            let flag = match (frame, camera) {
-                (Some(_), _) => "--frame",
-                (_, Some(_)) => "--camera",
+            let flag = match (frame, camera, settings) {
+                (Some(_), _, _) => "--frame",
+                (_, Some(_), _) => "--camera",
+                (_, _, Some(_)) => "--settings",
                 _ => return Self::load_exported(path, shutter, refinement),
             };
             let path = path.to_path_buf();
             return Err(OpenError::UsdOnly { flag, path });
         }
-        let export = export_cached(path, frame, camera, shutter)?;
+        let export = export_cached(
+            path,
+            &ExportOptions {
+                frame,
+                camera,
+                settings,
+                shutter,
+            },
+        )?;
         let scene = Self::load_with(&export.dir, refinement)?;
         if export.reused {
             for warning in &scene.manifest.warnings {

@@ -1,0 +1,112 @@
+"""The render settings that drive a render: --settings, else the stage's renderSettingsPrimPath,
+else the only UsdRender.Settings prim; their raster RenderProducts (output name, resolution,
+pixel aspect, data window, camera) and each product's RenderVars (sourceName, sourceType,
+dataType), recorded as authored. Which RenderVars the renderer can produce is the renderer's
+to say (src/output/render_vars.rs): the exporter drops only what is not a raster product.
+"""
+
+from pxr import Sdf, Usd, UsdRender
+
+from .report import ExportError, Report
+
+
+def _settings_prims(stage: Usd.Stage) -> list[str]:
+    """Paths of every UsdRender.Settings prim of the stage."""
+    return [str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdRender.Settings)]
+
+
+def chosen_settings(stage: Usd.Stage, path: str | None, report: Report) -> UsdRender.Settings | None:
+    """The settings at `path` (--settings; raises ExportError listing the settings prims when
+    it is not one), else at the stage's renderSettingsPrimPath, else the only settings prim;
+    several and none named: none, with a warning listing them."""
+    if path is not None:
+        prim = stage.GetPrimAtPath(path) if Sdf.Path.IsValidPathString(path) else None
+        if prim and prim.IsA(UsdRender.Settings):
+            return UsdRender.Settings(prim)
+        what = "is not a RenderSettings prim" if prim else "is not a prim"
+        listed = ", ".join(_settings_prims(stage)) or "none"
+        raise ExportError(f"--settings {path} {what} of the stage; its render settings: {listed}")
+    named = stage.GetMetadata("renderSettingsPrimPath")
+    if named:
+        prim = stage.GetPrimAtPath(named) if Sdf.Path.IsValidPathString(named) else None
+        if prim and prim.IsA(UsdRender.Settings):
+            return UsdRender.Settings(prim)
+        report.warn(f"renderSettingsPrimPath {named} is not a RenderSettings prim; ignored")
+    found = _settings_prims(stage)
+    if len(found) == 1:
+        return UsdRender.Settings(stage.GetPrimAtPath(found[0]))
+    if found:
+        report.warn(f"{len(found)} RenderSettings prims and none chosen (renderSettingsPrimPath or "
+                    f"--settings): using none of {', '.join(found)}")
+    return None
+
+
+def _own_or_settings(product: UsdRender.Product, settings: UsdRender.Settings, name: str,
+                     time: Usd.TimeCode):
+    """A product's attribute when authored there, else the settings' value (UsdRender: a
+    product overrides the settings it belongs to)."""
+    attr = product.GetPrim().GetAttribute(name)
+    source = attr if attr.HasAuthoredValue() else settings.GetPrim().GetAttribute(name)
+    return source.Get(time)
+
+
+def _camera(prim: Usd.Prim) -> str | None:
+    """The first target of a settings or product's `camera` relationship."""
+    targets = UsdRender.SettingsBase(prim).GetCameraRel().GetForwardedTargets()
+    return str(targets[0]) if targets else None
+
+
+def _render_var(prim: Usd.Prim, time: Usd.TimeCode) -> dict:
+    """One RenderVar as authored."""
+    var = UsdRender.Var(prim)
+    return {
+        "path": str(prim.GetPath()),
+        "name": prim.GetName(),
+        "source_name": str(var.GetSourceNameAttr().Get(time) or ""),
+        "source_type": str(var.GetSourceTypeAttr().Get(time)),
+        "data_type": str(var.GetDataTypeAttr().Get(time)),
+    }
+
+
+def render_products(settings: UsdRender.Settings, time: Usd.TimeCode, report: Report) -> list[dict]:
+    """The settings' raster products in order, each with its RenderVars; other product types,
+    products without a productName and targets that are not products or vars are warned about
+    and skipped."""
+    stage = settings.GetPrim().GetStage()
+    products = []
+    for target in settings.GetProductsRel().GetForwardedTargets():
+        prim = stage.GetPrimAtPath(target)
+        if not (prim and prim.IsA(UsdRender.Product)):
+            report.warn(f"render settings {settings.GetPath()}: products target {target} is not a "
+                        "RenderProduct; skipped")
+            continue
+        product = UsdRender.Product(prim)
+        kind = str(product.GetProductTypeAttr().Get(time))
+        name = str(product.GetProductNameAttr().Get(time) or "")
+        if kind != "raster":
+            report.warn(f"render product {target}: productType {kind!r} is not rendered (only "
+                        "'raster' is); skipped")
+            continue
+        if not name:
+            report.warn(f"render product {target}: no productName; skipped")
+            continue
+        variables = []
+        for var_path in product.GetOrderedVarsRel().GetForwardedTargets():
+            var = stage.GetPrimAtPath(var_path)
+            if var and var.IsA(UsdRender.Var):
+                variables.append(_render_var(var, time))
+            else:
+                report.warn(f"render product {target}: orderedVars target {var_path} is not a "
+                            "RenderVar; skipped")
+        resolution = _own_or_settings(product, settings, "resolution", time)
+        window = _own_or_settings(product, settings, "dataWindowNDC", time)
+        products.append({
+            "path": str(target),
+            "name": name,
+            "resolution": [int(resolution[0]), int(resolution[1])],
+            "pixel_aspect_ratio": float(_own_or_settings(product, settings, "pixelAspectRatio", time)),
+            "data_window_ndc": [float(v) for v in window],
+            "camera": _camera(prim) or _camera(settings.GetPrim()),
+            "vars": variables,
+        })
+    return products

@@ -1,0 +1,257 @@
+//! USD render settings drive a render (issue 25): the chosen
+//! `RenderSettings`' raster products name the files (frame tokens
+//! substituted), their resolution, camera and data window, and their
+//! `RenderVar`s the EXR's layers, named as the vars; what we do not render
+//! gets one warning naming it. Scene: scenes/tests/render_settings.usda.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn stage() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/tests/render_settings.usda")
+}
+
+/// `cirrus render` of the stage in `dir` (relative product names land
+/// there) at 2 spp with `args`.
+fn render(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .current_dir(dir)
+        .arg("render")
+        .arg(stage())
+        .args(["--spp", "2"])
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// `render`, which must succeed; its stderr.
+fn render_ok(dir: &Path, args: &[&str]) -> String {
+    let out = render(dir, args);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "cirrus render {args:?}:\n{stderr}");
+    stderr
+}
+
+/// Every channel of an EXR as raw bits, by name.
+fn channels(path: &Path) -> BTreeMap<String, Vec<u32>> {
+    common::channel_bits(path).into_iter().collect()
+}
+
+/// Channel values as f32, whatever their storage.
+fn values(path: &Path, name: &str) -> Vec<f32> {
+    use exr::prelude::{read_all_flat_layers_from_file, FlatSamples};
+    let image = read_all_flat_layers_from_file(path).unwrap();
+    let layer = &image.layer_data[0];
+    let channel = layer
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name.to_string() == name);
+    match &channel
+        .unwrap_or_else(|| panic!("{name} missing"))
+        .sample_data
+    {
+        FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
+        FlatSamples::F32(v) => v.clone(),
+        FlatSamples::U32(v) => v.iter().map(|&u| u as f32).collect(),
+    }
+}
+
+#[test]
+fn one_product_with_four_vars_writes_those_layers_per_frame() {
+    let dir = common::scratch("render_settings_product");
+    render_ok(&dir, &["--frames", "7-8"]);
+    for frame in ["0007", "0008"] {
+        let exr = dir.join(format!("shot.{frame}.exr"));
+        let names: Vec<String> = channels(&exr).into_keys().collect();
+        let want = [
+            "A",
+            "B",
+            "G",
+            "R",
+            "depth",
+            "diffuse.B",
+            "diffuse.G",
+            "diffuse.R",
+            "normal.X",
+            "normal.Y",
+            "normal.Z",
+        ];
+        assert_eq!(names, want, "{}", exr.display());
+    }
+    // The product's resolution (24x16, not the settings' 12x8) and camera
+    // (cam_side, not the settings' cam_front): the same render asked for by flags.
+    let flags = "-o flags.exr --camera /World/cam_side --res 24x16 --frame 7";
+    let mut args: Vec<&str> = flags.split(' ').collect();
+    args.extend(["--aovs", "diffuse_direct,diffuse_indirect,N,Z"]);
+    render_ok(&dir, &args);
+    let (ours, theirs) = (dir.join("shot.0007.exr"), dir.join("flags.exr"));
+    let (a, b) = (channels(&ours), channels(&theirs));
+    assert_eq!(a["R"].len(), 24 * 16);
+    for (mine, flag) in [("R", "R"), ("A", "A"), ("normal.Y", "N.Y"), ("depth", "Z")] {
+        assert_eq!(a[mine], b[flag], "{mine} differs from {flag}");
+    }
+    // diffuse = C<RD>.*L = diffuse_direct + diffuse_indirect (half storage: one rounding).
+    let diffuse = values(&ours, "diffuse.G");
+    let direct = values(&theirs, "diffuse_direct.G");
+    let indirect = values(&theirs, "diffuse_indirect.G");
+    for ((d, x), y) in diffuse.iter().zip(&direct).zip(&indirect) {
+        assert!(
+            (d - (x + y)).abs() <= 2e-3 * (x + y).abs() + 1e-6,
+            "{d} vs {x} + {y}"
+        );
+    }
+    assert!(
+        diffuse.iter().any(|&d| d > 0.0),
+        "a lit floor has diffuse light"
+    );
+}
+
+#[test]
+fn flags_win_over_the_product() {
+    let dir = common::scratch("render_settings_flags");
+    render_ok(&dir, &["-o", "mine.exr", "--res", "8x4"]);
+    assert!(
+        !dir.join("shot.0001.exr").exists(),
+        "-o replaces productName"
+    );
+    let mine = channels(&dir.join("mine.exr"));
+    assert_eq!(mine["R"].len(), 8 * 4, "--res wins");
+    assert!(
+        mine.contains_key("diffuse.R"),
+        "the vars still name the layers"
+    );
+    render_ok(&dir, &["-o", "beauty.exr", "--aovs", "beauty"]);
+    let names: Vec<String> = channels(&dir.join("beauty.exr")).into_keys().collect();
+    assert_eq!(names, ["A", "B", "G", "R"], "--aovs replaces the vars");
+}
+
+#[test]
+fn unknown_product_types_source_names_and_data_types_warn_once_each() {
+    let dir = common::scratch("render_settings_odd");
+    let stderr = render_ok(&dir, &["--settings", "/Render/odd"]);
+    let warned = |needles: &[&str]| {
+        let lines: Vec<&str> = stderr
+            .lines()
+            .filter(|l| needles.iter().all(|n| l.contains(n)))
+            .collect();
+        assert_eq!(lines.len(), 1, "one warning with {needles:?} in:\n{stderr}");
+    };
+    warned(&[
+        "/Render/Products/deep",
+        "productType",
+        "deepRaster",
+        "skipped",
+    ]);
+    warned(&[
+        "/Render/Products/Vars/mystery",
+        "sourceName",
+        "C<XY>.*L",
+        "skipped",
+    ]);
+    warned(&[
+        "/Render/Products/Vars/counts",
+        "dataType",
+        "\"int\"",
+        "skipped",
+    ]);
+    warned(&["/Render/Products/Vars/uv", "primvar", "skipped"]);
+    assert!(!dir.join("deep.exr").exists());
+    let names: Vec<String> = channels(&dir.join("odd.exr")).into_keys().collect();
+    assert_eq!(
+        names,
+        ["A", "B", "G", "R"],
+        "only the beauty var is produced"
+    );
+}
+
+#[test]
+fn settings_naming_another_prim_is_refused_listing_the_settings() {
+    let dir = common::scratch("render_settings_refused");
+    let out = render(&dir, &["--settings", "/World/Ball"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    let error: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(error.len(), 1, "{stderr}");
+    for needle in ["/World/Ball", "/Render/shot", "/Render/odd", "/Render/pair"] {
+        assert!(error[0].contains(needle), "{needle} not in {}", error[0]);
+    }
+}
+
+#[test]
+fn data_window_renders_its_pixels_and_leaves_the_rest_empty() {
+    let dir = common::scratch("render_settings_crop");
+    render_ok(&dir, &["--settings", "/Render/crop"]);
+    let args = "-o full.exr --camera /World/cam_front --res 16x8 --aovs beauty";
+    render_ok(&dir, &args.split(' ').collect::<Vec<_>>());
+    let (crop, full) = (
+        channels(&dir.join("crop.exr")),
+        channels(&dir.join("full.exr")),
+    );
+    for name in ["R", "G", "B", "A"] {
+        for (i, (c, f)) in crop[name].iter().zip(&full[name]).enumerate() {
+            // dataWindowNDC (0, 0, 0.5, 1): the left 8 columns.
+            let want = if i % 16 < 8 { *f } else { 0 };
+            assert_eq!(*c, want, "{name} at pixel {i}");
+        }
+    }
+    assert!(
+        full["A"].iter().any(|&a| a != 0),
+        "the image shows something"
+    );
+}
+
+#[test]
+fn several_settings_and_none_named_use_none_with_a_warning() {
+    let dir = common::scratch("render_settings_several");
+    let text = std::fs::read_to_string(stage()).unwrap();
+    let metadata = "    renderSettingsPrimPath = \"/Render/shot\"\n";
+    assert!(text.contains(metadata));
+    let unnamed = dir.join("unnamed.usda");
+    std::fs::write(&unnamed, text.replace(metadata, "")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .current_dir(&dir)
+        .arg("render")
+        .arg(&unnamed)
+        .args(["-o", "out.exr", "--res", "8x4", "--spp", "1"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains("RenderSettings prims and none chosen"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    for settings in ["/Render/shot", "/Render/odd", "/Render/crop"] {
+        assert!(warnings[0].contains(settings), "{}", warnings[0]);
+    }
+    assert!(!dir.join("shot.0001.exr").exists() && dir.join("out.exr").exists());
+}
+
+#[test]
+fn products_sharing_the_render_are_written_from_one_film() {
+    let dir = common::scratch("render_settings_pair");
+    let stderr = render_ok(&dir, &["--settings", "/Render/pair"]);
+    let layers = |file: &str| -> Vec<String> { channels(&dir.join(file)).into_keys().collect() };
+    assert_eq!(
+        layers("pair_a.exr"),
+        ["diffuse.B", "diffuse.G", "diffuse.R"]
+    );
+    assert_eq!(layers("pair_b.exr"), ["A", "B", "G", "R", "depth"]);
+    // pair_c differs in resolution: not rendered, one warning naming it.
+    assert!(!dir.join("pair_c.exr").exists());
+    let warned = stderr
+        .lines()
+        .filter(|l| l.contains("/Render/Products/pair_c"))
+        .count();
+    assert_eq!(warned, 1, "{stderr}");
+    assert_eq!(
+        stderr.matches("wrote ").count(),
+        0,
+        "'wrote' goes to stdout"
+    );
+}
