@@ -7,19 +7,23 @@ Usage (project .venv):
     .venv/bin/python scenes/peers/render_peer.py --available PEER
 
 PEER is one of PEERS: mitsuba-scalar (Mitsuba 3 `scalar_rgb`, to_mitsuba.py),
-mitsuba-llvm (`llvm_ad_rgb`, needs Debian's libllvm19) or cycles (Blender 3.4
-Cycles on the CPU, to_cycles.py, needs Debian's blender); `scenes/peers/install
-[--cycles]` installs them. Each renders in its own process, after an untimed
-warm-up render (LLVM kernel compilation; Cycles' scene sync and BVH build)
-unless --no-warmup (for agreement checks, which need no timing).
-The last line printed is
+mitsuba-llvm (`llvm_ad_rgb`, needs Debian's libllvm19), cycles (Blender 5.0
+Cycles on the CPU: to_cycles.py run by the `bpy` wheel in .venv-cycles) or
+cycles-3.4 (Debian's Blender 3.4, where installed: to_cycles.py run by
+`blender -b`); `scenes/peers/install [--cycles]` installs them. Each renders in
+its own process, after an untimed warm-up render (LLVM kernel compilation;
+Cycles' scene sync and BVH build) unless --no-warmup (for agreement checks,
+which need no timing). The last line printed is
 
-    peer=PEER render_seconds=R total_seconds=T
+    peer=PEER render_seconds=R total_seconds=T [sync_seconds=S]
 
 R is the timed render call alone: no process start, scene conversion or
 loading, BVH build or JIT compilation, the same kind of time `cirrus converge`
 records for Cirrus (sampling only, the scene loaded and its BVH built). T is
-the whole child process, wall clock, warm-up included. `--available PEER`
+the whole child process, wall clock, warm-up included. S (Cycles, with the
+warm-up) is its scene sync: the warm-up render's time less the timed one's
+(the same render, which persistent data then finds synced: Cycles stamps the
+timed render's synchronization_time 0). `--available PEER`
 exits 0 when the peer can run, else 1 with the reason on stderr.
 """
 
@@ -33,17 +37,26 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+#: The Python of the `bpy` wheel (Blender 5.0), a venv of its own: bpy 5.0.1
+#: requires numpy < 2, the project .venv has numpy 2 (scenes/peers/install).
+CYCLES_PYTHON = ROOT / ".venv-cycles/bin/python"
 #: Debian's libllvm19 (to_mitsuba.py points drjit at it).
 LIBLLVM19 = Path("/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1")
 #: The peers, by the name used in `cirrus converge --peers`, CSVs and charts.
-PEERS = ("mitsuba-scalar", "mitsuba-llvm", "cycles")
+PEERS = ("mitsuba-scalar", "mitsuba-llvm", "cycles", "cycles-3.4")
 
 
 def unavailable(peer):
     """Why `peer` cannot run here (None when it can)."""
-    install = "run scenes/peers/install" + (" --cycles" if peer == "cycles" else "")
+    install = "run scenes/peers/install" + (" --cycles" if peer.startswith("cycles") else "")
     if peer == "cycles":
-        return None if shutil.which("blender") else f"blender is not installed ({install})"
+        has_bpy = "import importlib.util, sys; sys.exit(importlib.util.find_spec('bpy') is None)"
+        if CYCLES_PYTHON.exists() and subprocess.run([CYCLES_PYTHON, "-c", has_bpy]).returncode == 0:
+            return None
+        return f"bpy (Blender 5.0) is not importable by {CYCLES_PYTHON} ({install})"
+    if peer == "cycles-3.4":
+        return None if shutil.which("blender") else "Debian's blender (3.4) is not installed"
     if importlib.util.find_spec("mitsuba") is None:
         return f"mitsuba is not importable by {sys.executable} ({install})"
     if peer == "mitsuba-llvm" and not LIBLLVM19.exists():
@@ -60,6 +73,8 @@ def command(args):
     if args.res:
         common += ["--res", args.res]
     if args.peer == "cycles":
+        return [CYCLES_PYTHON, HERE / "to_cycles.py", args.scene, args.output, *common]
+    if args.peer == "cycles-3.4":
         return ["blender", "-b", "--factory-startup", "-t", args.threads, "--python",
                 HERE / "to_cycles.py", "--", args.scene, args.output, *common]
     variant = "scalar_rgb" if args.peer == "mitsuba-scalar" else "llvm_ad_rgb"
@@ -109,7 +124,9 @@ def main(argv=None):
     warnings = [line for line in result.stderr.splitlines() if line.startswith("warning: ")]
     for line in warnings:
         print(line, file=sys.stderr)
-    print(f"peer={args.peer} render_seconds={float(timed[-1]):.6f} total_seconds={total:.6f}")
+    sync = re.findall(r"^sync_seconds=([0-9.eE+-]+)$", result.stdout, re.MULTILINE)
+    sync = f" sync_seconds={float(sync[-1]):.6f}" if sync else ""
+    print(f"peer={args.peer} render_seconds={float(timed[-1]):.6f} total_seconds={total:.6f}{sync}")
     return 0
 
 

@@ -1,18 +1,35 @@
 """Renders an exported Cirrus scene folder with Blender Cycles into an EXR of the same framing.
 
-Usage (Debian's blender 3.4, installed by `scenes/peers/install --cycles`):
+Usage (Blender 5.0: the `bpy` wheel in .venv-cycles; Debian's blender 3.4 where
+installed; both installed by `scenes/peers/install --cycles`):
+    .venv-cycles/bin/python scenes/peers/to_cycles.py \\
+        SCENE_DIR OUT.exr --spp 64 --threads 2 --seed 1 [--res WxH] [--max-depth 1024]
     blender -b --factory-startup -t 2 --python scenes/peers/to_cycles.py -- \\
         SCENE_DIR OUT.exr --spp 64 --threads 2 --seed 1 [--res WxH] [--max-depth 1024]
 
 SCENE_DIR is what `cirrus export` writes (scenes/FORMAT.md), read with
-cirrus_scene.py in Blender's own Python (Debian's python3 + numpy). The output
+cirrus_scene.py in Blender's Python (the venv's, or Debian's python3 + numpy
+for 3.4). The output
 is a float RGB EXR of linear Rec.709 radiance (Blender's scene-linear space,
 view transform "Standard", nothing applied on EXR output), box-filtered over
 one pixel. What is approximated is printed as `warning: ...` on stderr. The
 last line is `render_seconds=S`: the timed render call alone; with --warmup the
 same render runs first, untimed, to sync the scene and build the BVH, which
 persistent data keeps (it ignores a changed sample count, so the warm-up cannot
-be cheaper), so S excludes scene load as for the other renderers.
+be cheaper), so S excludes scene load as for the other renderers (5.0 stamps
+the timed render's synchronization_time 0 and its render_time within 10 ms of
+S), and `sync_seconds=` (warm-up less S) comes before it: 5.0's sync, which
+prepares the volumes, takes seconds (14 s on the teapot cloud, under load).
+
+Blender 5.0 against 3.4, each convention checked (2026-12-02, tests/peers.rs):
+world-space density, sun, sphere-light and world units are unchanged
+(volume_teapot and surface_lights agree as with 3.4); area lights' power is
+pi A L, not 4 A L (area_power_factor); the half-voxel shift is gone (voxel_shift);
+Principled BSDF inputs were renamed in 4.0 (PRINCIPLED_4); `use_auto_smooth`
+went in 4.1 and `use_nodes` is deprecated in 5.0; `scene.cycles.volume_biased`
+(5.0) stays False: unbiased null scattering, Cycles' default, where
+volume_step_rate and volume_max_steps no longer apply; the wheel takes no `-t`
+(render.threads with threads_mode FIXED sets the threads).
 
 What each part becomes (UsdLux units per docs/conventions.md, "Lights"; every
 factor below was measured with Cycles 3.4.1 on a white Lambert plane
@@ -53,7 +70,8 @@ factor below was measured with Cycles 3.4.1 on a white Lambert plane
     it as a disk facing the shaded point, not a sphere: the same solid angle up
     to r^2/d^2 terms. treatAsPoint: radius 0, P = 4 pi I with Mitsuba's I.
   - RectLight / DiskLight: Area light (rectangle / disk of diameter 2r),
-    one-sided along -Z as UsdLux; Cycles' radiance is P / (4 A), so P = 4 A L.
+    one-sided along -Z as UsdLux; Cycles 3.4's radiance is P / (4 A), so
+    P = 4 A L; 5.0's is P / (pi A), so P = pi A L (area_power_factor).
   - CylinderLight: not converted (reported).
   Power and colour are RGB in UsdLux and a scalar x colour in Blender: energy =
   the largest channel, colour = the rest relative to it. Every light is made
@@ -65,14 +83,17 @@ factor below was measured with Cycles 3.4.1 on a white Lambert plane
   precision FULL (not half floats); clipping 0 (no voxel dropped); Principled
   Volume with Density = densityScale reading the density grid, Color = albedo,
   Absorption Color black (so sigma_t = density, sigma_s = albedo x density),
-  Anisotropy = g. Voxel placement: Cycles is half a voxel off; the object is
-  moved by -0.5 voxel along the grid's index axes to compensate (VOXEL_SHIFT).
+  Anisotropy = g. Voxel placement: Cycles 3.4 is half a voxel off; the object
+  is moved by -0.5 voxel along the grid's index axes to compensate; 5.0 needs
+  no shift (voxel_shift).
 - Integrator: path tracing on the CPU, no denoiser, no adaptive sampling, no
   clamping, no glossy blur, box filter of width 1 pixel. Cirrus' --max-depth
   counts scattering events (1 = direct light only) and Cycles' bounces count
-  the ones after the first, so every Cycles bounce limit = ours - 1. Cycles 3.4
-  ray-marches heterogeneous volumes (step = one voxel x --volume-step-rate):
-  slightly biased, unlike Cirrus' and Mitsuba's null-collision tracking.
+  the ones after the first, so every Cycles bounce limit = ours - 1 (1023 for
+  our unbiased default 1024: no cap that matters). Cycles 3.4 ray-marches
+  heterogeneous volumes (step = one voxel x --volume-step-rate): slightly
+  biased, unlike Cirrus' and Mitsuba's null-collision tracking; 5.0 tracks
+  null collisions (unbiased), like them.
 """
 
 import argparse
@@ -91,14 +112,30 @@ from cirrus_scene import (GREY, CirrusScene, affine4, conformed_aperture,  # noq
                           distant_irradiance, emission, near_far, parse_resolution)
 from cycles_texture import UV_LAYER, TextureNodes, Unrepresentable  # noqa: E402
 
-#: Shift of the grid, in voxels along each index axis, that puts VDB value
-#: v(i,j,k) at the integer index point (i,j,k) in Cycles (docs/conventions.md, "Voxel
-#: centres"). Cycles 3.4 puts it at the voxel's cell centre, (i,j,k) + 0.5, half
-#: a voxel off: on scenes/peers/volume_voxels.usda (64x64, 64 spp, 2026-11-24)
-#: a shift of 0 reads 4.0% dark with a 4x4 relMSE of 4.3e-2 against Cirrus,
-#: +0.5 8.6% and 0.23, -0.5 agrees (0.06%, 1.1e-3). The one-voxel falloff to
-#: the background needs nothing more (without it the mean would be ~9% off).
-VOXEL_SHIFT = -0.5
+def voxel_shift():
+    """Shift of the grid, in voxels along each index axis, that puts VDB value
+    v(i,j,k) at the integer index point (i,j,k) in Cycles (docs/conventions.md,
+    "Voxel centres").
+
+    Cycles 3.4 puts it at the voxel's cell centre, (i,j,k) + 0.5, half a voxel
+    off: on scenes/peers/volume_voxels.usda (64x64, 64 spp, 2026-11-24) a shift
+    of 0 reads 4.0% dark with a 4x4 relMSE of 4.3e-2 against Cirrus, +0.5 8.6%
+    and 0.23, -0.5 agrees (0.06%, 1.1e-3). The one-voxel falloff to the
+    background needs nothing more (without it the mean would be ~9% off).
+    Cycles 5.0 samples values at their index points: on the same scene (64x64,
+    256 spp, 2026-12-02) a shift of 0 agrees (0.17%, relMSE 4.3e-4) and -0.5
+    reads 3.2% dark (relMSE 2.4e-2)."""
+    return -0.5 if bpy.app.version < (5, 0, 0) else 0.0
+
+
+#: Principled BSDF inputs renamed by Blender 4.0, by their 3.x name.
+PRINCIPLED_4 = {"Clearcoat": "Coat Weight", "Clearcoat Roughness": "Coat Roughness",
+                "Transmission": "Transmission Weight", "Specular": "Specular IOR Level"}
+
+
+def principled_input(node, name):
+    """The Principled BSDF input of 3.x name `name` in this Blender."""
+    return node.inputs[PRINCIPLED_4.get(name, name) if bpy.app.version >= (4, 0, 0) else name]
 
 
 #: Blender sensor width, mm: the lens is scaled to keep USD's focal length to aperture ratio.
@@ -119,8 +156,9 @@ def arguments(argv):
     p.add_argument("--threads", type=int, default=2, help="render threads (2)")
     p.add_argument("--volume-step-rate", type=float, default=1.0,
                    help="Cycles' volume step rate: step = voxel size x this (1, Cycles' default)")
-    p.add_argument("--voxel-shift", type=float, default=VOXEL_SHIFT,
-                   help=f"grid shift in voxels ({VOXEL_SHIFT}; for the placement checks)")
+    p.add_argument("--voxel-shift", type=float, default=voxel_shift(),
+                   help=f"grid shift in voxels ({voxel_shift()} for Cycles {bpy.app.version_string}; "
+                        "for the placement checks)")
     p.add_argument("--warmup", action="store_true",
                    help="render 1 spp untimed first (scene sync and BVH build)")
     return p.parse_args(argv)
@@ -201,6 +239,8 @@ class Converter(cirrus_scene.Converter):
             setattr(cycles, key, bounces)
         cycles.volume_step_rate = self.args.volume_step_rate
         cycles.volume_max_steps = 4096
+        if hasattr(cycles, "volume_biased"):
+            cycles.volume_biased = False  # 5.0: null scattering, its default
 
     # ---------------------------------------------------------------- camera
 
@@ -245,7 +285,7 @@ class Converter(cirrus_scene.Converter):
     def world(self):
         """The world: the (first) dome light's radiance, else black."""
         world = bpy.data.worlds.new("world")
-        world.use_nodes = True
+        use_nodes(world)
         background = world.node_tree.nodes["Background"]
         domes = [light for light in self.manifest["lights"] if light["type"] == "dome"]
         radiance = sum((emission(d) for d in domes), np.zeros(3))
@@ -292,7 +332,8 @@ class Converter(cirrus_scene.Converter):
         return data, 4.0 * math.pi**2 * radius**2 * radiance
 
     def area_light(self, light, m):
-        """An Area light (rectangle or disk) with P = 4 A L; Blender scales its size by the object's."""
+        """An Area light (rectangle or disk) with P = k A L (area_power_factor); Blender
+        scales its size by the object's."""
         data = bpy.data.lights.new(light["path"], "AREA")
         if light["type"] == "rect":
             if light.get("texture"):
@@ -307,7 +348,7 @@ class Converter(cirrus_scene.Converter):
         area = unit_area * float(np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
         e = emission(light)
         radiance = e / area if light["normalize"] else e
-        return data, 4.0 * area * radiance
+        return data, area_power_factor() * area * radiance
 
     # ------------------------------------------------------------- materials
 
@@ -321,7 +362,7 @@ class Converter(cirrus_scene.Converter):
         """Diffuse BSDF for Lambert, else an approximating Principled BSDF; plus emission."""
         mat = self.material_record(index)
         out = bpy.data.materials.new(f"material{index}")
-        out.use_nodes = True
+        use_nodes(out)
         nodes, links = out.node_tree.nodes, out.node_tree.links
         nodes.remove(nodes["Principled BSDF"])
         output = nodes["Material Output"]
@@ -385,16 +426,16 @@ class Converter(cirrus_scene.Converter):
         self.set_input(textures, mat, "roughness", 0.5, node.inputs["Roughness"])
         self.normal_map(textures, mat, node.inputs["Normal"])
         node.inputs["IOR"].default_value = max(float(mat.get("ior", 1.5)), 1.0001)
-        node.inputs["Clearcoat"].default_value = float(mat.get("clearcoat", 0.0))
-        node.inputs["Clearcoat Roughness"].default_value = float(mat.get("clearcoat_roughness", 0.01))
-        node.inputs["Transmission"].default_value = 1.0 - float(opacity)
+        principled_input(node, "Clearcoat").default_value = float(mat.get("clearcoat", 0.0))
+        principled_input(node, "Clearcoat Roughness").default_value = float(mat.get("clearcoat_roughness", 0.01))
+        principled_input(node, "Transmission").default_value = 1.0 - float(opacity)
         if mat.get("use_specular_workflow", False):
             specular = self.constant(mat, "specular_color", [0.0] * 3)
             if self.texture(mat, "specular_color"):
                 self.keep_fallback(mat, "specular_color", "read as one Specular level")
             # Principled "Specular" 0.5 is F0 = 0.04: scale the luminance F0 to it.
             f0 = float(np.dot(specular, [0.2126, 0.7152, 0.0722]))
-            node.inputs["Specular"].default_value = min(f0 / 0.08, 1.0)
+            principled_input(node, "Specular").default_value = min(f0 / 0.08, 1.0)
             self.warn(f"material {mat['path']}: specularColor approximated by its luminance F0")
         else:
             self.set_input(textures, mat, "metallic", 0.0, node.inputs["Metallic"])
@@ -441,7 +482,8 @@ class Converter(cirrus_scene.Converter):
         mesh.update()
         mesh.validate()
         if normals is not None:
-            mesh.use_auto_smooth = True
+            if bpy.app.version < (4, 1, 0):  # 4.1 keeps custom normals without it
+                mesh.use_auto_smooth = True
             mesh.normals_split_custom_set_from_vertices(
                 [tuple(v) for v in self.scene.array(normals).astype(np.float64)])
         self.meshes[index] = mesh
@@ -487,7 +529,7 @@ class Converter(cirrus_scene.Converter):
     def volume_material(self, name, record, grid):
         """Principled Volume: density = densityScale x grid, colour = albedo, HG g."""
         mat = bpy.data.materials.new(f"{name}_material")
-        mat.use_nodes = True
+        use_nodes(mat)
         nodes, links = mat.node_tree.nodes, mat.node_tree.links
         nodes.remove(nodes["Principled BSDF"])
         node = nodes.new("ShaderNodeVolumePrincipled")
@@ -515,6 +557,22 @@ def has_no_leaves(path, grid):
     return pyopenvdb.read(path, grid).leafCount() == 0
 
 
+def area_power_factor():
+    """k in an area light's power P = k A L for radiance L over area A: 4 in
+    Cycles 3.4 (its radiance is P / (4 A)); pi in 5.0, a Lambertian emitter's
+    exitance: the 10 W rect light of scenes/peers/surface_lights.usda alone
+    (96x64, 64 spp, 2026-12-02) read 1.273 = 4/pi times Cirrus with k = 4, and
+    sphere lights and the dome agree with 3.4's units (0.03%, 0.02%)."""
+    return 4.0 if bpy.app.version < (5, 0, 0) else math.pi
+
+
+def use_nodes(datablock):
+    """Gives a new material or world its node tree (5.0 always has one and
+    deprecates `use_nodes`)."""
+    if bpy.app.version < (5, 0, 0):
+        datablock.use_nodes = True
+
+
 def diffuse(nodes, colour):
     """A Diffuse BSDF node (Lambert: roughness 0) of an RGB albedo."""
     node = nodes.new("ShaderNodeBsdfDiffuse")
@@ -539,7 +597,8 @@ def matrix_of(m):
 
 
 def main():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    # Blender passes the script's arguments after `--`; the bpy module gets them plainly.
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
     args = arguments(argv)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     start = time.time()
@@ -547,10 +606,13 @@ def main():
     converter.build()
     for w in converter.warnings:
         print(f"warning: {w}", file=sys.stderr)
+    warmup = 0.0
     if args.warmup:
         # Persistent data keeps the synced scene and BVH but not a changed
         # sample count or seed, so the warm-up renders the very same image.
+        timer = time.perf_counter()
         bpy.ops.render.render()
+        warmup = time.perf_counter() - timer
     built = time.time()
     timer = time.perf_counter()
     bpy.ops.render.render()
@@ -560,6 +622,9 @@ def main():
     print(f"cycles {bpy.app.version_string}: {converter.width}x{converter.height} {args.spp} spp, "
           f"convert{'+warmup' if args.warmup else ''} {built - start:.1f} s, "
           f"render {render_seconds:.1f} s -> {args.output}")
+    if args.warmup:
+        # The warm-up is the same render plus the scene sync and BVH build.
+        print(f"sync_seconds={max(warmup - render_seconds, 0.0):.6f}")
     print(f"render_seconds={render_seconds:.6f}")
 
 

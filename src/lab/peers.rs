@@ -26,13 +26,20 @@ pub enum Peer {
     MitsubaScalar,
     /// Mitsuba 3 `llvm_ad_rgb` (Debian's libllvm19).
     MitsubaLlvm,
-    /// Blender 3.4 Cycles on the CPU.
+    /// Blender 5.0 Cycles on the CPU (the `bpy` wheel in `.venv-cycles`).
     Cycles,
+    /// Debian's Blender 3.4 Cycles on the CPU, where installed.
+    Cycles34,
 }
 
 impl Peer {
     /// Every peer, in `--help` order.
-    pub const ALL: [Peer; 3] = [Self::MitsubaScalar, Self::MitsubaLlvm, Self::Cycles];
+    pub const ALL: [Peer; 4] = [
+        Self::MitsubaScalar,
+        Self::MitsubaLlvm,
+        Self::Cycles,
+        Self::Cycles34,
+    ];
 
     /// The name in `--peers`, render_peer.py, the CSVs and the charts.
     pub fn name(self) -> &'static str {
@@ -40,6 +47,7 @@ impl Peer {
             Self::MitsubaScalar => "mitsuba-scalar",
             Self::MitsubaLlvm => "mitsuba-llvm",
             Self::Cycles => "cycles",
+            Self::Cycles34 => "cycles-3.4",
         }
     }
 
@@ -48,7 +56,8 @@ impl Peer {
         match self {
             Self::MitsubaScalar => "Mitsuba 3 `scalar_rgb`",
             Self::MitsubaLlvm => "Mitsuba 3 `llvm_ad_rgb` (Debian's libllvm19)",
-            Self::Cycles => "Blender 3.4 Cycles on the CPU",
+            Self::Cycles => "Blender 5.0 Cycles on the CPU (the bpy wheel)",
+            Self::Cycles34 => "Debian's Blender 3.4 Cycles on the CPU (ray-marched volumes)",
         }
     }
 }
