@@ -345,6 +345,7 @@ mod tests {
         Emitters {
             materials,
             media: &NO_MEDIA,
+            time: 0.0,
         }
     }
 
