@@ -188,7 +188,8 @@ fn volume_stage(vdb: &std::path::Path) -> String {
         )
     };
     format!(
-        "#usda 1.0\n(\n    defaultPrim = \"World\"\n    metersPerUnit = 1\n    upAxis = \"Y\"\n)\n\n\
+        "#usda 1.0\n(\n    defaultPrim = \"World\"\n    metersPerUnit = 1\n    upAxis = \"Y\"\n    \
+         startTimeCode = 0\n    endTimeCode = 0\n)\n\n\
          def Xform \"World\"\n{{\n    def Volume \"Explosion\"\n    {{\n        \
          rel field:density = </World/Explosion/density>\n        \
          rel field:temperature = </World/Explosion/temperature>\n        \

@@ -24,9 +24,9 @@ use crate::scene::VolumeField;
 pub(super) struct VelocityField {
     /// Components, world units per second, each with its own transform.
     components: [SparseGrid; 3],
-    /// An upper bound of |v| over every trilinear lookup, world units per
-    /// second (the largest magnitude per component, background included).
-    max_speed: f32,
+    /// Per component, the smallest and largest value any trilinear lookup
+    /// can return, world units per second (stored values and background).
+    ranges: [(f32, f32); 3],
 }
 
 impl VelocityField {
@@ -51,18 +51,15 @@ impl VelocityField {
             }
             _ => file.read_vector_grid(&field.grid, index)?,
         };
-        let largest = |g: &SparseGrid| {
+        let range = |g: &SparseGrid| {
             let s = g.stats();
-            s.max_value
-                .abs()
-                .max(s.min_value.abs())
-                .max(g.background().abs())
+            (
+                s.min_value.min(g.background()),
+                s.max_value.max(g.background()),
+            )
         };
-        let max_speed = Vec3::from(components.each_ref().map(largest)).length();
-        Ok(Self {
-            components,
-            max_speed,
-        })
+        let ranges = components.each_ref().map(range);
+        Ok(Self { components, ranges })
     }
 
     /// NaN and infinite values over the three components (read as a zero
@@ -72,11 +69,6 @@ impl VelocityField {
             .iter()
             .map(|g| g.stats().non_finite_count)
             .sum()
-    }
-
-    /// An upper bound of the speed anywhere, world units per second.
-    pub(super) fn max_speed(&self) -> f32 {
-        self.max_speed
     }
 
     /// Bytes held by the three component grids.
@@ -147,17 +139,29 @@ impl Advection {
         self.index_per_frame * (v * time)
     }
 
-    /// Per density index axis, the most any lookup moves over a shutter
-    /// whose times reach `max_time` frames from the frame (in magnitude):
-    /// what the medium's majorant grid is dilated by.
+    /// Per density index axis, the range of [`Self::displacement`] over
+    /// every lookup at times in `[open, close]` (frames), as (min, max):
+    /// what the medium's majorant grid is dilated by. Interval arithmetic
+    /// over the components' value ranges, the linear map and the times.
     pub(super) fn reach(
         field: &VelocityField,
         density: &GridTransform,
         units_per_frame: f32,
-        max_time: f32,
-    ) -> Vec3 {
-        let m = density.index_from_world.matrix3.transpose().as_mat3();
-        let rows = Vec3::new(m.x_axis.length(), m.y_axis.length(), m.z_axis.length());
-        rows * (field.max_speed() * units_per_frame.abs() * max_time)
+        (open, close): (f32, f32),
+    ) -> (Vec3, Vec3) {
+        let m = density.index_from_world.matrix3.transpose() * f64::from(units_per_frame);
+        let m = m.as_mat3();
+        let row = |r: Vec3| {
+            let (mut lo, mut hi) = (0.0f32, 0.0f32);
+            for (w, (a, b)) in r.to_array().into_iter().zip(field.ranges) {
+                lo += (w * a).min(w * b);
+                hi += (w * a).max(w * b);
+            }
+            let ends = [open * lo, open * hi, close * lo, close * hi];
+            let min = ends.into_iter().fold(f32::INFINITY, f32::min);
+            (min, ends.into_iter().fold(f32::NEG_INFINITY, f32::max))
+        };
+        let [(x0, x1), (y0, y1), (z0, z1)] = [row(m.x_axis), row(m.y_axis), row(m.z_axis)];
+        (Vec3::new(x0, y0, z0), Vec3::new(x1, y1, z1))
     }
 }

@@ -401,17 +401,20 @@ impl MajorantGrid {
         raised
     }
 
-    /// A copy that bounds the density anywhere within `reach` (index units
-    /// per axis) of each of its points: a volume whose lookups move back by
-    /// at most `reach` over the shutter (`advection.rs`) keeps a
-    /// conservative majorant. The grid grows by `ceil(reach / cell edge)`
-    /// cells on every side and each cell's max becomes the max over the
-    /// cells that far around it (a separable max filter); minorants drop to
-    /// 0, support boxes to the whole cell, and `Adaptive` splits are left
-    /// out (the sub-cells do not survive the filter).
-    pub(crate) fn dilated(&self, reach: Vec3) -> Self {
-        let steps = (reach / self.cell_size).ceil().as_ivec3().max(IVec3::ZERO);
-        let dims = self.dims + 2 * steps;
+    /// A copy that bounds, at every point q, the density at q - d for any
+    /// displacement d in the box `[lo, hi]` of `reach` (index units per
+    /// axis): a volume whose lookups move back by such d over the shutter
+    /// (`advection.rs`) keeps a conservative majorant. Each cell's max
+    /// becomes the max over the cells `ceil(hi / edge)` below and
+    /// `ceil(-lo / edge)` above it (a separable max filter), the grid
+    /// growing by as many cells on the other side; minorants drop to 0,
+    /// support boxes to the whole cell, and `Adaptive` splits are left out
+    /// (the sub-cells do not survive the filter).
+    pub(crate) fn dilated(&self, (lo, hi): (Vec3, Vec3)) -> Self {
+        let cells = |d: Vec3| (d / self.cell_size).ceil().as_ivec3().max(IVec3::ZERO);
+        // Cells read from below (motion towards +) and from above (towards -).
+        let (below, above) = (cells(hi), cells(-lo));
+        let dims = self.dims + below + above;
         let count = if self.cells.is_empty() {
             0
         } else {
@@ -420,14 +423,14 @@ impl MajorantGrid {
         let slot = |c: IVec3| ((c.x * dims.y + c.y) * dims.z + c.z) as usize;
         let mut max = vec![0.0f32; count];
         for (n, range) in self.cells.iter().enumerate() {
-            max[slot(self.cell_of(n) + steps)] = range.max;
+            max[slot(self.cell_of(n) + above)] = range.max;
         }
         for axis in 0..3 {
             let read = max.clone();
             for (n, out) in max.iter_mut().enumerate() {
                 let n = n as i32;
                 let c = IVec3::new(n / (dims.y * dims.z), n / dims.z % dims.y, n % dims.z);
-                for k in -steps[axis]..=steps[axis] {
+                for k in -below[axis]..=above[axis] {
                     let mut q = c;
                     q[axis] += k;
                     if (0..dims[axis]).contains(&q[axis]) {
@@ -437,7 +440,7 @@ impl MajorantGrid {
             }
         }
         Self {
-            lo: self.lo - steps.as_vec3() * self.cell_size,
+            lo: self.lo - above.as_vec3() * self.cell_size,
             cell_size: self.cell_size,
             dims: if count == 0 { self.dims } else { dims },
             cells: max
@@ -562,7 +565,7 @@ pub(super) mod tests {
     #[test]
     fn dilated_majorants_bound_density_moved_within_their_reach() {
         let grid = synthetic();
-        let reach = Vec3::new(13.0, 0.0, 5.0);
+        let reach = (Vec3::new(-3.0, 0.0, -5.0), Vec3::new(13.0, 0.0, 0.0));
         let mut rng = Pcg32::new(11, 0);
         for kind in [
             MajorantKind::Grid,
@@ -575,8 +578,8 @@ pub(super) mod tests {
             for _ in 0..20_000 {
                 let u = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
                 let p = Vec3::new(-20.0, -4.0, -12.0) + u * Vec3::new(60.0, 40.0, 48.0);
-                let shift =
-                    (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0) * reach;
+                let v = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+                let shift = reach.0 + v * (reach.1 - reach.0);
                 let density = grid.trilinear_index(p - shift).max(0.0);
                 assert!(
                     dilated.max_at(p) >= density,

@@ -42,6 +42,10 @@ use crate::scene::{affine, Scene, VolumeField};
 /// read (and its majorant grid built) once, whatever the placements.
 type FieldKey = (PathBuf, String, u32);
 
+/// A volume's velocity field and the world units per frame one unit of it
+/// moves (`motion:velocityScale` / `timeCodesPerSecond`).
+type Velocity = (Arc<VelocityField>, f32);
+
 /// An emitting volume's light cells and its majorant grid raised where it
 /// emits (see [`Medium::emission_cells`]).
 type EmittingGrids = (Option<Arc<EmissionCells>>, Option<Arc<MajorantGrid>>);
@@ -513,7 +517,7 @@ impl Media {
         }
         let velocities = read_velocities(scene, shutter)?;
         warn_transform_motion(scene, shutter);
-        let max_time = shutter.open.abs().max(shutter.close.abs());
+        let times = (shutter.open, shutter.close);
         let blackbody = m
             .volumes
             .iter()
@@ -563,7 +567,7 @@ impl Media {
                         let voxel = longest_axis(grid.transform().world_from_index.matrix3);
                         let depth = depth_scales[&key] * voxel;
                         let mut majorant = MajorantGrid::build_for(&grid, kind, depth);
-                        // Every volume advecting this grid: the farthest any moves it.
+                        // Every volume advecting this grid: how far any moves it.
                         let reach = m
                             .volumes
                             .iter()
@@ -573,10 +577,12 @@ impl Media {
                             })
                             .filter_map(|(_, velocity)| velocity.as_ref())
                             .map(|(field, per_frame)| {
-                                Advection::reach(field, grid.transform(), *per_frame, max_time)
+                                Advection::reach(field, grid.transform(), *per_frame, times)
                             })
-                            .fold(Vec3::ZERO, Vec3::max);
-                        if reach.max_element() > 0.0 {
+                            .fold((Vec3::ZERO, Vec3::ZERO), |(a, b), (lo, hi)| {
+                                (a.min(lo), b.max(hi))
+                            });
+                        if reach != (Vec3::ZERO, Vec3::ZERO) {
                             majorant = majorant.dilated(reach);
                         }
                         let entry = (Arc::new(grid), Arc::new(majorant));
@@ -753,10 +759,7 @@ fn warn_transform_motion(scene: &Scene, shutter: Shutter) {
 /// Per volume, its velocity field (read once per file, grid and index) and
 /// world units per frame per unit of velocity, when it has one and
 /// `shutter` is not closed at the frame; `None` otherwise.
-fn read_velocities(
-    scene: &Scene,
-    shutter: Shutter,
-) -> Result<Vec<Option<(Arc<VelocityField>, f32)>>, VolumeError> {
+fn read_velocities(scene: &Scene, shutter: Shutter) -> Result<Vec<Option<Velocity>>, VolumeError> {
     let mut read: HashMap<FieldKey, Arc<VelocityField>> = HashMap::new();
     let mut velocities = Vec::new();
     for volume in &scene.manifest.volumes {
