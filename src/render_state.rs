@@ -1,5 +1,5 @@
 //! Everything a render reads, built once from a [`Scene`] in a fixed order
-//! (volumes, textures and materials, lights, camera, geometry) and never changed
+//! (camera, volumes, textures and materials, lights, geometry) and never changed
 //! afterwards, so threads share it freely. The scene itself can be dropped.
 
 use glam::UVec2;
@@ -112,20 +112,21 @@ impl RenderState {
         if resolution.min_element() == 0 {
             return Err(RenderStateError::Resolution(resolution.x, resolution.y));
         }
-        let media = Media::build(scene, options.majorant)?;
-        let materials = Materials::build(scene)?;
-        // The camera first: its shutter says whether geometry moves.
+        // The camera first: its shutter says whether volumes and geometry move.
         let camera = Camera::new(&scene.manifest.camera, resolution)?;
         let camera = match options.shutter {
             Some(shutter) => camera.with_shutter(shutter),
             None => camera,
         };
         let shutter = camera.shutter();
+        let media = Media::build_at(scene, options.majorant, shutter)?;
+        let materials = Materials::build(scene)?;
         let lights = Lights::build(scene, &materials, &media, options.volume_lights, shutter)?;
         if shutter.blurs() {
             log::info!("shutter {shutter} frames: motion blur on");
             let m = &scene.manifest;
-            if m.camera.shutter.is_none() && m.instances.motion.is_none() {
+            let velocities = m.volumes.iter().any(|v| v.fields.contains_key("velocity"));
+            if m.camera.shutter.is_none() && m.instances.motion.is_none() && !velocities {
                 log::warn!("the scene was exported with a closed shutter: nothing moves (render the USD stage itself with --shutter {shutter}, or export it with `cirrus export --shutter {shutter}`)");
             }
         }
@@ -149,11 +150,12 @@ impl RenderState {
 }
 
 impl RenderState {
-    /// What light samples read emission from.
-    pub fn emitters(&self) -> Emitters<'_> {
+    /// What light samples read emission from, at `time` (frames).
+    pub fn emitters(&self, time: f32) -> Emitters<'_> {
         Emitters {
             materials: &self.materials,
             media: &self.media,
+            time,
         }
     }
 }

@@ -423,7 +423,7 @@ fn overlapping_volumes_add_their_extinctions() {
         let media = Media::build(&scene, kind).unwrap();
         for (r, &((x, z), depth)) in rays.iter().enumerate() {
             let (origin, t_max) = (Vec3::new(x, 5.0, z), 10.0);
-            let ray = media.along(origin, -Vec3::Y, t_max);
+            let ray = media.along(origin, -Vec3::Y, t_max, 0.0);
             assert_eq!(ray.is_empty(), depth == 0.0, "ray {r}");
             if r == 0 {
                 // y = 0.5: inside both constant cores.

@@ -27,7 +27,8 @@ pub(super) mod ffi {
         is_linear: bool,
     }
 
-    /// A float tree flattened into plain arrays, copied once.
+    /// A float tree (or one component of a vec3s tree) flattened into
+    /// plain arrays, copied once.
     struct FloatGridData {
         background: f32,
         /// Origin (min corner) of each 8^3 leaf, 3 values per leaf.
@@ -54,6 +55,9 @@ pub(super) mod ffi {
         fn grids(self: &VdbFile) -> Result<Vec<GridInfo>>;
         /// `file_index` is the grid's position in `grids()`.
         fn read_float_grid(self: &VdbFile, file_index: u32) -> Result<FloatGridData>;
+        /// A vec3s grid as its x, y and z components, each flattened like a
+        /// float grid (same leaves and tiles).
+        fn read_vec3_grid(self: &VdbFile, file_index: u32) -> Result<Vec<FloatGridData>>;
         /// OpenVDB's `GridSampler<BoxSampler>` at (x,y,z) triples, index space
         /// (`isSample`) or world space (`wsSample`). Tests and benchmarks only.
         fn box_sample(

@@ -134,40 +134,67 @@ rust::Vec<GridInfo> VdbFile::grids() const {
   });
 }
 
+namespace {
+
+// Flattens a tree into plain arrays, one scalar per voxel and tile: `component`
+// turns each stored value into the float copied (the value itself for a float
+// tree, one of the three components for a vec3s tree).
+template <typename TreeT, typename Component>
+FloatGridData flatten(const TreeT &tree, Component component) {
+  FloatGridData out;
+  out.background = component(tree.background());
+  out.tree_mem_bytes = static_cast<uint64_t>(tree.memUsage());
+
+  out.leaf_origins.reserve(tree.leafCount() * 3);
+  out.leaf_values.reserve(tree.leafCount() * TreeT::LeafNodeType::SIZE);
+  for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf) {
+    const openvdb::Coord o = leaf->origin();
+    out.leaf_origins.push_back(o.x());
+    out.leaf_origins.push_back(o.y());
+    out.leaf_origins.push_back(o.z());
+    for (openvdb::Index i = 0; i < TreeT::LeafNodeType::SIZE; ++i) {
+      out.leaf_values.push_back(component(leaf->getValue(i)));
+    }
+  }
+
+  // Tiles live above the leaf level: stop the iterator one level short of voxels.
+  typename TreeT::ValueAllCIter tile = tree.cbeginValueAll();
+  tile.setMaxDepth(TreeT::ValueAllCIter::LEAF_DEPTH - 1);
+  for (; tile; ++tile) {
+    const bool active = tile.isValueOn();
+    const auto value = tile.getValue();
+    if (!active && openvdb::math::isExactlyEqual(value, tree.background())) continue;
+    const openvdb::CoordBBox box = tile.getBoundingBox();
+    out.tile_origins.push_back(box.min().x());
+    out.tile_origins.push_back(box.min().y());
+    out.tile_origins.push_back(box.min().z());
+    out.tile_dims.push_back(static_cast<uint32_t>(box.dim().x()));
+    out.tile_values.push_back(component(value));
+    out.tile_active.push_back(active);
+  }
+  return out;
+}
+
+} // namespace
+
 FloatGridData VdbFile::read_float_grid(uint32_t file_index) const {
   return guard("OpenVDB", [&] {
     openvdb::FloatGrid::Ptr grid = as_float_grid(impl_->read(file_index));
-    const openvdb::FloatTree &tree = grid->tree();
-    FloatGridData out;
-    out.background = tree.background();
-    out.tree_mem_bytes = static_cast<uint64_t>(tree.memUsage());
+    return flatten(grid->tree(), [](float v) { return v; });
+  });
+}
 
-    out.leaf_origins.reserve(tree.leafCount() * 3);
-    out.leaf_values.reserve(tree.leafCount() * openvdb::FloatTree::LeafNodeType::SIZE);
-    for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf) {
-      const openvdb::Coord o = leaf->origin();
-      out.leaf_origins.push_back(o.x());
-      out.leaf_origins.push_back(o.y());
-      out.leaf_origins.push_back(o.z());
-      for (openvdb::Index i = 0; i < openvdb::FloatTree::LeafNodeType::SIZE; ++i) {
-        out.leaf_values.push_back(leaf->getValue(i));
-      }
+rust::Vec<FloatGridData> VdbFile::read_vec3_grid(uint32_t file_index) const {
+  return guard("OpenVDB", [&] {
+    openvdb::GridBase::Ptr base = impl_->read(file_index);
+    auto grid = openvdb::gridPtrCast<openvdb::Vec3SGrid>(base);
+    if (!grid) {
+      throw std::runtime_error("grid '" + base->getName() + "' has value type '" +
+                               base->valueType() + "', not vec3s");
     }
-
-    // Tiles live above the leaf level: stop the iterator one level short of voxels.
-    openvdb::FloatTree::ValueAllCIter tile = tree.cbeginValueAll();
-    tile.setMaxDepth(openvdb::FloatTree::ValueAllCIter::LEAF_DEPTH - 1);
-    for (; tile; ++tile) {
-      const bool active = tile.isValueOn();
-      const float value = tile.getValue();
-      if (!active && openvdb::math::isExactlyEqual(value, out.background)) continue;
-      const openvdb::CoordBBox box = tile.getBoundingBox();
-      out.tile_origins.push_back(box.min().x());
-      out.tile_origins.push_back(box.min().y());
-      out.tile_origins.push_back(box.min().z());
-      out.tile_dims.push_back(static_cast<uint32_t>(box.dim().x()));
-      out.tile_values.push_back(value);
-      out.tile_active.push_back(active);
+    rust::Vec<FloatGridData> out;
+    for (int c = 0; c < 3; ++c) {
+      out.push_back(flatten(grid->tree(), [c](const openvdb::Vec3s &v) { return v[c]; }));
     }
     return out;
   });

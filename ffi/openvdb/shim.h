@@ -13,7 +13,8 @@ struct GridInfo;
 struct FloatGridData;
 
 /// An open `.vdb` file. Holds the OpenVDB file object and a cache of the grid
-/// metadata; the trees themselves are read on demand by `read_float_grid`.
+/// metadata; the trees themselves are read on demand by `read_float_grid` and
+/// `read_vec3_grid`.
 class VdbFile {
 public:
   struct Impl;
@@ -22,6 +23,7 @@ public:
 
   rust::Vec<GridInfo> grids() const;
   FloatGridData read_float_grid(uint32_t file_index) const;
+  rust::Vec<FloatGridData> read_vec3_grid(uint32_t file_index) const;
   rust::Vec<float> box_sample(uint32_t file_index, rust::Slice<const double> points,
                               bool world_space) const;
 

@@ -14,9 +14,10 @@ from .vdb_header import grid_bounds
 
 # Manifest key, primvar name, default (docs/conventions.md, "Shading primvars": densityScale 1,
 # albedo 1, anisotropy 0, no emission).
-# USD field relationship name -> manifest field key; "heat" is the openusd assets' name.
+# USD field relationship name -> manifest field key; "heat" is the openusd assets' name, "vel"
+# and "v" Houdini's for velocity (docs/conventions.md, "Velocity fields").
 FIELD_KEYS = {"density": "density", "temperature": "temperature", "heat": "temperature",
-              "emission": "emission"}
+              "emission": "emission", "velocity": "velocity", "vel": "velocity", "v": "velocity"}
 
 # Emission parameters by the field that uses them, reported as defaulted only for volumes with that field.
 EMISSION_PRIMVARS = {"temperature": {"heatScale", "temperatureOffset", "temperatureScale"},
@@ -92,7 +93,7 @@ class VolumeTable:
             field_key = FIELD_KEYS.get(str(name))
             if field_key is None or field_key in fields:
                 self._report.warn(f"volume {prim.GetPath()}: field:{name} is not used by Cirrus "
-                                  f"(only density, temperature/heat and emission); ignored")
+                                  f"(only density, temperature/heat, emission and velocity/vel/v); ignored")
                 continue
             field = self._field(prim, stage.GetPrimAtPath(path))
             if field is None:
@@ -102,6 +103,8 @@ class VolumeTable:
             self._report.warn(f"volume {prim.GetPath()}: no field:density; skipped")
             return None
         record = {"path": key, "fields": fields, **self._shading(prim, set(fields))}
+        if "velocity" in fields:
+            record.update(self._velocity_units(prim))
         self.records.append(record)
         self.boxes.append(self._bounds(prim, fields))
         return len(self.records) - 1
@@ -129,12 +132,20 @@ class VolumeTable:
             self._report.warn(f"volume {prim.GetPath()}: unauthored, defaults used: {', '.join(defaulted)}")
         return shading
 
+    def _velocity_units(self, prim: Usd.Prim) -> dict:
+        """What turns the velocity field's values into motion: UsdGeomMotionAPI's inherited
+        `motion:velocityScale` (default 1) and the stage's `timeCodesPerSecond` (USD's default 24):
+        velocities are world units per second, shutter times in frames."""
+        scale = UsdGeom.MotionAPI(prim).ComputeVelocityScale(self._time)
+        return {"velocity_scale": float(scale), "time_codes_per_second": prim.GetStage().GetTimeCodesPerSecond()}
+
     def _bounds(self, prim: Usd.Prim, fields: dict) -> tuple[np.ndarray, np.ndarray] | None:
         """Object-space box: the union of the fields' VDB grid boxes, else the authored extent.
 
         None (with a warning) when neither can be read; the scene bounds then leave it out.
         """
-        boxes = [grid_bounds(field["file"], field["grid"]) for field in fields.values()]
+        # A velocity field moves the volume; its own grid bounds nothing that is drawn.
+        boxes = [grid_bounds(field["file"], field["grid"]) for key, field in fields.items() if key != "velocity"]
         boxes = [box for box in boxes if box is not None]
         if boxes:
             return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)

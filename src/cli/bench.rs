@@ -182,6 +182,10 @@ pub enum Bench {
         /// Timed repeats of the build and the render; the table shows medians.
         #[arg(long, default_value_t = 3)]
         repeats: usize,
+        /// Also a volume advected by its velocity: a VDB with `density`,
+        /// `temperature` and `vel` grids (scenes/make_explosion.py writes one).
+        #[arg(long, value_name = "FILE.vdb")]
+        volume: Option<PathBuf>,
     },
     /// Internal to `bench instances`: loads one exported scene and builds its
     /// BVHs in this fresh process, and prints the resident bytes added.
@@ -281,11 +285,13 @@ pub fn run(bench: Bench) -> Result<()> {
             res,
             spp,
             repeats,
+            volume,
         } => lab::bench_motion(&lab::MotionBench {
             instances,
             resolution: res,
             spp,
             repeats,
+            volume,
         }),
         Bench::InstancesMemory { scene } => lab::instances_memory(&scene),
     }?;

@@ -219,7 +219,7 @@ pub(super) fn equiangular_sample(
     let wo = -eq.direction;
     let phase = along.phase(t, rng.next_f32());
     let u = Vec2::new(rng.next_f32(), rng.next_f32());
-    let ls = lights.sample_light(state.emitters(), light, p, u)?;
+    let ls = lights.sample_light(state.emitters(time), light, p, u)?;
     let p_select = lights.probability(p, light);
     if ls.pdf.is_nan() || ls.pdf <= 0.0 || p_select <= 0.0 {
         return None;

@@ -153,9 +153,10 @@ impl Path<'_, '_> {
         (u_select, u): (f32, Vec2),
     ) -> Option<LightContribution> {
         let (state, settings) = (self.state, self.settings);
-        let (light, ls) = state
-            .lights
-            .sample(state.emitters(), vertex.position(), u_select, u)?;
+        let (light, ls) =
+            state
+                .lights
+                .sample(state.emitters(self.time), vertex.position(), u_select, u)?;
         let f = vertex.f(ls.wi);
         if ls.pdf.is_nan() || ls.pdf <= 0.0 || f == Vec3::ZERO {
             return None;
@@ -241,7 +242,7 @@ impl Path<'_, '_> {
         let lights = &state.lights;
         let (origin, direction) = (Vec3::from(ray.origin), Vec3::from(ray.direction));
         let along = (!state.media.is_empty())
-            .then(|| state.media.along(origin, direction, t_end))
+            .then(|| state.media.along(origin, direction, t_end, self.time))
             .filter(|along| !along.is_empty());
         let Some(along) = along else {
             return AfterMedia::Reached { null_ratio: 1.0 };

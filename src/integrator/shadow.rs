@@ -66,7 +66,7 @@ pub(super) fn visibility(
     if state.media.is_empty() {
         return Visibility::CLEAR;
     }
-    let along = state.media.along(origin, direction, shadow.tmax);
+    let along = state.media.along(origin, direction, shadow.tmax, time);
     if along.is_empty() {
         return Visibility::CLEAR;
     }

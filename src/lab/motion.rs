@@ -5,7 +5,10 @@
 //! rendered with the shutter closed (`--shutter 0,0`: every instance still,
 //! in the world-space BVH where placed once) and open: top-level BVH build
 //! time (medians), the transform tracks' memory, and samples per second at
-//! equal spp.
+//! equal spp. With `--volume FILE.vdb`, also a fireball advected by its
+//! `vel` grid (docs/volumes.md, "Motion blur"): media build time (the
+//! velocity grid read and the majorants dilated) and samples per second
+//! with the shutter closed (velocity not read) and open over half a frame.
 
 use std::fmt::Write as _;
 use std::hint::black_box;
@@ -31,6 +34,8 @@ pub struct MotionBench {
     pub spp: u32,
     /// Timed repeats of the BVH build and the render; the table shows medians.
     pub repeats: usize,
+    /// A VDB with `density`, `temperature` and `vel` grids to advect.
+    pub volume: Option<std::path::PathBuf>,
 }
 
 /// Bytes a moving placement's track holds per key: an `Affine3A` (48) and
@@ -106,8 +111,104 @@ pub fn run(bench: &MotionBench) -> Result<()> {
             samples / seconds / 1e6
         );
     }
+    if let Some(vdb) = &bench.volume {
+        advected_volume(bench, vdb, &dir)?;
+    }
     std::fs::remove_dir_all(&dir).map_err(system)?;
     Ok(())
+}
+
+/// The second table: the fireball of `vdb` (density, temperature, `vel`)
+/// over a ground under a dim sky, with the shutter closed and open.
+fn advected_volume(
+    bench: &MotionBench,
+    vdb: &std::path::Path,
+    dir: &std::path::Path,
+) -> Result<()> {
+    let usda = dir.join("volume.usda");
+    let system = |e| LabError::system(usda.display().to_string(), e);
+    std::fs::write(&usda, volume_stage(vdb)).map_err(system)?;
+    crate::scene::export(&usda, &dir.join("volume"), &Default::default())?;
+    let scene = Scene::load(&dir.join("volume"))?;
+    println!(
+        "\nThe fireball of {} advected by its `vel` grid; {}x{} pixels, {} spp.\n",
+        vdb.display(),
+        bench.resolution.x,
+        bench.resolution.y,
+        bench.spp
+    );
+    println!(
+        "| shutter | media build (ms) | samples/s (M) | density lookups per sample | render (s) |"
+    );
+    println!("|---|---:|---:|---:|---:|");
+    let repeats = bench.repeats.max(1);
+    for (name, shutter) in [
+        ("0,0 (still)", Shutter::CLOSED),
+        ("0,0.5 (advected)", Shutter::new(0.0, 0.5).expect("valid")),
+    ] {
+        let options = StateOptions {
+            shutter: Some(shutter),
+            ..StateOptions::default()
+        };
+        let mut builds = Vec::new();
+        let mut state = None;
+        for _ in 0..repeats {
+            let start = Instant::now();
+            state = Some(RenderState::build(&scene, Some(bench.resolution), options)?);
+            builds.push(start.elapsed().as_secs_f64());
+        }
+        let state = state.expect("at least one repeat");
+        let (mut seconds, mut lookups) = (Vec::new(), 0);
+        for seed in 0..repeats {
+            let settings = base_settings(Budget::Samples(bench.spp), seed as u64);
+            let stats = render(&state, &settings).1;
+            seconds.push(stats.elapsed.as_secs_f64());
+            lookups = stats.tracking.density_lookups;
+        }
+        let seconds = median(seconds);
+        let samples = f64::from(bench.resolution.x * bench.resolution.y * bench.spp);
+        println!(
+            "| {name} | {:.0} | {:.3} | {:.2} | {seconds:.2} |",
+            median(builds) * 1e3,
+            samples / seconds / 1e6,
+            lookups as f64 / samples
+        );
+    }
+    Ok(())
+}
+
+/// scenes/demo/explosion.usda's fireball reading `vdb`, with its velocity
+/// field, seen by a camera whose shutter is open over half a frame.
+fn volume_stage(vdb: &std::path::Path) -> String {
+    let asset = |name: &str, grid: &str| {
+        format!(
+            "        def OpenVDBAsset \"{name}\"\n        {{\n            asset filePath = @{}@\n            \
+             token fieldName = \"{grid}\"\n        }}\n",
+            vdb.display()
+        )
+    };
+    format!(
+        "#usda 1.0\n(\n    defaultPrim = \"World\"\n    metersPerUnit = 1\n    upAxis = \"Y\"\n    \
+         startTimeCode = 0\n    endTimeCode = 0\n)\n\n\
+         def Xform \"World\"\n{{\n    def Volume \"Explosion\"\n    {{\n        \
+         rel field:density = </World/Explosion/density>\n        \
+         rel field:temperature = </World/Explosion/temperature>\n        \
+         rel field:velocity = </World/Explosion/velocity>\n        float primvars:densityScale = 12\n        \
+         color3f primvars:albedo = (0.3, 0.3, 0.3)\n        float primvars:anisotropy = 0.3\n        \
+         float primvars:heatScale = 0.01\n        float primvars:temperatureOffset = 0\n        \
+         float primvars:temperatureScale = 1\n        double3 xformOp:translate = (0, 1, 0)\n        \
+         uniform token[] xformOpOrder = [\"xformOp:translate\"]\n{}{}{}    }}\n\n    \
+         def Mesh \"Ground\"\n    {{\n        int[] faceVertexCounts = [4]\n        \
+         int[] faceVertexIndices = [0, 1, 2, 3]\n        \
+         point3f[] points = [(-20, 0, 20), (20, 0, 20), (20, 0, -20), (-20, 0, -20)]\n    }}\n\n    \
+         def DomeLight \"Sky\"\n    {{\n        color3f inputs:color = (0.4, 0.5, 0.7)\n        \
+         float inputs:intensity = 0.15\n    }}\n\n    def Camera \"Camera\"\n    {{\n        \
+         double3 xformOp:translate = (0, 1.2, 5.5)\n        uniform token[] xformOpOrder = [\"xformOp:translate\"]\n        \
+         float focalLength = 35\n        double shutter:open = 0\n        double shutter:close = 0.5\n    }}\n}}\n",
+        asset("density", "density"),
+        asset("temperature", "temperature"),
+        asset("velocity", "vel"),
+    )
 }
 
 /// The stage: `n` instanceable unit spheres on a square grid 3 units apart

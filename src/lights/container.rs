@@ -373,6 +373,7 @@ mod tests {
         Emitters {
             materials,
             media: &NO_MEDIA,
+            time: 0.0,
         }
     }
 

@@ -26,7 +26,7 @@ impl Light {
             Self::Cylinder(l) => l.sample(p, u),
             Self::Dome(l) => l.sample(u),
             Self::Mesh(l) => l.sample(emitters.materials, p, u),
-            Self::Volume(l) => l.sample(emitters.media, p, u),
+            Self::Volume(l) => l.sample(emitters.media, p, u, emitters.time),
         }
     }
 

@@ -82,6 +82,9 @@ pub struct Emitters<'a> {
     pub materials: &'a Materials,
     /// The scene's media.
     pub media: &'a Media,
+    /// The sample's time, frames relative to the frame (volumes advected
+    /// by velocity fields emit where they are then).
+    pub time: f32,
 }
 
 /// A light sample seen from a shading point (pbrt's `LightLiSample`).

@@ -39,12 +39,16 @@ impl VolumeLight {
     /// where the picked point emits nothing. The cell and its first axis
     /// come from `u.x`, the other two axes from `u.y` and its fraction at
     /// 1/4096 resolution (finer than a voxel per cell edge by 500x).
-    pub fn sample(&self, media: &Media, p: Vec3, u: Vec2) -> Option<LightSample> {
+    /// At `time` (frames), a medium advected by its velocity field emits
+    /// where it is then: the point is picked by the emission at the frame
+    /// and weighed by the source at `time` (MIS with tracking, which finds
+    /// emission wherever it has moved, keeps the sum unbiased).
+    pub fn sample(&self, media: &Media, p: Vec3, u: Vec2, time: f32) -> Option<LightSample> {
         let u3 = Vec3::new(u.x, u.y, (u.y * SPLIT).fract());
         let (point, pdf_volume) = media.sample_emission(self.medium, u3)?;
         let offset = point - p;
         let distance = offset.length();
-        let source = media.source(point);
+        let source = media.source(point, time);
         let sigma_maj = media.sigma_maj_at(point);
         if source == Vec3::ZERO || sigma_maj <= 0.0 || distance <= 0.0 {
             return None;

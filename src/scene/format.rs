@@ -466,7 +466,7 @@ pub struct Volume {
     /// Prim path.
     pub path: String,
     /// `field:<name>` relationships to `OpenVDBAsset` prims, by field name
-    /// (`density` and optionally `temperature` and `emission`).
+    /// (`density` and optionally `temperature`, `emission` and `velocity`).
     pub fields: BTreeMap<String, VolumeField>,
     /// `primvars:densityScale` (default 1): sigma_t per world unit per
     /// density, per RGB channel (a float in USD and the file is grey; a
@@ -491,6 +491,20 @@ pub struct Volume {
     /// `primvars:emissionColor` (default 1, 1, 1), see `emission_scale`.
     #[serde(default = "white")]
     pub emission_color: Rgb,
+    /// `motion:velocityScale` (UsdGeomMotionAPI, default 1): scales the
+    /// `velocity` field's values. Written only for volumes with one.
+    #[serde(default = "unit_scale")]
+    pub velocity_scale: f32,
+    /// The stage's `timeCodesPerSecond` (default 24, USD's): velocities are
+    /// per second, shutter times in frames. Written only for volumes with a
+    /// `velocity` field.
+    #[serde(default = "usd_time_codes_per_second")]
+    pub time_codes_per_second: f64,
+}
+
+/// USD's default `timeCodesPerSecond`.
+fn usd_time_codes_per_second() -> f64 {
+    24.0
 }
 
 impl Volume {

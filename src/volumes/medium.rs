@@ -19,21 +19,32 @@ use std::f32::consts::PI;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use glam::{Affine3A, DAffine3, Vec3};
+use glam::{Affine3A, Vec3};
 use smallvec::SmallVec;
 
+use super::advection::{Advection, VelocityField};
+use super::checks::{
+    check_emission_scales, velocity_units_per_frame, warn_bad_values, warn_bad_velocities,
+};
 use super::emitter::{EmissionCells, SourceSample};
+use super::overlap::{box_hit, merge};
+use super::placement::{longest_axis, to_f32, to_f64, world_box};
 use super::tracking::channel_mean;
 use super::{
     BlackbodyTable, GridInfo, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
     MajorantSegments, SparseGrid, VdbFile, VolumeError,
 };
 use crate::color::luminance;
+use crate::motion::Shutter;
 use crate::scene::{affine, Scene, VolumeField};
 
 /// A density field's identity: file, grid name and occurrence index. Each is
 /// read (and its majorant grid built) once, whatever the placements.
 type FieldKey = (PathBuf, String, u32);
+
+/// A volume's velocity field and the world units per frame one unit of it
+/// moves (`motion:velocityScale` / `timeCodesPerSecond`).
+type Velocity = (Arc<VelocityField>, f32);
 
 /// An emitting volume's light cells and its majorant grid raised where it
 /// emits (see [`Medium::emission_cells`]).
@@ -63,6 +74,9 @@ pub struct Medium {
     world_from_index: Affine3A,
     /// World volume of one index-space unit cube, |det(world_from_index)|.
     voxel_volume: f32,
+    /// Its velocity field, when it has one and the shutter is not closed
+    /// at the frame (`advection.rs`); `None` reads every grid where it is.
+    advection: Option<Advection>,
 }
 
 impl Medium {
@@ -80,14 +94,35 @@ impl Medium {
         }
     }
 
-    /// The source term sigma_a Le at world point `p`, W/(m^3 sr) in scene
-    /// units, per RGB channel (zero for media that do not emit).
-    fn source(&self, p: Vec3, blackbody: Option<&BlackbodyTable>) -> Vec3 {
+    /// Density at index-space point `p` at `time` (frames): read where its
+    /// velocity field brings it from (the point itself without one).
+    #[inline]
+    fn density_at(&self, p: Vec3, time: f32) -> f32 {
+        match &self.advection {
+            Some(advection) => self.density(p - advection.displacement(p, time)),
+            None => self.density(p),
+        }
+    }
+
+    /// The source term sigma_a Le at world point `p` and `time` (frames),
+    /// W/(m^3 sr) in scene units, per RGB channel (zero for media that do
+    /// not emit).
+    fn source(&self, p: Vec3, time: f32, blackbody: Option<&BlackbodyTable>) -> Vec3 {
         if self.emission.is_empty() {
             return Vec3::ZERO;
         }
-        let density = self.density(self.index_from_world.transform_point3(p));
-        let sigma_a = self.absorption() * density;
+        let p_index = self.index_from_world.transform_point3(p);
+        let (p_index, p) = match &self.advection {
+            Some(advection) => {
+                let back = advection.displacement(p_index, time);
+                (
+                    p_index - back,
+                    p - self.world_from_index.transform_vector3(back),
+                )
+            }
+            None => (p_index, p),
+        };
+        let sigma_a = self.absorption() * self.density(p_index);
         if sigma_a == Vec3::ZERO {
             return Vec3::ZERO;
         }
@@ -177,6 +212,8 @@ pub struct MediaRay<'a> {
     blackbody: Option<&'a BlackbodyTable>,
     origin: Vec3,
     direction: Vec3,
+    /// The ray's time, frames relative to the frame.
+    time: f32,
 }
 
 /// The majorant segments of a [`MediaRay`], front to back: one medium's DDA
@@ -266,12 +303,12 @@ impl Media {
         })
     }
 
-    /// The source term sigma_a Le at world point `p`, W/(m^3 sr) in scene
-    /// units per RGB channel, summed over the media.
-    pub fn source(&self, p: Vec3) -> Vec3 {
+    /// The source term sigma_a Le at world point `p` and `time` (frames),
+    /// W/(m^3 sr) in scene units per RGB channel, summed over the media.
+    pub fn source(&self, p: Vec3, time: f32) -> Vec3 {
         self.media
             .iter()
-            .map(|m| m.source(p, self.blackbody.as_ref()))
+            .map(|m| m.source(p, time, self.blackbody.as_ref()))
             .sum()
     }
 
@@ -320,6 +357,9 @@ impl Media {
         for m in &self.media {
             count(Arc::as_ptr(&m.density).cast(), m.density.memory_bytes());
             count(Arc::as_ptr(&m.majorant).cast(), m.majorant.memory_bytes());
+            if let Some(a) = &m.advection {
+                count(Arc::as_ptr(a.field()).cast(), a.field().memory_bytes());
+            }
             for e in &m.emission {
                 count(Arc::as_ptr(&e.grid).cast(), e.grid.memory_bytes());
             }
@@ -331,8 +371,8 @@ impl Media {
     }
 
     /// The media crossed by `origin + t direction` (unit `direction`, world
-    /// units) for t in `[0, t_max)`.
-    pub fn along(&self, origin: Vec3, direction: Vec3, t_max: f32) -> MediaRay<'_> {
+    /// units) for t in `[0, t_max)`, at `time` (frames relative to the frame).
+    pub fn along(&self, origin: Vec3, direction: Vec3, t_max: f32, time: f32) -> MediaRay<'_> {
         let media = self
             .media
             .iter()
@@ -350,6 +390,7 @@ impl Media {
             blackbody: self.blackbody.as_ref(),
             origin,
             direction,
+            time,
         }
     }
 }
@@ -383,7 +424,7 @@ impl<'a> MediaRay<'a> {
     pub fn sigma_t(&self, t: f32) -> Vec3 {
         self.media
             .iter()
-            .map(|(m, o, d)| m.density_scale * m.density(*o + *d * t))
+            .map(|(m, o, d)| m.density_scale * m.density_at(*o + *d * t, self.time))
             .sum()
     }
 
@@ -396,11 +437,19 @@ impl<'a> MediaRay<'a> {
             emission: Vec3::ZERO,
         };
         for (m, o, d) in &self.media {
-            let sigma = m.density_scale * m.density(*o + *d * t);
+            let p_index = *o + *d * t;
+            let back = m
+                .advection
+                .as_ref()
+                .map(|a| a.displacement(p_index, self.time));
+            let sigma = m.density_scale * m.density(p_index - back.unwrap_or(Vec3::ZERO));
             point.sigma_t += sigma;
             point.sigma_s += m.albedo * sigma;
             if !m.emission.is_empty() {
-                let p = self.origin + self.direction * t;
+                let mut p = self.origin + self.direction * t;
+                if let Some(back) = back {
+                    p -= m.world_from_index.transform_vector3(back);
+                }
                 let sigma_a = (Vec3::ONE - m.albedo).max(Vec3::ZERO) * sigma;
                 point.emission += sigma_a * m.emitted(p, self.blackbody);
             }
@@ -417,7 +466,7 @@ impl<'a> MediaRay<'a> {
             return m.phase;
         }
         let weight = |(m, o, d): &(&Medium, Vec3, Vec3)| {
-            (m.albedo * m.density_scale).element_sum() * m.density(*o + *d * t)
+            (m.albedo * m.density_scale).element_sum() * m.density_at(*o + *d * t, self.time)
         };
         let mut pick = u * self.media.iter().map(weight).sum::<f32>();
         for medium in &self.media {
@@ -432,53 +481,22 @@ impl<'a> MediaRay<'a> {
     }
 }
 
-/// Merges per-medium segment lists into one list whose pieces carry the sums.
-fn merge(lists: Vec<Vec<MajorantSegment>>) -> Vec<MajorantSegment> {
-    let mut cuts: Vec<f32> = lists
-        .iter()
-        .flatten()
-        .flat_map(|s| [s.t_min, s.t_max])
-        .collect();
-    cuts.sort_by(f32::total_cmp);
-    cuts.dedup();
-    let mut out: Vec<MajorantSegment> = Vec::new();
-    for w in cuts.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let mid = 0.5 * (a + b);
-        let (mut maj, mut min) = (0.0, 0.0);
-        for s in lists
-            .iter()
-            .flatten()
-            .filter(|s| s.t_min <= mid && mid < s.t_max)
-        {
-            maj += s.sigma_maj;
-            min += s.sigma_min;
-        }
-        if maj > 0.0 {
-            out.push(MajorantSegment {
-                t_min: a,
-                t_max: b,
-                sigma_maj: maj,
-                sigma_min: min,
-            });
-        }
-    }
-    out
-}
-
-/// Whether the ray meets the box within `[0, t_max)` (slab test).
-fn box_hit(origin: Vec3, direction: Vec3, t_max: f32, lo: Vec3, hi: Vec3) -> bool {
-    let inv = direction.recip();
-    let (t0, t1) = ((lo - origin) * inv, (hi - origin) * inv);
-    let near = t0.min(t1).max_element().max(0.0);
-    let far = t0.max(t1).min_element().min(t_max);
-    near <= far
-}
-
 impl Media {
-    /// Reads every placed volume's density grid (once per file, grid and
-    /// index), builds its majorant grid of `kind`, and places it.
+    /// [`Self::build_at`] with the shutter closed at the frame: nothing moves.
     pub fn build(scene: &Scene, kind: MajorantKind) -> Result<Self, VolumeError> {
+        Self::build_at(scene, kind, Shutter::CLOSED)
+    }
+
+    /// Reads every placed volume's density grid (once per file, grid and
+    /// index), builds its majorant grid of `kind`, and places it. Under a
+    /// `shutter` that is not closed at the frame, volumes with a velocity
+    /// field are advected by it and their majorant grids dilated by the
+    /// farthest it moves them; otherwise velocity fields are not read.
+    pub fn build_at(
+        scene: &Scene,
+        kind: MajorantKind,
+        shutter: Shutter,
+    ) -> Result<Self, VolumeError> {
         let m = &scene.manifest;
         let mut grids: HashMap<FieldKey, (Arc<SparseGrid>, Arc<MajorantGrid>)> = HashMap::new();
         let mut emission_grids: HashMap<FieldKey, Arc<SparseGrid>> = HashMap::new();
@@ -497,6 +515,9 @@ impl Media {
         for volume in &m.volumes {
             check_emission_scales(volume)?;
         }
+        let velocities = read_velocities(scene, shutter)?;
+        warn_transform_motion(scene, shutter);
+        let times = (shutter.open, shutter.close);
         let blackbody = m
             .volumes
             .iter()
@@ -545,7 +566,25 @@ impl Media {
                         }
                         let voxel = longest_axis(grid.transform().world_from_index.matrix3);
                         let depth = depth_scales[&key] * voxel;
-                        let majorant = MajorantGrid::build_for(&grid, kind, depth);
+                        let mut majorant = MajorantGrid::build_for(&grid, kind, depth);
+                        // Every volume advecting this grid: how far any moves it.
+                        let reach = m
+                            .volumes
+                            .iter()
+                            .zip(&velocities)
+                            .filter(|(v, _)| {
+                                v.fields.get("density").map(field_key) == Some(key.clone())
+                            })
+                            .filter_map(|(_, velocity)| velocity.as_ref())
+                            .map(|(field, per_frame)| {
+                                Advection::reach(field, grid.transform(), *per_frame, times)
+                            })
+                            .fold((Vec3::ZERO, Vec3::ZERO), |(a, b), (lo, hi)| {
+                                (a.min(lo), b.max(hi))
+                            });
+                        if reach != (Vec3::ZERO, Vec3::ZERO) {
+                            majorant = majorant.dilated(reach);
+                        }
                         let entry = (Arc::new(grid), Arc::new(majorant));
                         grids.insert(key, entry.clone());
                         entry
@@ -593,6 +632,12 @@ impl Media {
                         radiance,
                     });
                 }
+                let advection =
+                    velocities[part.volume as usize]
+                        .as_ref()
+                        .map(|(field, per_frame)| {
+                            Advection::new(Arc::clone(field), density.transform(), *per_frame)
+                        });
                 let (lo, hi) = majorant.index_box();
                 let (world_min, world_max) = world_box(&world_from_index, lo, hi);
                 let mut medium = Medium {
@@ -610,6 +655,7 @@ impl Media {
                     emitter: None,
                     world_from_index: to_f32(&world_from_index),
                     voxel_volume: world_from_index.matrix3.determinant().abs() as f32,
+                    advection,
                 };
                 if !medium.emission.is_empty() {
                     let (cells, raised) = emitters
@@ -687,48 +733,54 @@ impl Medium {
     }
 }
 
-/// Refuses a negative or non-finite `heatScale` or `emissionScale` (0 turns
-/// emission off), naming the prim and the value.
-fn check_emission_scales(volume: &crate::scene::Volume) -> Result<(), VolumeError> {
-    for (name, value) in [
-        ("heatScale", volume.heat_scale),
-        ("emissionScale", volume.emission_scale),
-    ] {
-        if !(value.is_finite() && value >= 0.0) {
-            return Err(VolumeError::Invalid {
-                prim: volume.path.clone(),
-                message: format!(
-                    "primvars:{name} is {value}; it must be a finite number >= 0 (0 turns \
-                     emission off)"
-                ),
-            });
+/// Warns once per Volume placed by an instance that moves over `shutter`:
+/// volumes are rendered at their frame transform (transform motion of
+/// volumes is not applied yet; velocity fields are).
+fn warn_transform_motion(scene: &Scene, shutter: Shutter) {
+    let m = &scene.manifest;
+    let Some(motion) = m.instances.motion.as_ref().filter(|_| shutter.blurs()) else {
+        return;
+    };
+    let prototypes = scene.view(&m.instances.prototype);
+    let mut warned = std::collections::BTreeSet::new();
+    for &instance in scene.view(&motion.instance) {
+        for part in &m.prototypes[prototypes[instance as usize] as usize].volumes {
+            let path = &m.volumes[part.volume as usize].path;
+            if warned.insert(path) {
+                log::warn!(
+                    "volume {path} moves over the shutter by its transform, which volumes do \
+                     not follow yet: it is rendered where it is at the frame"
+                );
+            }
         }
     }
-    Ok(())
 }
 
-/// Warns once per grid when `grid` holds NaN, infinite or negative values,
-/// naming the volume, grid and file: they are read as 0 (`what` names the
-/// values: densities, temperatures...).
-fn warn_bad_values(
-    volume: &crate::scene::Volume,
-    field: &VolumeField,
-    grid: &SparseGrid,
-    what: &str,
-) {
-    let stats = grid.stats();
-    if stats.non_finite_count > 0 || stats.min_value < 0.0 {
-        log::warn!(
-            "volume {}: grid {} of {} has {} NaN or infinite values and a smallest value of \
-             {}: non-finite values (with their trilinear neighbourhood) and negative {what} \
-             are read as 0",
-            volume.path,
-            field.grid,
-            field.file.display(),
-            stats.non_finite_count,
-            stats.min_value
-        );
+/// Per volume, its velocity field (read once per file, grid and index) and
+/// world units per frame per unit of velocity, when it has one and
+/// `shutter` is not closed at the frame; `None` otherwise.
+fn read_velocities(scene: &Scene, shutter: Shutter) -> Result<Vec<Option<Velocity>>, VolumeError> {
+    let mut read: HashMap<FieldKey, Arc<VelocityField>> = HashMap::new();
+    let mut velocities = Vec::new();
+    for volume in &scene.manifest.volumes {
+        let field = volume.fields.get("velocity").filter(|_| shutter.blurs());
+        let Some(field) = field else {
+            velocities.push(None);
+            continue;
+        };
+        let per_frame = velocity_units_per_frame(volume)?;
+        let velocity = match read.get(&field_key(field)) {
+            Some(found) => Arc::clone(found),
+            None => {
+                let velocity = Arc::new(VelocityField::read(field)?);
+                warn_bad_velocities(volume, field, &velocity);
+                read.insert(field_key(field), Arc::clone(&velocity));
+                velocity
+            }
+        };
+        velocities.push(Some((velocity, per_frame)));
     }
+    Ok(velocities)
 }
 
 /// The identity under which `field`'s grid is read once and shared.
@@ -739,45 +791,4 @@ fn field_key(field: &VolumeField) -> FieldKey {
 /// Reads `field`'s float grid from its VDB file.
 fn read_field(field: &VolumeField) -> Result<SparseGrid, VolumeError> {
     VdbFile::open(&field.file)?.read_float_grid(&field.grid, field.index as usize)
-}
-
-/// The longest of `m`'s axes: world length per unit along it, at most.
-fn longest_axis(m: glam::DMat3) -> f32 {
-    m.x_axis
-        .length()
-        .max(m.y_axis.length())
-        .max(m.z_axis.length()) as f32
-}
-
-fn to_f64(a: &Affine3A) -> DAffine3 {
-    DAffine3 {
-        matrix3: a.matrix3.as_dmat3(),
-        translation: a.translation.as_dvec3(),
-    }
-}
-
-fn to_f32(a: &DAffine3) -> Affine3A {
-    Affine3A {
-        matrix3: a.matrix3.as_mat3().into(),
-        translation: a.translation.as_vec3().into(),
-    }
-}
-
-/// World box of the index-space box `[lo, hi]`.
-fn world_box(world_from_index: &DAffine3, lo: Vec3, hi: Vec3) -> (Vec3, Vec3) {
-    let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
-    let mut min = Vec3::splat(f32::INFINITY);
-    let mut max = Vec3::splat(f32::NEG_INFINITY);
-    for corner in 0..8 {
-        let pick = |bit: usize, a: f64, b: f64| if corner & bit == 0 { a } else { b };
-        let p = glam::DVec3::new(
-            pick(1, lo.x, hi.x),
-            pick(2, lo.y, hi.y),
-            pick(4, lo.z, hi.z),
-        );
-        let w = world_from_index.transform_point3(p).as_vec3();
-        min = min.min(w);
-        max = max.max(w);
-    }
-    (min, max)
 }

@@ -19,6 +19,8 @@
 //! 2018, "Monte Carlo Methods for Volumetric Light Transport Simulation");
 //! scattering uses the Henyey-Greenstein (1941) phase function.
 
+mod advection;
+mod checks;
 mod dda;
 mod emission;
 mod emitter;
@@ -26,7 +28,9 @@ mod grid;
 mod lookup;
 mod majorant;
 mod medium;
+mod overlap;
 mod phase;
+mod placement;
 mod ray_marching;
 mod refine;
 mod stats;

@@ -64,6 +64,17 @@ pub enum VolumeError {
         /// Its OpenVDB value type ("vec3s", "int32", ...).
         value_type: String,
     },
+    /// A velocity field's grid is neither a vec3s grid nor one of three
+    /// float grids `NAME.x`, `NAME.y`, `NAME.z`.
+    #[error("{path}: grid '{grid}' holds '{value_type}' values; a velocity field needs a vec3s grid, or three float grids NAME.x, NAME.y, NAME.z", path = path.display())]
+    NotVector {
+        /// The VDB file.
+        path: PathBuf,
+        /// The grid.
+        grid: String,
+        /// Its OpenVDB value type.
+        value_type: String,
+    },
     /// The grid has no active voxels or tiles: nothing to render.
     #[error("{path}: grid '{grid}' is empty (no active voxels or tiles)", path = path.display())]
     EmptyGrid {
@@ -225,14 +236,60 @@ impl VdbFile {
     /// Reads the `index`-th float grid called `name` into a [`SparseGrid`]:
     /// one call across the FFI, then the C++ tree is dropped.
     pub fn read_float_grid(&self, name: &str, index: usize) -> Result<SparseGrid, VolumeError> {
+        let (at, transform) = self.checked(name, index, "float")?;
+        let data = self
+            .handle
+            .read_float_grid(at as u32)
+            .map_err(|e| self.openvdb_error(name, e))?;
+        self.sparse(name, data, transform)
+    }
+
+    /// Reads the `index`-th vec3s grid called `name` as three float
+    /// [`SparseGrid`]s, its x, y and z components (sharing the grid's
+    /// transform): one call across the FFI.
+    pub fn read_vector_grid(
+        &self,
+        name: &str,
+        index: usize,
+    ) -> Result<[SparseGrid; 3], VolumeError> {
+        let (at, transform) = self.checked(name, index, "vec3s")?;
+        let data = self
+            .handle
+            .read_vec3_grid(at as u32)
+            .map_err(|e| self.openvdb_error(name, e))?;
+        let mut components = data.into_iter().map(|d| self.sparse(name, d, transform));
+        let mut next = || {
+            components
+                .next()
+                .expect("the bridge returns three components")
+        };
+        Ok([next()?, next()?, next()?])
+    }
+
+    /// The position of the `index`-th grid called `name` and its affine
+    /// transform, after checking that it holds `value_type` values.
+    fn checked(
+        &self,
+        name: &str,
+        index: usize,
+        value_type: &str,
+    ) -> Result<(usize, GridTransform), VolumeError> {
         let at = self.find(name, index)?;
         let info = &self.grids[at];
         let grid = name.to_owned();
-        if info.value_type != "float" {
-            return Err(VolumeError::NotFloat {
-                path: self.path.clone(),
-                grid,
-                value_type: info.value_type.clone(),
+        if info.value_type != value_type {
+            return Err(if value_type == "float" {
+                VolumeError::NotFloat {
+                    path: self.path.clone(),
+                    grid,
+                    value_type: info.value_type.clone(),
+                }
+            } else {
+                VolumeError::NotVector {
+                    path: self.path.clone(),
+                    grid,
+                    value_type: info.value_type.clone(),
+                }
             });
         }
         let Some(world_from_index) = info.world_from_index else {
@@ -241,10 +298,23 @@ impl VdbFile {
                 grid,
             });
         };
-        let data = self
-            .handle
-            .read_float_grid(at as u32)
-            .map_err(|e| self.openvdb_error(name, e))?;
+        let transform =
+            GridTransform::new(world_from_index).ok_or_else(|| VolumeError::SingularTransform {
+                path: self.path.clone(),
+                grid: grid.clone(),
+            })?;
+        Ok((at, transform))
+    }
+
+    /// The [`SparseGrid`] of one flattened tree (a float grid, or one
+    /// component of a vector grid) of the grid `name`.
+    fn sparse(
+        &self,
+        name: &str,
+        data: ffi::FloatGridData,
+        transform: GridTransform,
+    ) -> Result<SparseGrid, VolumeError> {
+        let grid = name.to_owned();
         if data.leaf_origins.is_empty() && !data.tile_active.contains(&true) {
             return Err(VolumeError::EmptyGrid {
                 path: self.path.clone(),
@@ -264,11 +334,6 @@ impl VdbFile {
                 active: data.tile_active[t],
             })
             .collect();
-        let transform =
-            GridTransform::new(world_from_index).ok_or_else(|| VolumeError::SingularTransform {
-                path: self.path.clone(),
-                grid: grid.clone(),
-            })?;
         SparseGrid::build(
             data.background,
             &leaf_origins,
