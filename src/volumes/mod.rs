@@ -26,6 +26,7 @@ mod grid;
 mod lookup;
 mod majorant;
 mod medium;
+mod pass_through;
 mod phase;
 mod ray_marching;
 mod refine;
@@ -39,6 +40,7 @@ pub use grid::{GridStats, GridTransform, LayoutError, SparseGrid, Tile};
 pub use lookup::GridAccessor;
 pub use majorant::{MajorantGrid, MajorantKind};
 pub use medium::{Emitter, Media, MediaRay, MediumPoint, RaySegments};
+pub use pass_through::PassThrough;
 pub use phase::{HenyeyGreenstein, PhaseSample};
 pub use stats::TrackingStats;
 pub use tracking::{
