@@ -196,7 +196,8 @@ fn volumetric_white_furnace_is_one_everywhere() {
 /// reference 1500 K: luminance 2 (1 - 1/e) + 1/e. The blue channel, where a
 /// 1500 K blackbody has almost nothing, is close to the dome's e^-1 alone.
 /// An emission field instead of the temperature (volume_emission_grid.usda)
-/// gives Le = emissionScale x emissionColor x value per channel.
+/// gives Le = emissionScale x emissionColor x value per channel, with the
+/// camera rays' transmittance off and on.
 #[test]
 fn emitting_volume_adds_its_blackbody_radiance() {
     let dir = common::scratch("render_volume_emission");
@@ -229,16 +230,24 @@ fn emitting_volume_adds_its_blackbody_radiance() {
     assert!((blue.mean - inv_e).abs() < 0.01, "blue {}", blue.mean);
     // The same box emitting from an emission field (volume_emission_grid.usda):
     // Le = emissionScale x emissionColor x value = (2, 1, 0.5).
-    let image = Render {
-        scene: "volume_emission_grid",
-        res: (32, 32),
-        spp: 128,
-        seed: 4,
-        extra: &[],
-    }
-    .run(&dir);
+    // With camera rays collecting emission by the ratio-tracking weight
+    // along the whole ray (`--camera-ray-transmittance on`) too.
     let expected = [2.0, 1.0, 0.5].map(|le| le * (1.0 - inv_e) + inv_e);
-    assert_rgb_image("emission field", &image, expected);
+    for (seed, mode) in [(4, "off"), (5, "on")] {
+        let image = Render {
+            scene: "volume_emission_grid",
+            res: (32, 32),
+            spp: 128,
+            seed,
+            extra: &["--camera-ray-transmittance", mode],
+        }
+        .run(&dir);
+        assert_rgb_image(
+            &format!("emission field, camera rays {mode}"),
+            &image,
+            expected,
+        );
+    }
 }
 
 /// Per-block means of one channel over `block` x `block` pixel blocks, with
