@@ -166,6 +166,9 @@ fn volumetric_white_furnace_is_one_everywhere() {
         }
     }
     configs.push(["--volume-estimator", "ray-marching", "--majorant", "grid"]);
+    for majorant in ["grid", "adaptive"] {
+        configs.push(["--camera-ray-transmittance", "on", "--majorant", majorant]);
+    }
     for (seed, flags) in configs.into_iter().enumerate() {
         let image = Render {
             scene: "volume_furnace",
@@ -193,7 +196,8 @@ fn volumetric_white_furnace_is_one_everywhere() {
 /// reference 1500 K: luminance 2 (1 - 1/e) + 1/e. The blue channel, where a
 /// 1500 K blackbody has almost nothing, is close to the dome's e^-1 alone.
 /// An emission field instead of the temperature (volume_emission_grid.usda)
-/// gives Le = emissionScale x emissionColor x value per channel.
+/// gives Le = emissionScale x emissionColor x value per channel, with the
+/// camera rays' transmittance off and on.
 #[test]
 fn emitting_volume_adds_its_blackbody_radiance() {
     let dir = common::scratch("render_volume_emission");
@@ -226,16 +230,24 @@ fn emitting_volume_adds_its_blackbody_radiance() {
     assert!((blue.mean - inv_e).abs() < 0.01, "blue {}", blue.mean);
     // The same box emitting from an emission field (volume_emission_grid.usda):
     // Le = emissionScale x emissionColor x value = (2, 1, 0.5).
-    let image = Render {
-        scene: "volume_emission_grid",
-        res: (32, 32),
-        spp: 128,
-        seed: 4,
-        extra: &[],
-    }
-    .run(&dir);
+    // With camera rays collecting emission by the ratio-tracking weight
+    // along the whole ray (`--camera-ray-transmittance on`) too.
     let expected = [2.0, 1.0, 0.5].map(|le| le * (1.0 - inv_e) + inv_e);
-    assert_rgb_image("emission field", &image, expected);
+    for (seed, mode) in [(4, "off"), (5, "on")] {
+        let image = Render {
+            scene: "volume_emission_grid",
+            res: (32, 32),
+            spp: 128,
+            seed,
+            extra: &["--camera-ray-transmittance", mode],
+        }
+        .run(&dir);
+        assert_rgb_image(
+            &format!("emission field, camera rays {mode}"),
+            &image,
+            expected,
+        );
+    }
 }
 
 /// Per-block means of one channel over `block` x `block` pixel blocks, with
@@ -395,6 +407,49 @@ fn volume_estimators_agree_on_the_teapot_cloud() {
     );
 }
 
+/// Camera rays weigh what lies behind the media by a transmittance estimate
+/// (`--camera-ray-transmittance on`) or by delta tracking's 0 or 1 (`off`,
+/// the default): the same image within 4 sigma (image-wide paired
+/// differences and every 4x4 block) on the lit teapot cloud and on the
+/// benchmark smoke and its thin variant against a bright sky.
+#[test]
+fn camera_ray_transmittance_renders_the_images_of_delta_tracking() {
+    let on: &[&[&str]] = &[&["--camera-ray-transmittance", "on"]];
+    assert_renders_agree("teapot_cloud_lit", (48, 24), 64, on);
+    for name in ["smoke", "smoke_sky"] {
+        let scene = format!("{}/scenes/bench/{name}.usda", env!("CARGO_MANIFEST_DIR"));
+        assert_renders_agree(&scene, (48, 27), 16, on);
+    }
+}
+
+/// The analytic case of the camera rays' transmittance: the absorbing box
+/// of optical depth 1 in front of a dome of radiance 1
+/// (scenes/tests/volume_absorber.usda) reads exp(-1) within 4 sigma with
+/// the camera rays' transmittance on and off. (Its 16^3 voxels span two
+/// majorant cells per axis, each touching the box's edge, so every cell's
+/// minimum is 0 and its maximum the box's density: with that tight a
+/// majorant, ratio tracking's weight is the same coin as delta tracking's,
+/// as docs/stability.md's thin-slab row measures.)
+#[test]
+fn camera_rays_see_the_background_through_the_transmittance() {
+    let dir = common::scratch("render_camera_transmittance");
+    for (seed, mode) in ["on", "off"].into_iter().enumerate() {
+        let image = Render {
+            scene: "volume_absorber",
+            res: (32, 32),
+            spp: 64,
+            seed: seed as u64,
+            extra: &["--camera-ray-transmittance", mode],
+        }
+        .run(&dir);
+        assert_grey_image(
+            &format!("absorber, camera rays {mode}"),
+            &image,
+            (-1.0f64).exp(),
+        );
+    }
+}
+
 /// `--majorant adaptive` (cells split where density varies, refine.rs)
 /// against the grid on the benchmark smoke and teapot cloud, where cells do
 /// split (622 and 2,626 of them): the same image within 4 sigma image-wide
@@ -449,12 +504,16 @@ fn adaptive_majorants_render_the_bench_volumes_as_the_grid_does() {
 /// agrees with the default within 4 sigma image-wide (paired per-pixel
 /// differences) and in every 4x4 block.
 fn assert_renders_agree(
-    scene: &'static str,
+    scene: &str,
     res: (u32, u32),
     spp: u32,
     others: &[&'static [&'static str]],
 ) {
-    let dir = common::scratch(&format!("render_agree_{scene}"));
+    let name = std::path::Path::new(scene)
+        .file_stem()
+        .unwrap()
+        .to_string_lossy();
+    let dir = common::scratch(&format!("render_agree_{name}"));
     let render = |seed, extra: &'static [&'static str]| {
         Render {
             scene,

@@ -499,6 +499,65 @@ fn dense_medium_is_black_finite_and_bounded_in_cost_for_every_estimator() {
     assert!(core.lookups_per_camera_ray < 30.0, "{}", core.text);
 }
 
+/// Camera rays through the absorber-shadow scenes with their transmittance
+/// on and off (the default: delta tracking's 0 or 1). Thin (optical depth
+/// 0.02, where the floor reads 0.5 exp(-0.04)): both read it within 4
+/// sigma, and with the same noise (variance ratio within [0.5, 2]): the
+/// box's majorant cells all touch its edge, so their minimum (the control)
+/// is 0 and their maximum its density, and with so tight a majorant every
+/// tentative collision is real and ratio tracking's weight is delta
+/// tracking's coin. Dense (depth 600): the core is exactly black both ways
+/// (the first tentative collision's factor is 0), at a bounded cost per
+/// camera ray.
+#[test]
+fn camera_ray_transmittance_at_both_ends_of_optical_depth() {
+    let render = |scene: &str, mode, seed| {
+        let dir = common::scratch(&format!("stability_camera_{}", scene.replace('/', "_")));
+        let (log, image) = Render {
+            scene,
+            res: (32, 32),
+            spp: 64,
+            seed,
+            extra: &["--camera-ray-transmittance", mode],
+        }
+        .run_logged(&dir);
+        (log, image.unwrap())
+    };
+    let core = |image: &Image| estimate(image.pixels(RED, |x, y| over_core(x, y) == Some(true)));
+    let expected = 0.5 * (-0.04f64).exp();
+    let mut variances = Vec::new();
+    for (seed, mode) in [(1, "on"), (2, "off")] {
+        let (log, image) = render("stability/thin_absorber_shadow", mode, seed);
+        let c = core(&image);
+        eprintln!(
+            "thin, camera rays {mode}: core {:.5} +- {:.1e} (expected {expected:.5}), {:.3} lookups per camera ray",
+            c.mean, c.sigma, log.lookups_per_camera_ray
+        );
+        assert_within_4_sigma(
+            &format!("thin core, {mode}"),
+            c,
+            expected,
+            ESTIMATE_ROUNDING,
+        );
+        variances.push(c.sigma.powi(2));
+        let (log, image) = render("stability/dense_absorber_shadow", mode, seed);
+        let c = core(&image);
+        eprintln!(
+            "dense, camera rays {mode}: core {:.1e}, {:.2} lookups per camera ray",
+            c.mean, log.lookups_per_camera_ray
+        );
+        assert!(
+            c.mean == 0.0 && c.sigma == 0.0,
+            "dense core {mode}: {}",
+            c.mean
+        );
+        assert!(log.lookups_per_camera_ray < 10.0, "{}", log.text);
+    }
+    let ratio = variances[1] / variances[0];
+    eprintln!("thin core noise variance: off / on = {ratio:.2}");
+    assert!((0.5..2.0).contains(&ratio), "{variances:?}");
+}
+
 /// `--majorant adaptive` (8^3 cells split where (sigma_max - sigma_min) x
 /// diagonal > 1.44, refine.rs) at both ends of optical depth. Dense
 /// absorber (depth 600): its 26 border cells split into 4^3 sub-cells; the

@@ -17,7 +17,8 @@ pub struct ConvergeArgs {
     scenes: Vec<PathBuf>,
     /// Comma-separated methods: default, sampler-independent, strategy-bsdf,
     /// strategy-nee, majorant-global, majorant-adaptive, estimator-ratio,
-    /// estimator-residual-ratio, estimator-track-length, no-equiangular
+    /// estimator-residual-ratio, estimator-track-length, no-equiangular,
+    /// camera-ray-transmittance
     /// [all that apply to each scene: the volume ones where it has volumes,
     /// no-equiangular where it also has lights that equiangular sampling
     /// targets].

@@ -89,6 +89,13 @@ pub struct RenderArgs {
     /// (tracking alone, for comparisons). Both are unbiased.
     #[arg(long, default_value = "on", value_parser = on_off, value_name = "on|off", action = clap::ArgAction::Set)]
     volume_light_sampling: bool,
+    /// Camera rays see what lies behind media through a ratio-tracking
+    /// transmittance estimate, real scattering still sampled by delta
+    /// tracking: on, or off (default: delta tracking's 0-or-1 survival,
+    /// which measured level or better at equal time on the benchmark
+    /// scenes; docs/volumes.md). Both unbiased.
+    #[arg(long, default_value = "off", value_parser = on_off, value_name = "on|off", action = clap::ArgAction::Set)]
+    camera_ray_transmittance: bool,
     /// AOVs beside the beauty: default, all, beauty (none) or a
     /// comma-separated list (emission, diffuse_direct, diffuse_indirect,
     /// specular_direct, specular_indirect, transmission, volume_direct,
@@ -230,6 +237,7 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
             clamp: args.clamp,
             volume_estimator: args.volume_estimator,
             equiangular: !args.no_equiangular,
+            camera_ray_transmittance: args.camera_ray_transmittance,
         },
         aovs: AovSet::default(),
     };

@@ -14,7 +14,7 @@ use crate::sampling::warp::{power_heuristic, Equiangular};
 use crate::sampling::Pcg32;
 use crate::volumes::{
     channel_mean, ratio_tracking_with_null_ratio, walk_tentative_collisions, MajorantSegment,
-    MediaRay, TrackingStats,
+    MediaRay, MediumPoint, PassThrough, TrackingStats,
 };
 
 /// How a free flight through media ended.
@@ -45,6 +45,10 @@ pub(super) struct FreeFlight {
     /// light strategy's density of these null vertices over delta
     /// tracking's, the same quantity ratio tracking reports for shadow rays.
     pub(super) null_ratio: f32,
+    /// With `pass_through`: ratio tracking's estimate of the transmittance
+    /// of the whole ray, per channel, from the same tentative collisions
+    /// (0 when Russian roulette ended it); 1 otherwise.
+    pub(super) pass: Vec3,
 }
 
 /// Samples a free flight along `along` over `[t_min, t_max)` by delta
@@ -63,13 +67,29 @@ pub(super) struct FreeFlight {
 /// throughput's channel mean is kept and no channel's weight can grow past
 /// 3 times it; with grey extinction and albedo the weights are 1.
 ///
+/// With `pass_through` (camera rays, `--camera-ray-transmittance on`) the
+/// walk goes on past the real collision to the end of the ray, and the same
+/// tentative collisions give a ratio-tracking estimate of the whole ray's
+/// transmittance with each segment's minorant sigma_c as control,
+/// [`FreeFlight::pass`]: exp(-integral of sigma_c) times the product of
+/// 1 - (sigma_t - sigma_c) / sigma_maj per channel over the collisions
+/// (unbiased for any control, since the collisions have rate sigma_maj;
+/// each factor lies in [sigma_c / sigma_maj, 1] while the bounds hold, so a
+/// constant cell is exact), Russian-rouletted below 0.1 as for shadow rays.
+/// Emission is then collected with that running weight (throughput x pass
+/// up to t x sigma_a Le / sigma_maj at every tentative collision, whose
+/// expectation is the integral of T sigma_a Le) instead of with delta
+/// tracking's; the real collision is still the one delta tracking picks
+/// (docs/volumes.md, "Camera rays").
+///
 /// Emission at a collision is weighted by `emission_weight(t, sigma_maj,
 /// null_ratio)`: its MIS weight against light sampling of emitting volumes,
 /// given the product of sigma_maj / sigma_n over the null collisions before
-/// it (called only where something emits).
+/// it (1 for the ratio-tracked pass-through, whose null collisions are all
+/// taken, as light sampling's are; called only where something emits).
 pub(super) fn free_flight(
     along: &MediaRay,
-    segments: impl IntoIterator<Item = MajorantSegment>,
+    (segments, pass_through): (impl IntoIterator<Item = MajorantSegment>, bool),
     throughput: Vec3,
     mut emission_weight: impl FnMut(f32, f32, f32) -> f32,
     rng: &mut Pcg32,
@@ -80,42 +100,85 @@ pub(super) fn free_flight(
         emission: Vec3::ZERO,
         throughput,
         null_ratio: 1.0,
+        pass: Vec3::ONE,
     };
+    let mut tracking = true;
+    let pass = PassThrough::new();
+    let segments = segments.into_iter().inspect(|s| pass.enter(s));
     walk_tentative_collisions(segments, rng, |t, sigma_maj, rng| {
         let point = along.at(t);
         stats.count_lookup(point.sigma_t, sigma_maj);
-        let beta = flight.throughput;
-        if point.emission != Vec3::ZERO {
-            let weight = emission_weight(t, sigma_maj, flight.null_ratio);
-            flight.emission += beta * point.emission * (weight / sigma_maj);
+        if pass_through {
+            let weight = pass.collide(t, sigma_maj, point.sigma_t, rng);
+            if point.emission != Vec3::ZERO {
+                let mis = emission_weight(t, sigma_maj, 1.0);
+                flight.emission += throughput * weight * point.emission * (mis / sigma_maj);
+            }
         }
-        let sigma_s = point.sigma_s.min(point.sigma_t);
-        let sigma_a = point.sigma_t - sigma_s;
-        let sigma_n = (Vec3::splat(sigma_maj) - point.sigma_t).max(Vec3::ZERO);
-        let (ws, wa) = (channel_mean(beta * sigma_s), channel_mean(beta * sigma_a));
-        let total = ws + wa + channel_mean(beta * sigma_n);
-        let u = rng.next_f32() * total;
-        if u < ws + wa || total <= 0.0 {
-            stats.real_collisions += 1;
-            flight.end = if u < ws {
-                flight.throughput = beta * sigma_s * (total / (sigma_maj * ws));
-                FlightEnd::Scattered {
-                    t,
-                    albedo: sigma_s / point.sigma_t.max(Vec3::splat(f32::MIN_POSITIVE)),
-                    sigma_s: channel_mean(sigma_s),
-                }
-            } else {
-                FlightEnd::Absorbed
-            };
-            return false;
+        if tracking {
+            tracking = delta_step(
+                &mut flight,
+                (t, sigma_maj, &point),
+                pass_through,
+                |t, n| emission_weight(t, sigma_maj, n),
+                rng,
+                stats,
+            );
         }
-        stats.null_collisions += 1;
-        flight.throughput = beta * sigma_n * (total / (sigma_maj * (total - ws - wa)));
-        let grey_null = sigma_maj - channel_mean(point.sigma_t);
-        flight.null_ratio *= sigma_maj / grey_null.max(1e-6 * sigma_maj);
-        true
+        tracking || (pass_through && pass.alive())
     });
+    if pass_through {
+        flight.pass = if pass.alive() {
+            pass.finish()
+        } else {
+            Vec3::ZERO
+        };
+    }
     flight
+}
+
+/// One tentative collision of delta tracking at `t` (see [`free_flight`]):
+/// emission with delta tracking's weight unless `pass_through` collects it,
+/// then absorption, scattering or a null collision; false once a real
+/// collision ended the flight.
+fn delta_step(
+    flight: &mut FreeFlight,
+    (t, sigma_maj, point): (f32, f32, &MediumPoint),
+    pass_through: bool,
+    mut emission_weight: impl FnMut(f32, f32) -> f32,
+    rng: &mut Pcg32,
+    stats: &mut TrackingStats,
+) -> bool {
+    let beta = flight.throughput;
+    if point.emission != Vec3::ZERO && !pass_through {
+        let weight = emission_weight(t, flight.null_ratio);
+        flight.emission += beta * point.emission * (weight / sigma_maj);
+    }
+    let sigma_s = point.sigma_s.min(point.sigma_t);
+    let sigma_a = point.sigma_t - sigma_s;
+    let sigma_n = (Vec3::splat(sigma_maj) - point.sigma_t).max(Vec3::ZERO);
+    let (ws, wa) = (channel_mean(beta * sigma_s), channel_mean(beta * sigma_a));
+    let total = ws + wa + channel_mean(beta * sigma_n);
+    let u = rng.next_f32() * total;
+    if u < ws + wa || total <= 0.0 {
+        stats.real_collisions += 1;
+        flight.end = if u < ws {
+            flight.throughput = beta * sigma_s * (total / (sigma_maj * ws));
+            FlightEnd::Scattered {
+                t,
+                albedo: sigma_s / point.sigma_t.max(Vec3::splat(f32::MIN_POSITIVE)),
+                sigma_s: channel_mean(sigma_s),
+            }
+        } else {
+            FlightEnd::Absorbed
+        };
+        return false;
+    }
+    stats.null_collisions += 1;
+    flight.throughput = beta * sigma_n * (total / (sigma_maj * (total - ws - wa)));
+    let grey_null = sigma_maj - channel_mean(point.sigma_t);
+    flight.null_ratio *= sigma_maj / grey_null.max(1e-6 * sigma_maj);
+    true
 }
 
 /// Equiangular sampling's view of one ray through media: the stretch

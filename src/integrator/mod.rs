@@ -73,6 +73,11 @@ pub struct PathSettings {
     /// combined with distance sampling (null-scattering MIS only; on by
     /// default, `--no-equiangular` for comparisons).
     pub equiangular: bool,
+    /// Camera rays reach what lies behind the media with ratio tracking's
+    /// transmittance estimate, real scattering still sampled by delta
+    /// tracking (`--camera-ray-transmittance`; docs/volumes.md, "Camera
+    /// rays"); off (the default): delta tracking's 0-or-1 survival.
+    pub camera_ray_transmittance: bool,
 }
 
 /// The volume estimators compared in the charts (`--volume-estimator`).

@@ -28,14 +28,14 @@ use super::media::{equiangular_sample, free_flight, EquiangularRay, FlightEnd};
 use super::shadow::{visibility, PathCounts};
 use super::{PathSettings, Strategy, VolumeEstimator};
 use crate::film::{AovSample, CameraHit};
-use crate::geometry::{shadow_ray, SurfacePoint};
-use crate::lights::LightSample;
+use crate::geometry::{shadow_ray, Hit, SurfacePoint};
+use crate::lights::{LightHit, LightSample};
 use crate::materials::Bsdf;
 use crate::render_state::RenderState;
 use crate::sampling::warp::power_heuristic;
 use crate::sampling::{Pcg32, Sampler};
 use crate::scene::NO_MATERIAL;
-use crate::volumes::{HenyeyGreenstein, MajorantSegment, RaySegments};
+use crate::volumes::{HenyeyGreenstein, MajorantSegment, MediaRay, RaySegments};
 
 /// Depth (bounces) from which Russian roulette may end a path.
 const ROULETTE_DEPTH: u32 = 3;
@@ -72,7 +72,7 @@ pub struct PathRandom<'a> {
 /// dimensions stay aligned between pixel samples.
 pub fn radiance(
     state: &RenderState,
-    (mut ray, time): (Ray, f32),
+    (ray, time): (Ray, f32),
     random: PathRandom,
     settings: &PathSettings,
     counts: PathCounts,
@@ -97,13 +97,22 @@ pub fn radiance(
             && settings.strategy != Strategy::Bsdf
             && !state.media.is_empty()
             && state.lights.has_equiangular_target(),
+        behind: None,
     };
     // `depth` counts the scattering events before the current ray.
-    for depth in 0.. {
-        match path.extend(&ray, depth) {
-            Some(next) => ray = next,
-            None => break,
+    let (mut next, mut depth) = (Some(ray), 0);
+    loop {
+        while let Some(ray) = next {
+            next = path.extend(&ray, depth);
+            depth += 1;
         }
+        // The camera ray's pass-through, when its flight also scattered.
+        let Some(behind) = path.behind.take() else {
+            break;
+        };
+        (path.throughput, path.bounce) = (behind.throughput, behind.bounce);
+        next = path.reach(&behind.end, 1.0, behind.depth);
+        depth = behind.depth + 1;
     }
     path.gathered.finish(settings.clamp)
 }
@@ -122,16 +131,53 @@ struct Path<'a, 'r> {
     throughput: Vec3,
     bounce: Bounce,
     equiangular_on: bool,
+    /// What the camera ray reaches behind the media, still to be followed
+    /// when its free flight also scattered (`--camera-ray-transmittance`).
+    behind: Option<Behind>,
+}
+
+/// What a ray reaches after the media on it: an area light, a surface
+/// (with its shading point when already computed), or the sky.
+#[derive(Clone, Copy)]
+struct RayEnd {
+    origin: Vec3,
+    direction: Vec3,
+    hit: Option<Hit>,
+    surface: Option<SurfacePoint>,
+    light: Option<LightHit>,
+}
+
+impl RayEnd {
+    /// Whether the path would go on from there (a surface, not a light or
+    /// the sky).
+    fn continues(&self) -> bool {
+        self.hit.is_some() && self.light.is_none()
+    }
+}
+
+/// The end of a camera ray, reached through its media with `throughput`
+/// (the ratio-tracking transmittance, Russian roulette included), to be
+/// followed after the path its real scattering event started.
+struct Behind {
+    end: RayEnd,
+    throughput: Vec3,
+    bounce: Bounce,
+    depth: u32,
 }
 
 /// Where a ray's free flight through media left the path.
 enum AfterMedia {
     /// It reached the surface, light or sky the ray hits; `null_ratio` is
     /// the light strategy's density of the flight's null collisions over
-    /// this one's (1 without null-scattering MIS).
+    /// this one's (1 without null-scattering MIS, and for the camera ray's
+    /// ratio-tracked pass-through).
     Reached { null_ratio: f32 },
     /// It scattered in the medium and continues along this ray.
     Scattered(Ray),
+    /// A camera ray (`--camera-ray-transmittance on`) scattered and
+    /// continues along `next`, and also reaches what lies behind the media
+    /// with throughput `behind`.
+    Both { next: Ray, behind: Vec3 },
     /// It ended in the medium.
     Ended,
 }
@@ -206,18 +252,44 @@ impl Path<'_, '_> {
                 material: (sp.material != NO_MATERIAL).then_some(sp.material),
             });
         }
-        let null_ratio = match self.through_media(ray, depth, t_end) {
-            AfterMedia::Reached { null_ratio } => null_ratio,
-            AfterMedia::Scattered(next) => return Some(next),
-            AfterMedia::Ended => return None,
+        let end = RayEnd {
+            origin,
+            direction,
+            hit,
+            surface: camera_hit,
+            light: light_hit,
         };
-        if let Some(light) = light_hit {
+        let bounce = self.bounce;
+        match self.through_media(ray, depth, t_end, end.continues()) {
+            AfterMedia::Reached { null_ratio } => self.reach(&end, null_ratio, depth),
+            AfterMedia::Scattered(next) => Some(next),
+            AfterMedia::Both { next, behind } => {
+                self.behind = Some(Behind {
+                    end,
+                    throughput: behind,
+                    bounce,
+                    depth,
+                });
+                Some(next)
+            }
+            AfterMedia::Ended => None,
+        }
+    }
+
+    /// The light, sky or surface at `end` of a ray after `depth` scattering
+    /// events, reached through its media (`null_ratio` as in
+    /// [`AfterMedia::Reached`]): its emission, and at a surface the next
+    /// ray (`None` when the path ends).
+    fn reach(&mut self, end: &RayEnd, null_ratio: f32, depth: u32) -> Option<Ray> {
+        let (geometry, lights) = (&self.state.geometry, &self.state.lights);
+        let (origin, direction) = (end.origin, end.direction);
+        if let Some(light) = end.light {
             let weight = self.emission_weight(light.pdf, null_ratio);
             self.gathered
                 .add(self.throughput * light.radiance * weight, depth);
             return None;
         }
-        let Some(hit) = hit else {
+        let Some(hit) = end.hit else {
             let (strategy, bounce, throughput) =
                 (self.settings.strategy, self.bounce, self.throughput);
             let gathered = &mut self.gathered;
@@ -229,15 +301,19 @@ impl Path<'_, '_> {
             });
             return None;
         };
-        let sp = camera_hit.unwrap_or_else(|| geometry.surface_point(&hit));
+        let sp = end.surface.unwrap_or_else(|| geometry.surface_point(&hit));
         self.at_surface(&sp, origin, -direction, null_ratio, depth)
     }
 
     /// The free flight along `ray` through media up to `t_end` (the surface
-    /// or light it reaches): volume emission on the way, equiangular
-    /// sampling of point-like lights, and a real scattering event with
-    /// next-event estimation and phase sampling when the flight ends in one.
-    fn through_media(&mut self, ray: &Ray, depth: u32, t_end: f32) -> AfterMedia {
+    /// or light it reaches; `continues` when the path would go on from
+    /// there): volume emission on the way, equiangular sampling of
+    /// point-like lights, and a real scattering event with next-event
+    /// estimation and phase sampling when the flight ends in one. A camera
+    /// ray under `--camera-ray-transmittance on` reaches its end with
+    /// ratio tracking's transmittance instead of delta tracking's 0 or 1,
+    /// whether or not it also scattered (docs/volumes.md, "Camera rays").
+    fn through_media(&mut self, ray: &Ray, depth: u32, t_end: f32, continues: bool) -> AfterMedia {
         let (state, settings) = (self.state, self.settings);
         let lights = &state.lights;
         let (origin, direction) = (Vec3::from(ray.origin), Vec3::from(ray.direction));
@@ -286,9 +362,11 @@ impl Path<'_, '_> {
             let null_ratio = if null_scattering { null_ratio } else { 1.0 };
             emission_weight(settings.strategy, bounce, light_pdf, null_ratio)
         };
+        let pass_through = depth == 0 && settings.camera_ray_transmittance;
+        let before = (self.throughput, self.bounce);
         let flight = free_flight(
             &along,
-            segments,
+            (segments, pass_through),
             self.throughput,
             weigh_emission,
             self.rng,
@@ -296,27 +374,80 @@ impl Path<'_, '_> {
         );
         self.gathered.add(flight.emission, depth);
         self.throughput = flight.throughput;
-        let (t, albedo, sigma_s) = match flight.end {
-            FlightEnd::Left => {
-                let null_ratio = if null_scattering {
-                    flight.null_ratio
-                } else {
-                    1.0
-                };
-                return AfterMedia::Reached { null_ratio };
-            }
+        let scattered = match flight.end {
+            FlightEnd::Left => None,
             FlightEnd::Absorbed => {
                 self.gathered.aovs.opaque |= depth == 0;
-                return AfterMedia::Ended;
+                None
             }
-            FlightEnd::Scattered { t, albedo, sigma_s } => (t, albedo, sigma_s),
+            FlightEnd::Scattered { t, albedo, sigma_s } => {
+                let event = (t, albedo, sigma_s, flight.null_ratio);
+                self.scatter(
+                    &along,
+                    (origin, direction),
+                    event,
+                    depth,
+                    equiangular.as_ref(),
+                )
+            }
         };
+        if !pass_through {
+            return match (scattered, flight.end) {
+                (Some(next), _) => AfterMedia::Scattered(next),
+                (None, FlightEnd::Left) => AfterMedia::Reached {
+                    null_ratio: if null_scattering {
+                        flight.null_ratio
+                    } else {
+                        1.0
+                    },
+                },
+                (None, _) => AfterMedia::Ended,
+            };
+        }
+        let mut pass = flight.pass;
+        if scattered.is_some() && continues {
+            // Both continue: the surface behind is followed with
+            // probability min(1, largest channel of pass), so a camera
+            // ray costs at most about what delta tracking's did.
+            let q = pass.abs().max_element().min(1.0);
+            pass = if self.rng.next_f32() < q {
+                pass / q
+            } else {
+                Vec3::ZERO
+            };
+        }
+        let behind = before.0 * pass;
+        match (scattered, pass != Vec3::ZERO) {
+            (Some(next), true) => AfterMedia::Both { next, behind },
+            (Some(next), false) => AfterMedia::Scattered(next),
+            (None, true) => {
+                (self.throughput, self.bounce) = (behind, before.1);
+                AfterMedia::Reached { null_ratio: 1.0 }
+            }
+            (None, false) => AfterMedia::Ended,
+        }
+    }
+
+    /// The real scattering event `(t, albedo, mean sigma_s, null ratio)` of
+    /// the free flight along the ray `(origin, direction)` after `depth`
+    /// events: next-event estimation (its share against equiangular
+    /// sampling `equiangular`) and phase sampling of the next ray, `None`
+    /// when the path ends there.
+    fn scatter(
+        &mut self,
+        along: &MediaRay,
+        (origin, direction): (Vec3, Vec3),
+        (t, albedo, sigma_s, null_ratio): (f32, Vec3, f32, f32),
+        depth: u32,
+        equiangular: Option<&EquiangularRay>,
+    ) -> Option<Ray> {
+        let (state, settings) = (self.state, self.settings);
         if depth == 0 {
             self.gathered.first_event(VOLUME_EVENT);
         }
         self.gathered.set_albedo(albedo);
         if depth >= settings.max_depth {
-            return AfterMedia::Ended;
+            return None;
         }
         let phase = along.phase(t, self.rng.next_f32());
         let p = origin + direction * t;
@@ -327,9 +458,8 @@ impl Path<'_, '_> {
             if let Some(light) = self.next_event(&vertex, u_light) {
                 // Equiangular sampling could have made this path too: its
                 // share of the NEE weight.
-                let share = equiangular.as_ref().map_or(1.0, |eq| {
-                    let distance_path = (t, sigma_s, flight.null_ratio);
-                    eq.distance_share(state, light.light, distance_path)
+                let share = equiangular.map_or(1.0, |eq| {
+                    eq.distance_share(state, light.light, (t, sigma_s, null_ratio))
                 });
                 self.gathered
                     .add(self.throughput * light.f * light.li * share, depth + 1);
@@ -346,9 +476,9 @@ impl Path<'_, '_> {
             specular: false,
         };
         if !roulette(&mut self.throughput, depth, u_roulette) {
-            return AfterMedia::Ended;
+            return None;
         }
-        AfterMedia::Scattered(Ray::new(p.into(), ps.wi.into(), 0.0, f32::INFINITY))
+        Some(Ray::new(p.into(), ps.wi.into(), 0.0, f32::INFINITY))
     }
 
     /// The surface point `sp` reached from `origin` (`wo` pointing back):

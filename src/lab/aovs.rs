@@ -122,6 +122,7 @@ pub(super) fn settings(spp: u32, aovs: AovSet) -> RenderSettings {
             clamp: None,
             volume_estimator: VolumeEstimator::NullScatteringMis,
             equiangular: true,
+            camera_ray_transmittance: false,
         },
         aovs,
     }

@@ -41,6 +41,7 @@ pub(crate) fn base_settings(budget: Budget, seed: u64) -> RenderSettings {
             clamp: None,
             volume_estimator: VolumeEstimator::NullScatteringMis,
             equiangular: true,
+            camera_ray_transmittance: false,
         },
         aovs: AovSet::beauty_only(),
     }

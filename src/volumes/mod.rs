@@ -29,6 +29,7 @@ mod lookup;
 mod majorant;
 mod medium;
 mod overlap;
+mod pass_through;
 mod phase;
 mod placement;
 mod ray_marching;
@@ -43,6 +44,7 @@ pub use grid::{GridStats, GridTransform, LayoutError, SparseGrid, Tile};
 pub use lookup::GridAccessor;
 pub use majorant::{MajorantGrid, MajorantKind};
 pub use medium::{Emitter, Media, MediaRay, MediumPoint, RaySegments};
+pub use pass_through::PassThrough;
 pub use phase::{HenyeyGreenstein, PhaseSample};
 pub use stats::TrackingStats;
 pub use tracking::{

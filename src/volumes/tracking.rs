@@ -261,9 +261,10 @@ impl FreePath {
 /// Russian roulette on a small ratio-tracking weight: when its largest
 /// channel magnitude `m` is below [`RUSSIAN_ROULETTE_THRESHOLD`], it
 /// survives with probability `q = m / threshold` as `weight / q`, otherwise
-/// it becomes 0.
+/// it becomes 0. Shared with the camera rays' pass-through weight
+/// (pass_through.rs).
 #[inline]
-fn russian_roulette(weight: Vec3, rng: &mut Pcg32) -> Vec3 {
+pub(super) fn russian_roulette(weight: Vec3, rng: &mut Pcg32) -> Vec3 {
     let m = weight.abs().max_element();
     if m == 0.0 || m >= RUSSIAN_ROULETTE_THRESHOLD {
         return weight;

@@ -25,10 +25,13 @@ pub enum Method {
     Estimator(VolumeEstimator),
     /// `--no-equiangular`.
     NoEquiangular,
+    /// `--camera-ray-transmittance on`: camera rays see what lies behind
+    /// media through a transmittance estimate.
+    CameraRayTransmittance,
 }
 
 /// Every method, in table and chart order.
-pub(crate) const METHODS: [Method; 10] = [
+pub(crate) const METHODS: [Method; 11] = [
     Method::Default,
     Method::Sampler(SamplerKind::Independent),
     Method::Strategy(Strategy::Bsdf),
@@ -39,6 +42,7 @@ pub(crate) const METHODS: [Method; 10] = [
     Method::Estimator(VolumeEstimator::ResidualRatio),
     Method::Estimator(VolumeEstimator::TrackLength),
     Method::NoEquiangular,
+    Method::CameraRayTransmittance,
 ];
 
 impl Method {
@@ -52,6 +56,7 @@ impl Method {
             Self::Majorant(m) => format!("majorant-{}", m),
             Self::Estimator(e) => format!("estimator-{}", e),
             Self::NoEquiangular => "no-equiangular".into(),
+            Self::CameraRayTransmittance => "camera-ray-transmittance".into(),
         }
     }
 
@@ -64,6 +69,7 @@ impl Method {
             Self::Majorant(m) => format!("--majorant {}", m),
             Self::Estimator(e) => format!("--volume-estimator {}", e),
             Self::NoEquiangular => "--no-equiangular".into(),
+            Self::CameraRayTransmittance => "--camera-ray-transmittance on".into(),
         }
     }
 
@@ -74,7 +80,7 @@ impl Method {
         let volumes = !state.media.is_empty();
         match self {
             Self::Default | Self::Sampler(_) | Self::Strategy(_) => true,
-            Self::Majorant(_) | Self::Estimator(_) => volumes,
+            Self::Majorant(_) | Self::Estimator(_) | Self::CameraRayTransmittance => volumes,
             Self::NoEquiangular => volumes && state.lights.has_equiangular_target(),
         }
     }
@@ -88,6 +94,7 @@ impl Method {
             Self::Strategy(strategy) => s.path.strategy = strategy,
             Self::Estimator(estimator) => s.path.volume_estimator = estimator,
             Self::NoEquiangular => s.path.equiangular = false,
+            Self::CameraRayTransmittance => s.path.camera_ray_transmittance = true,
         }
         s
     }
