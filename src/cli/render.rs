@@ -92,7 +92,7 @@ pub struct RenderArgs {
     /// comma-separated list (emission, diffuse_direct, diffuse_indirect,
     /// specular_direct, specular_indirect, transmission, volume_direct,
     /// volume_indirect, albedo, N, P, Z, sample_count, variance,
-    /// CryptoObject, CryptoMaterial).
+    /// CryptoObject, CryptoMaterial, CryptoAsset).
     #[arg(long, default_value = "default")]
     aovs: AovSet,
     /// One multi-channel EXR, or one file per AOV (OUT.<aov>.exr).
@@ -307,7 +307,7 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
     );
     let progress = cirrus::progress_bar::ProgressDisplay::new();
     let save = |s: &Snapshot| {
-        if let Err(e) = write_snapshot(&files.checkpoint, &identity, s) {
+        if let Err(e) = write_snapshot(&files.checkpoint, &identity.named(&state, &s.film), s) {
             log::warn!("checkpoint not saved: {e:#}");
         }
     };
@@ -337,6 +337,7 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
         let message = if end.progress.is_empty() {
             "interrupted before the first sample; nothing written".into()
         } else {
+            let identity = identity.named(&state, &end.film);
             save_interrupted(&files, &identity, &end, &stats, args.compression)
                 .context("interrupted, and the checkpoint could not be saved")?;
             let (c, p) = (files.checkpoint.display(), files.partial.display());
@@ -348,6 +349,7 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
         aov_files: args.aov_files,
         compression: args.compression,
     };
+    let identity = identity.named(&state, &end.film);
     let written = write_finished(&files, &identity, &end, &stats, format)?;
     report(&written, &stats);
     Ok(())

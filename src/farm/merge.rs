@@ -78,8 +78,11 @@ pub fn merge(
         stats.tracking.merge(&p.tracking);
     }
     stats.non_finite = frame.non_finite;
-    let header = &first.header.identity.exr;
-    write_film(output, aov_files, &frame, header, &stats, compression)?;
+    let mut header = first.header.identity.exr.clone();
+    for part in &parts[1..] {
+        header.add_names_of(&part.header.identity.exr);
+    }
+    write_film(output, aov_files, &frame, &header, &stats, compression)?;
     let preview = preview_path(output);
     write_film_preview(&preview, &frame)?;
     if paths.contains(&files.checkpoint) {

@@ -9,7 +9,7 @@ use std::path::Path;
 use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
-use crate::film::{Aov, AovSet, CryptoLayer, Film, Layer};
+use crate::film::{Aov, AovSet, CryptoLayer, CryptoNames, Film, Layer, CRYPTOMATTES};
 use crate::image::{write_exr, Channel, Compression, ExrImage, ImageError, PixelType};
 use crate::integrator::{RenderSettings, RenderStats};
 use crate::render_state::RenderState;
@@ -37,14 +37,17 @@ pub struct ExrHeader {
     /// `worldToCamera` and `worldToNDC` (Imath's row-vector layout, which is
     /// glam's column-major array of the column-vector matrix).
     matrices: Vec<(String, [f32; 16])>,
-    /// Names of the CryptoObject and CryptoMaterial ids (Mesh and Material
-    /// prim paths, indexed like the film's ids), when chosen.
-    crypto_names: [Option<Vec<String>>; 2],
+    /// Per Cryptomatte (in `CRYPTOMATTES` order), when chosen: the names of
+    /// the ids a film recorded, filled in by [`ExrHeader::named`] each time
+    /// a film is written, so that a film-state file carries what its
+    /// manifest needs and `cirrus merge` names the same ids a whole render
+    /// would.
+    crypto_names: [Option<CryptoNames>; 3],
 }
 
 impl ExrHeader {
-    /// The header of a render of `state` with `settings`, with the
-    /// Cryptomatte names of the chosen Cryptomatte AOVs.
+    /// The header of a render of `state` with `settings`; its Cryptomatte
+    /// names are filled in by [`ExrHeader::named`].
     pub fn new(state: &RenderState, settings: &RenderSettings) -> Self {
         let attribute = |k: &str, v: String| (format!("cirrus/{k}"), v);
         let p = &settings.path;
@@ -69,11 +72,8 @@ impl ExrHeader {
             attribute("shutter", state.camera.shutter().to_string()),
         ];
         let camera = &state.camera;
-        let names = |aov: Aov, paths: Vec<String>| settings.aovs.contains(aov).then_some(paths);
-        let crypto_names = [
-            names(Aov::CryptoObject, state.id_names.objects.clone()),
-            names(Aov::CryptoMaterial, state.id_names.materials.clone()),
-        ];
+        let crypto_names =
+            CRYPTOMATTES.map(|aov| settings.aovs.contains(aov).then(CryptoNames::new));
         Self {
             strings,
             matrices: vec![
@@ -87,18 +87,34 @@ impl ExrHeader {
         }
     }
 
-    /// The Cryptomatte layers of the chosen AOVs.
-    fn crypto_layers(&self, aovs: &AovSet) -> [Option<CryptoLayer>; 2] {
-        let layer = |aov: Aov, names: &Option<Vec<String>>| {
-            names
-                .as_ref()
-                .filter(|_| aovs.contains(aov))
-                .map(|n| CryptoLayer::new(aov.name(), n.clone()))
-        };
-        [
-            layer(Aov::CryptoObject, &self.crypto_names[0]),
-            layer(Aov::CryptoMaterial, &self.crypto_names[1]),
-        ]
+    /// This header with the names of every Cryptomatte id `film` (a film
+    /// of a render of `state`) recorded, for writing the film or its state.
+    pub fn named(&self, state: &RenderState, film: &Film) -> Self {
+        let mut header = self.clone();
+        for (names, aov) in header.crypto_names.iter_mut().zip(CRYPTOMATTES) {
+            if let Some(names) = names {
+                names.extend(state.id_names.names(aov, &film.crypto_ids(aov)));
+            }
+        }
+        header
+    }
+
+    /// Adds the Cryptomatte names `other` (another part of the same frame)
+    /// carries: `cirrus merge` names the ids of every part.
+    pub fn add_names_of(&mut self, other: &ExrHeader) {
+        for (names, more) in self.crypto_names.iter_mut().zip(&other.crypto_names) {
+            if let (Some(names), Some(more)) = (names, more) {
+                names.extend(more.iter().map(|(&id, name)| (id, name.clone())));
+            }
+        }
+    }
+
+    /// The Cryptomatte of `aov` over `layer` (its pixels): the names of the
+    /// ids the layer holds; `None` for other AOVs.
+    fn crypto_layer(&self, aov: Aov, layer: &Layer) -> Option<CryptoLayer> {
+        let slot = CRYPTOMATTES.iter().position(|&a| a == aov)?;
+        let names = self.crypto_names[slot].clone().unwrap_or_default();
+        Some(CryptoLayer::new(aov.name(), names).present_in(&layer.pixels))
     }
 }
 
@@ -129,17 +145,15 @@ pub fn write_film(
     stats: &RenderStats,
     compression: Compression,
 ) -> Result<(), ImageError> {
-    let crypto = header.crypto_layers(film.aov_set());
-    let crypto_of = |aov| match aov {
-        Aov::CryptoObject => crypto[0].as_ref(),
-        Aov::CryptoMaterial => crypto[1].as_ref(),
-        _ => None,
-    };
     let layers: Vec<(Aov, Layer)> = film
         .aov_set()
         .aovs()
         .iter()
-        .map(|&aov| (aov, film.aov_layer(aov, crypto_of(aov))))
+        .map(|&aov| (aov, film.aov_layer(aov)))
+        .collect();
+    let crypto: Vec<Option<CryptoLayer>> = layers
+        .iter()
+        .map(|(aov, layer)| header.crypto_layer(*aov, layer))
         .collect();
     let beauty = film.beauty_layer();
     let write = |path: &Path, layers: &[&Layer], strings: Vec<(String, String)>| {
@@ -159,9 +173,9 @@ pub fn write_film(
         }
         AovFiles::Separate => {
             write(output, &[&beauty], Vec::new())?;
-            for (aov, layer) in &layers {
+            for ((aov, layer), crypto) in layers.iter().zip(&crypto) {
                 let path = output.with_extension(format!("{}.exr", aov.name()));
-                let metadata = crypto_of(*aov).map(CryptoLayer::metadata);
+                let metadata = crypto.as_ref().map(CryptoLayer::metadata);
                 write(&path, &[layer], metadata.unwrap_or_default())?;
             }
             Ok(())
