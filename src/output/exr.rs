@@ -42,7 +42,36 @@ pub struct ExrHeader {
     /// a film is written, so that a film-state file carries what its
     /// manifest needs and `cirrus merge` names the same ids a whole render
     /// would.
+    #[serde(with = "names_as_pairs")]
     crypto_names: [Option<CryptoNames>; 3],
+}
+
+/// Cryptomatte names in JSON as `[[id, name], ...]`: film-state headers are
+/// read through `#[serde(flatten)]`, which cannot parse integer map keys.
+mod names_as_pairs {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    use crate::film::CryptoNames;
+
+    type Pairs = [Option<Vec<(u32, String)>>; 3];
+
+    pub fn serialize<S: Serializer>(
+        names: &[Option<CryptoNames>; 3],
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
+        let pairs = names.each_ref().map(|n| {
+            n.as_ref()
+                .map(|n| n.iter().map(|(&id, name)| (id, name.clone())).collect())
+        });
+        Pairs::serialize(&pairs, s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<[Option<CryptoNames>; 3], D::Error> {
+        let pairs = Pairs::deserialize(d)?;
+        Ok(pairs.map(|p| p.map(|p| p.into_iter().collect())))
+    }
 }
 
 impl ExrHeader {
