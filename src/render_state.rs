@@ -105,12 +105,8 @@ impl IdNames {
         Self {
             instances: InstanceNames::new(scene),
             materials: materials
-                .map(|x| {
-                    (
-                        crate::film::murmur3_32(x.path.as_bytes(), 0),
-                        x.path.clone(),
-                    )
-                })
+                .map(|x| x.name.as_ref().unwrap_or(&x.path))
+                .map(|name| (crate::film::murmur3_32(name.as_bytes(), 0), name.clone()))
                 .collect(),
         }
     }

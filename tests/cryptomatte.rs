@@ -3,7 +3,8 @@
 //! exporter): three instanceable references of one Teapot asset, four
 //! PointInstancer copies of a Rock, a Floor, a Hidden sphere nobody sees and
 //! an Extra sphere outside every model. Each object is named by the
-//! instance's own prim path (never USD's `/__Prototype_N`), the ids are the
+//! instance's own prim path (never USD's `/__Prototype_N`, nor is a material
+//! inside the asset), the ids are the
 //! same from one export to the next, CryptoAsset groups the meshes of one
 //! component, the manifests list only the ids the image holds, and a frame
 //! merged from parts or resumed after a stop carries the same manifests as
@@ -172,6 +173,13 @@ fn instances_are_named_by_their_own_prim_paths_stably_across_exports() {
             );
         }
     }
+    // CryptoMaterial: the asset's material by its path through the first
+    // instance (all three teapots share it), never `/__Prototype_N`.
+    let materials = decode_cryptomatte(exr, "CryptoMaterial");
+    assert_eq!(
+        names_of(&materials, "CryptoMaterial"),
+        ["/World/Looks/Ground", "/World/teapot_1/Looks/Glaze"]
+    );
     assert!(!exr.strings.values().any(|v| v.contains("__Prototype")));
 }
 
