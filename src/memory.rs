@@ -7,7 +7,8 @@
 //! bound: the scene is dropped before the film exists, so the true peak is
 //! lower than the sum when both are large). Each part's owner says what it
 //! will hold; this module only adds them up:
-//! - scene: the bulk arrays of `scene.bin`, held while the render state is built;
+//! - scene: the bulk arrays of `scene.bin`, held while the render state is built,
+//!   and the Cryptomatte names kept per instance (8 bytes);
 //! - geometry: [`Geometry::bytes_for`] (shading copies, BVHs, the build's
 //!   temporaries for the meshes built at once, the top level);
 //! - volumes: per density (and emitting temperature or emission) grid,
@@ -25,7 +26,7 @@ use glam::UVec2;
 
 use crate::film::{AovSet, Film};
 use crate::geometry::Geometry;
-use crate::scene::Scene;
+use crate::scene::{InstanceNames, Scene};
 use crate::volumes::{Media, VdbFile, VolumeError};
 
 /// Bytes in one MiB and one GiB.
@@ -134,7 +135,9 @@ pub fn estimate(
 ) -> Result<MemoryEstimate, MemoryError> {
     let arrays = scene.array_bytes();
     Ok(MemoryEstimate {
-        scene: arrays.meshes + arrays.instances,
+        scene: arrays.meshes
+            + arrays.instances
+            + InstanceNames::bytes_for(scene.manifest.instances.count),
         geometry: geometry_bytes(scene, arrays.meshes),
         volumes: volume_bytes(scene)?,
         film: film_bytes(resolution, aovs),

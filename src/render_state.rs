@@ -2,15 +2,18 @@
 //! (camera, volumes, textures and materials, lights, geometry) and never changed
 //! afterwards, so threads share it freely. The scene itself can be dropped.
 
+use std::collections::BTreeSet;
+
 use glam::UVec2;
 use thiserror::Error;
 
 use crate::camera::{Camera, CameraError};
-use crate::geometry::Geometry;
+use crate::film::{Aov, CryptoIds, CryptoNames, Murmur3};
+use crate::geometry::{Geometry, Hit};
 use crate::lights::{Emitters, LightError, Lights};
 use crate::materials::{MaterialError, Materials};
 use crate::motion::Shutter;
-use crate::scene::Scene;
+use crate::scene::{InstanceNames, Scene};
 use crate::volumes::{MajorantKind, Media, VolumeError};
 
 /// Image width used when neither the command line nor the stage's render
@@ -72,13 +75,85 @@ pub struct RenderState {
     pub id_names: IdNames,
 }
 
-/// The prim paths the film's Cryptomatte ids stand for.
-#[derive(Clone, Debug, Default)]
+/// What the film's Cryptomatte ids stand for: the names of every placed
+/// mesh, its asset and every material. A camera hit's ids are hashed from
+/// the names' pieces (MurmurHash3, Cryptomatte 1.2.0), so no instance keeps
+/// a string; names are spelled out only for the ids a film holds.
 pub struct IdNames {
-    /// Mesh prim paths, indexed like the meshes (CryptoObject).
-    pub objects: Vec<String>,
-    /// Material prim paths, indexed like the materials (CryptoMaterial).
-    pub materials: Vec<String>,
+    instances: InstanceNames,
+    /// Material prim paths, indexed like the materials, with their hashes.
+    materials: Vec<(u32, String)>,
+}
+
+/// MurmurHash3 (seed 0) of the name `spell` gives in pieces.
+fn hash_of(spell: impl FnOnce(&mut dyn FnMut(&[u8]))) -> u32 {
+    let mut hasher = Murmur3::new(0);
+    spell(&mut |piece| hasher.write(piece));
+    hasher.finish()
+}
+
+/// The name `spell` gives in pieces, as one string.
+fn name_of(spell: impl FnOnce(&mut dyn FnMut(&[u8]))) -> String {
+    let mut name = Vec::new();
+    spell(&mut |piece| name.extend_from_slice(piece));
+    String::from_utf8_lossy(&name).into_owned()
+}
+
+impl IdNames {
+    fn new(scene: &Scene) -> Self {
+        let materials = scene.manifest.materials.iter();
+        Self {
+            instances: InstanceNames::new(scene),
+            materials: materials
+                .map(|x| x.name.as_ref().unwrap_or(&x.path))
+                .map(|name| (crate::film::murmur3_32(name.as_bytes(), 0), name.clone()))
+                .collect(),
+        }
+    }
+
+    /// The Cryptomatte ids of `hit`, on a surface bound to `material` (an
+    /// index into the materials) or to none.
+    pub fn ids(&self, hit: &Hit, material: Option<u32>) -> CryptoIds {
+        let (instance, part) = (hit.instance, hit.prototype_mesh);
+        let names = &self.instances;
+        let object = hash_of(|out| names.object(instance, part, out));
+        let asset = match names.asset_is_object(instance, part) {
+            true => object,
+            false => hash_of(|out| names.asset(instance, part, out)),
+        };
+        CryptoIds {
+            object,
+            material: material.map(|m| self.materials[m as usize].0),
+            asset,
+        }
+    }
+
+    /// The names of those of `ids` that name something in Cryptomatte
+    /// `aov`: one pass over the placed meshes (or materials), spelling out
+    /// only the names asked for.
+    pub fn names(&self, aov: Aov, ids: &BTreeSet<u32>) -> CryptoNames {
+        let mut found = CryptoNames::new();
+        if ids.is_empty() {
+            return found;
+        }
+        if aov == Aov::CryptoMaterial {
+            let materials = self.materials.iter().filter(|(id, _)| ids.contains(id));
+            found.extend(materials.cloned());
+            return found;
+        }
+        let names = &self.instances;
+        for (instance, part) in names.placed() {
+            let spell = |out: &mut dyn FnMut(&[u8])| match aov {
+                Aov::CryptoAsset => names.asset(instance, part, out),
+                _ => names.object(instance, part, out),
+            };
+            let id = hash_of(spell);
+            if ids.contains(&id) && !found.contains_key(&id) {
+                found.insert(id, name_of(spell));
+            }
+        }
+        found
+    }
 }
 
 /// Why a scene cannot be rendered.
@@ -131,11 +206,7 @@ impl RenderState {
             }
         }
         let geometry = Geometry::build(scene, shutter.blurs());
-        let m = &scene.manifest;
-        let id_names = IdNames {
-            objects: m.meshes.iter().map(|x| x.path.clone()).collect(),
-            materials: m.materials.iter().map(|x| x.path.clone()).collect(),
-        };
+        let id_names = IdNames::new(scene);
         Ok(Self {
             geometry,
             materials,

@@ -45,7 +45,7 @@ fn all_aovs_have_the_documented_channels_types_and_metadata() {
         exr.strings.get("cirrus/seed").map(String::as_str),
         Some("7")
     );
-    for layer in ["CryptoObject", "CryptoMaterial"] {
+    for layer in ["CryptoObject", "CryptoMaterial", "CryptoAsset"] {
         for field in ["name", "hash", "conversion", "manifest"] {
             let key = format!("cryptomatte/{}/{field}", layer_key(layer));
             assert!(exr.strings.contains_key(&key), "missing {key}");
@@ -115,7 +115,7 @@ fn python_openexr_reads_the_same_channels_and_metadata() {
         );
     }
     assert!(strings["software"].as_str().unwrap().starts_with("Cirrus "));
-    for layer in ["CryptoObject", "CryptoMaterial"] {
+    for layer in ["CryptoObject", "CryptoMaterial", "CryptoAsset"] {
         let key = format!("cryptomatte/{}/name", layer_key(layer));
         assert_eq!(strings[&key], layer);
     }
@@ -246,7 +246,7 @@ fn separate_files_hold_each_aov_with_the_same_channels_and_values() {
                 .is_some_and(|s| s.starts_with("Cirrus ")),
             "{file}"
         );
-        for layer in ["CryptoObject", "CryptoMaterial"] {
+        for layer in ["CryptoObject", "CryptoMaterial", "CryptoAsset"] {
             let key = format!("cryptomatte/{}/manifest", layer_key(layer));
             let is_layer = file == format!("out.{layer}.exr");
             if is_layer {

@@ -5,6 +5,11 @@ prototypes are exported once each as a Cirrus prototype; nested instancing is
 resolved by composing transform arrays (numpy, never a Python loop per instance), so
 every Cirrus instance is world-from-prototype for a prototype holding real parts.
 
+Every copy is named as the artist authored it (docs/conventions.md, "Cryptomatte names"):
+its prototype root by the instance's own prim path (`/World/teapot_3`) or its
+PointInstancer's path with its index (`/World/scatter[12]`), never `/__Prototype_N`, and its
+asset by the nearest `component`/`assembly` model above it.
+
 Meshes posed by UsdSkel are placed by their skeleton (`Skinning.placed`); copies of a
 prototype share a group only when their skinning signatures agree (same skeleton and
 SkelAnimation), so differently animated instances get their own posed meshes.
@@ -16,7 +21,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .binfile import BinWriter
-from .prototypes import PREDICATE, Prototypes, prototype_path
+from .prototypes import PREDICATE, Prototypes, asset_above, asset_within, below, prototype_path
 from .report import Report
 from .skinning import Skinning
 from .xforms import compose, local_transform, to_3x4
@@ -28,32 +33,68 @@ UNRENDERED_TYPES = {"Points", "BasisCurves", "NurbsCurves", "HermiteCurves", "Nu
                     "TetMesh"}
 
 
+@dataclass(frozen=True)
+class Name:
+    """A prim path that may hold a copy's PointInstancer index: `head`, then `[index]` when
+    `indexed`, then `tail` (the manifest's NamePattern)."""
+
+    head: str = ""
+    indexed: bool = False
+    tail: str = ""
+
+    def under(self, path: str) -> "Name":
+        """This name, relative to a prim, under that prim's `path` (relative or absolute)."""
+        return Name(path + self.head, self.indexed, self.tail)
+
+    def instanced(self) -> "Name":
+        """This name, relative to a PointInstancer prototype root, for the instancer's copies:
+        `[index]` then the name. An inner instancer's index is dropped (only the outermost
+        instancer's index is kept per instance, within the 60-byte budget)."""
+        return Name("", True, self.head + self.tail)
+
+    def record(self) -> dict:
+        return {"head": self.head, "indexed": self.indexed, "tail": self.tail}
+
+
 @dataclass
 class Leaf:
     """Copies of one Cirrus prototype: row-vector matrices into the holder's space.
 
     `index` is each copy's index in the outermost PointInstancer that made it (its
-    `ids` when authored), 0 when no PointInstancer is involved.
+    `ids` when authored), 0 when no PointInstancer is involved. `root` names the copies'
+    prototype root and `asset` the nearest model above it, both relative to the holder
+    (None: no model between them).
     """
 
     prototype: int
     matrices: np.ndarray  # (n, 4, 4) float64
     index: np.ndarray  # (n,) int64
+    root: Name = Name()
+    asset: Name | None = None
 
     def placed(self, matrix: np.ndarray) -> "Leaf":
         """The same copies moved by one more (4, 4) transform."""
-        return Leaf(self.prototype, self.matrices @ matrix, self.index)
+        return Leaf(self.prototype, self.matrices @ matrix, self.index, self.root, self.asset)
+
+    def named_under(self, path: str, asset: str | None) -> "Leaf":
+        """The same copies named under `path`, with `asset` (a path) as their asset when they
+        have none nearer."""
+        nearer = self.asset.under(path) if self.asset else None
+        fallback = Name(asset) if asset is not None else None
+        return Leaf(self.prototype, self.matrices, self.index, self.root.under(path), nearer or fallback)
 
 
 class GroupSink:
     """Collects the parts and nested instances found under one prototype root.
 
     `holder` is the prim whose space the group is in: the native instance, or the
-    PointInstancer prototype root.
+    PointInstancer prototype root; `holder_shared` when the holder itself belongs to the
+    group (a PointInstancer prototype root, unlike a native instance, which is each copy's own).
     """
 
-    def __init__(self, holder: Usd.Prim) -> None:
+    def __init__(self, holder: Usd.Prim, holder_shared: bool) -> None:
         self.holder: Usd.Prim | None = holder
+        self.holder_shared = holder_shared
         self.parts: list[tuple[Usd.Prim, np.ndarray]] = []
         self.leaves: list[Leaf] = []
 
@@ -63,7 +104,9 @@ class GroupSink:
 
     def nested(self, prim: Usd.Prim, leaves: list[Leaf], matrix: np.ndarray) -> None:
         """An instance or PointInstancer inside the group, placed by `matrix`."""
-        self.leaves.extend(leaf.placed(matrix) for leaf in leaves)
+        path = below(prim, self.holder)
+        asset = asset_within(prim, self.holder, self.holder_shared)
+        self.leaves.extend(leaf.placed(matrix).named_under(path, asset) for leaf in leaves)
 
 
 class TopSink:
@@ -72,12 +115,12 @@ class TopSink:
     def __init__(self, prototypes: Prototypes) -> None:
         self.holder: Usd.Prim | None = None  # the world
         self.sources: list[str] = []
-        self.placed: list[tuple[int, Leaf]] = []
+        self.placed: list[tuple[int, Leaf]] = []  # names absolute
         self._prototypes = prototypes
 
     def part(self, prim: Usd.Prim, matrix: np.ndarray) -> None:
         """A plain prim: its own prototype, one instance at its world transform."""
-        proto = self._prototypes.add(str(prim.GetPath()), [(prim, np.eye(4))])
+        proto = self._prototypes.add(str(prim.GetPath()), [(prim, np.eye(4))], prim, False)
         if proto is not None:
             self.nested(prim, [Leaf(proto, np.eye(4)[None], np.zeros(1, np.int64))], matrix)
 
@@ -85,8 +128,11 @@ class TopSink:
         """All copies made by one native instance or PointInstancer of the stage."""
         if not leaves:
             return
-        self.sources.append(str(prim.GetPath()))
-        self.placed.extend((len(self.sources) - 1, leaf.placed(matrix)) for leaf in leaves)
+        path = str(prim.GetPath())
+        self.sources.append(path)
+        asset = asset_above(prim)
+        self.placed.extend((len(self.sources) - 1, leaf.placed(matrix).named_under(path, asset))
+                           for leaf in leaves)
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The Instances structure of arrays: prototype, transform (n, 12), source, source_index."""
@@ -98,6 +144,11 @@ class TopSink:
             "source": np.repeat([source for source, _ in self.placed], counts).astype(np.uint32),
             "source_index": np.concatenate([leaf.index for leaf in leaves]) if leaves else np.zeros(0),
         }
+
+    def names(self) -> list[dict]:
+        """The Instances `names` runs: one per placed leaf, in instance order."""
+        return [{"count": len(leaf.index), "root": leaf.root.record(),
+                 "asset": leaf.asset.record() if leaf.asset else None} for _, leaf in self.placed]
 
 
 class Walker:
@@ -157,11 +208,13 @@ class Walker:
                apply_local: bool) -> list[Leaf]:
         """Copies of everything under `roots`, in `holder`'s space; built once per key."""
         if key not in self._groups:
-            sink = GroupSink(holder)
+            # A native instance's group leaves its own xform out (apply_local) and its own
+            # kind too (each copy's, named above); a PointInstancer prototype root is shared.
+            sink = GroupSink(holder, holder_shared=not apply_local)
             for root in roots:
                 self._walk(root, np.eye(4), sink, apply_local)
             leaves = list(sink.leaves)
-            proto = self._prototypes.add(name, sink.parts) if sink.parts else None
+            proto = self._prototypes.add(name, sink.parts, holder, not apply_local) if sink.parts else None
             if proto is not None:
                 leaves.insert(0, Leaf(proto, np.eye(4)[None], np.zeros(1, np.int64)))
             self._groups[key] = leaves
@@ -206,7 +259,8 @@ class Walker:
             key = (prototype_path(root), self._skinning.signature(root))
             for leaf in self._group(key, str(target), root, [root], False):
                 inner = compose(leaf.matrices, matrices[chosen])
-                leaves.append(Leaf(leaf.prototype, inner, np.repeat(ids[chosen], len(leaf.index))))
+                leaves.append(Leaf(leaf.prototype, inner, np.repeat(ids[chosen], len(leaf.index)),
+                                   leaf.root.instanced(), leaf.asset.instanced() if leaf.asset else None))
         return leaves
 
 
@@ -220,5 +274,6 @@ def instance_records(sink: TopSink, writer: BinWriter) -> tuple[dict, np.ndarray
         "source": writer.add(arrays["source"], "u32", 1),
         "source_index": writer.add(arrays["source_index"], "u32", 1),
         "instance_sources": sink.sources,
+        "names": sink.names(),
     }
     return record, arrays["prototype"], arrays["matrices"]

@@ -101,14 +101,18 @@ class MaterialTable:
         """The manifest index of a material, reading it the first time.
 
         A material inside an instance is keyed by its path in the prototype, so every
-        instance of an asset shares one record.
+        instance of an asset shares one record; its `name` (CryptoMaterial's) is its path as
+        seen through the first instance met, stable where `/__Prototype_N` is not.
         """
         prim = material.GetPrim()
         path = str(prim.GetPrimInPrototype().GetPath() if prim.IsInstanceProxy() else prim.GetPath())
         if path not in self._by_path:
             self._by_path[path] = len(self.materials)
             self.materials.append(None)
-            self.materials[self._by_path[path]] = self._read(material, path)
+            record = self._read(material, path)
+            if prim.IsInstanceProxy():
+                record["name"] = str(prim.GetPath())
+            self.materials[self._by_path[path]] = record
         return self._by_path[path]
 
     def display_color(self, prim: Usd.Prim) -> int:

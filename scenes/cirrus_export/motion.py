@@ -34,9 +34,9 @@ class Recorder:
         self.meshes = prototypes.meshes
         self.results: list = []
 
-    def add(self, path: str, parts: list) -> int | None:
+    def add(self, path: str, parts: list, root, root_included: bool) -> int | None:
         """Prototypes.add, recorded."""
-        result = self._prototypes.add(path, parts)
+        result = self._prototypes.add(path, parts, root, root_included)
         self.results.append((path, result))
         return result
 
@@ -52,7 +52,7 @@ class _Replay:
         self.meshes = recorder.meshes
         self._results = iter(recorder.results)
 
-    def add(self, path: str, parts: list) -> int | None:
+    def add(self, path: str, parts: list, root, root_included: bool) -> int | None:
         """The index the first walk got for this prototype, in the same order."""
         recorded = next(self._results, None)
         if recorded is None or recorded[0] != path:

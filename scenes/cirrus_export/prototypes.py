@@ -8,7 +8,7 @@ by its own path (the walker decides which instances may share its pose).
 from typing import TYPE_CHECKING
 
 import numpy as np
-from pxr import Usd, UsdGeom, UsdShade
+from pxr import Kind, Usd, UsdGeom, UsdShade
 
 from .binfile import BinWriter
 from .materials import NO_MATERIAL, MaterialTable
@@ -28,6 +28,38 @@ PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
 def prototype_path(prim: Usd.Prim) -> str:
     """The prim's path inside its USD prototype (instance proxies), else its own path."""
     return str(prim.GetPrimInPrototype().GetPath() if prim.IsInstanceProxy() else prim.GetPath())
+
+
+def is_asset(prim: Usd.Prim) -> bool:
+    """Whether the prim is a model of kind `component` or `assembly` (or a kind derived from
+    them): what CryptoAsset names, as Arnold's and Karma's asset mattes do."""
+    kind = Usd.ModelAPI(prim).GetKind()
+    return bool(kind) and (Kind.Registry.IsA(kind, Kind.Tokens.component)
+                           or Kind.Registry.IsA(kind, Kind.Tokens.assembly))
+
+
+def below(prim: Usd.Prim, root: Usd.Prim) -> str:
+    """The prim's path below `root` (`/Geom`; '' for the root itself)."""
+    return str(prim.GetPath())[len(str(root.GetPath())):]
+
+
+def asset_within(prim: Usd.Prim, root: Usd.Prim, root_included: bool) -> str | None:
+    """The nearest asset at or above `prim` up to `root` (included or not), as its path below
+    `root`; None when there is none in that range."""
+    while prim and prim.GetPath() != root.GetPath():
+        if is_asset(prim):
+            return below(prim, root)
+        prim = prim.GetParent()
+    return "" if root_included and is_asset(root) else None
+
+
+def asset_above(prim: Usd.Prim) -> str | None:
+    """The path of the nearest asset at or above `prim` on the whole stage; None when none."""
+    while prim and not prim.IsPseudoRoot():
+        if is_asset(prim):
+            return str(prim.GetPath())
+        prim = prim.GetParent()
+    return None
 
 
 def _optional(writer: BinWriter, values: np.ndarray | None, width: int) -> dict | None:
@@ -137,8 +169,11 @@ class Prototypes:
         self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
         self.meshes, self._volumes = meshes, volumes
 
-    def add(self, path: str, parts: list[tuple[Usd.Prim, np.ndarray]]) -> int | None:
-        """A prototype from (prim, prototype-from-part matrix) parts; None when all were skipped."""
+    def add(self, path: str, parts: list[tuple[Usd.Prim, np.ndarray]], root: Usd.Prim,
+            root_included: bool) -> int | None:
+        """A prototype from (prim, prototype-from-part matrix) parts under `root` (whose own kind
+        counts when `root_included`); None when all were skipped. Mesh parts carry their
+        names below the root and the asset they belong to inside the prototype."""
         record = {"path": path, "meshes": [], "volumes": []}
         lo, hi = EMPTY_BOX
         for prim, matrix in parts:
@@ -147,9 +182,12 @@ class Prototypes:
             index = table.index(prim)
             if index is None:
                 continue
-            kind = "volume" if is_volume else "mesh"
-            record[f"{kind}es" if kind == "mesh" else f"{kind}s"].append(
-                {kind: index, "transform": to_3x4_list(matrix)})
+            if is_volume:
+                record["volumes"].append({"volume": index, "transform": to_3x4_list(matrix)})
+            else:
+                record["meshes"].append({"mesh": index, "transform": to_3x4_list(matrix),
+                                         "name": below(prim, root),
+                                         "asset": asset_within(prim, root, root_included)})
             box = table.boxes[index]
             if box is not None:
                 corners = transform_points(box_corners(*box), matrix)

@@ -100,7 +100,7 @@ pub struct RenderArgs {
     /// comma-separated list (emission, diffuse_direct, diffuse_indirect,
     /// specular_direct, specular_indirect, transmission, volume_direct,
     /// volume_indirect, albedo, N, P, Z, sample_count, variance,
-    /// CryptoObject, CryptoMaterial) [default: the render products'
+    /// CryptoObject, CryptoMaterial, CryptoAsset) [default: the render products'
     /// RenderVars, else default].
     #[arg(long)]
     aovs: Option<AovSet>,
@@ -333,7 +333,7 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
     );
     let progress = cirrus::progress_bar::ProgressDisplay::new();
     let save = |s: &Snapshot| {
-        if let Err(e) = write_snapshot(&files[0].checkpoint, &identity, s) {
+        if let Err(e) = write_snapshot(&files[0].checkpoint, &identity.named(&state, &s.film), s) {
             log::warn!("checkpoint not saved: {e:#}");
         }
     };
@@ -363,6 +363,7 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
         let message = if end.progress.is_empty() {
             "interrupted before the first sample; nothing written".into()
         } else {
+            let identity = identity.named(&state, &end.film);
             save_interrupted(&files[0], &identity, &end, &stats, args.compression)
                 .context("interrupted, and the checkpoint could not be saved")?;
             let (c, p) = (files[0].checkpoint.display(), files[0].partial.display());
@@ -370,6 +371,7 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
         };
         return Err(Interrupted { signal, message }.into());
     }
+    let identity = identity.named(&state, &end.film);
     let mut written = Vec::new();
     for (files, product) in files.iter().zip(&plan.outputs) {
         let format = ImageFormat {

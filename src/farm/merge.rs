@@ -78,12 +78,15 @@ pub fn merge(
         stats.tracking.merge(&p.tracking);
     }
     stats.non_finite = frame.non_finite;
-    let header = &first.header.identity.exr;
+    let mut header = first.header.identity.exr.clone();
+    for part in &parts[1..] {
+        header.add_names_of(&part.header.identity.exr);
+    }
     write_film(
         output,
         aov_files,
         &frame,
-        header,
+        &header,
         &stats,
         compression,
         &Layers::Film,

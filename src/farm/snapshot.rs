@@ -15,7 +15,7 @@ use crate::file_error::FileError;
 use crate::film::{read_film_state, write_film_state, Film};
 use crate::integrator::{Budget, RenderProgress, RenderSettings, Snapshot};
 use crate::output::ExrHeader;
-use crate::render_state::StateOptions;
+use crate::render_state::{RenderState, StateOptions};
 use crate::scene::{Scene, MANIFEST_FILE};
 
 /// Everything a checkpoint must match to be resumed, by name: the scene's
@@ -135,6 +135,18 @@ pub struct RenderIdentity {
     pub exr: ExrHeader,
     /// The samples it takes of its frame.
     pub part: PartInfo,
+}
+
+impl RenderIdentity {
+    /// This identity with its EXR header naming every Cryptomatte id of
+    /// `film` (a film of the render of `state`): what a film state or an
+    /// image written from `film` carries.
+    pub fn named(&self, state: &RenderState, film: &Film) -> Self {
+        Self {
+            exr: self.exr.named(state, film),
+            ..self.clone()
+        }
+    }
 }
 
 /// A snapshot's film-state file header: the render's identity and progress.

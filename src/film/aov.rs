@@ -53,14 +53,18 @@ pub enum Aov {
     SampleCount,
     /// Variance of the pixel's mean beauty: sample variance / n, per channel.
     Variance,
-    /// Cryptomatte of the USD Mesh prims the camera rays hit.
+    /// Cryptomatte of the objects the camera rays hit: each instance's own
+    /// prim paths (docs/conventions.md, "Cryptomatte names").
     CryptoObject,
     /// Cryptomatte of the bound Material prims the camera rays hit.
     CryptoMaterial,
+    /// Cryptomatte of the assets the camera rays hit: the nearest
+    /// `component` or `assembly` model above each object.
+    CryptoAsset,
 }
 
 /// Every AOV, in file order.
-pub const ALL: [Aov; 16] = [
+pub const ALL: [Aov; 17] = [
     Aov::Emission,
     Aov::DiffuseDirect,
     Aov::DiffuseIndirect,
@@ -77,7 +81,11 @@ pub const ALL: [Aov; 16] = [
     Aov::Variance,
     Aov::CryptoObject,
     Aov::CryptoMaterial,
+    Aov::CryptoAsset,
 ];
+
+/// The Cryptomatte AOVs, in file order.
+pub const CRYPTOMATTES: [Aov; 3] = [Aov::CryptoObject, Aov::CryptoMaterial, Aov::CryptoAsset];
 
 /// What one camera path sample gives every AOV; the film keeps those asked for.
 #[derive(Clone, Copy, Debug)]
@@ -102,10 +110,33 @@ pub struct CameraHit {
     pub position: Vec3,
     /// Camera-space depth, scene units.
     pub depth: f32,
-    /// Scene mesh index (the Cryptomatte object).
+    /// Its Cryptomatte ids.
+    pub ids: CryptoIds,
+}
+
+/// The Cryptomatte ids of a surface hit: the MurmurHash3 (seed 0) of the
+/// names it has in each Cryptomatte (before `uint32_to_float32`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CryptoIds {
+    /// Of its object name (CryptoObject).
     pub object: u32,
-    /// Material index, or `None` for unbound meshes.
+    /// Of its bound material's path (CryptoMaterial); `None` when unbound.
     pub material: Option<u32>,
+    /// Of its asset name (CryptoAsset).
+    pub asset: u32,
+}
+
+impl CryptoIds {
+    /// The id in Cryptomatte `aov`; `None` for an unbound material or an AOV
+    /// that is no Cryptomatte.
+    pub fn of(&self, aov: Aov) -> Option<u32> {
+        match aov {
+            Aov::CryptoObject => Some(self.object),
+            Aov::CryptoMaterial => self.material,
+            Aov::CryptoAsset => Some(self.asset),
+            _ => None,
+        }
+    }
 }
 
 impl Default for AovSample {
@@ -178,6 +209,7 @@ impl Aov {
             Aov::Variance => "variance",
             Aov::CryptoObject => "CryptoObject",
             Aov::CryptoMaterial => "CryptoMaterial",
+            Aov::CryptoAsset => "CryptoAsset",
         }
     }
 
@@ -192,7 +224,7 @@ impl Aov {
         match self {
             Aov::N | Aov::P => with(["X", "Y", "Z"]),
             Aov::Z | Aov::SampleCount => vec![self.name().to_string()],
-            Aov::CryptoObject | Aov::CryptoMaterial => {
+            Aov::CryptoObject | Aov::CryptoMaterial | Aov::CryptoAsset => {
                 super::cryptomatte::channel_names(self.name())
             }
             _ => with(["R", "G", "B"]),
@@ -200,7 +232,7 @@ impl Aov {
     }
 
     /// In `--aovs default`: all but P, sample_count and variance (the light
-    /// paths, the denoiser inputs and both Cryptomattes).
+    /// paths, the denoiser inputs and the three Cryptomattes).
     fn in_default_set(self) -> bool {
         !matches!(self, Aov::P | Aov::SampleCount | Aov::Variance)
     }
@@ -214,7 +246,8 @@ impl Aov {
             | Aov::SampleCount
             | Aov::Variance
             | Aov::CryptoObject
-            | Aov::CryptoMaterial => PixelType::Float,
+            | Aov::CryptoMaterial
+            | Aov::CryptoAsset => PixelType::Float,
             _ => PixelType::Half,
         }
     }

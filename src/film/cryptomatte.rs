@@ -9,6 +9,8 @@
 //! (id, coverage) pairs in the layers `{name}00`, `{name}01`, `{name}02`.
 //! The EXR header carries `cryptomatte/<key>/{name,hash,conversion,manifest}`.
 
+use std::collections::{BTreeMap, BTreeSet};
+
 use serde_json::{Map, Value};
 
 /// Number of (id, coverage) ranks stored per pixel: the specification's
@@ -24,35 +26,90 @@ const INLINE_HITS: usize = 4;
 /// MurmurHash3_x86_32 (Austin Appleby, SMHasher) of `bytes` with `seed`;
 /// Cryptomatte hashes the UTF-8 bytes of a name with seed 0.
 pub fn murmur3_32(bytes: &[u8], seed: u32) -> u32 {
+    let mut hasher = Murmur3::new(seed);
+    hasher.write(bytes);
+    hasher.finish()
+}
+
+/// MurmurHash3_x86_32 fed in pieces: the hash of the pieces' concatenation,
+/// so a name spelled from parts (an instancer's path, `[12]`, a path below
+/// its prototype) is hashed without being assembled in memory.
+#[derive(Clone, Copy, Debug)]
+pub struct Murmur3 {
+    h: u32,
+    /// Bytes of an unfinished 4-byte block, little-endian from bit 0.
+    pending: u32,
+    pending_len: u32,
+    len: u32,
+}
+
+impl Murmur3 {
     const C1: u32 = 0xcc9e_2d51;
     const C2: u32 = 0x1b87_3593;
-    let scramble = |k: u32| k.wrapping_mul(C1).rotate_left(15).wrapping_mul(C2);
 
-    let mut h = seed;
-    let mut blocks = bytes.chunks_exact(4);
-    for block in &mut blocks {
-        let k = u32::from_le_bytes([block[0], block[1], block[2], block[3]]);
-        h ^= scramble(k);
-        h = h.rotate_left(13).wrapping_mul(5).wrapping_add(0xe654_6b64);
-    }
-    let tail = blocks.remainder();
-    if !tail.is_empty() {
-        let k = tail
-            .iter()
-            .rev()
-            .fold(0u32, |k, &byte| (k << 8) | u32::from(byte));
-        h ^= scramble(k);
+    /// A hasher with `seed` (0 for Cryptomatte) that has seen no bytes.
+    pub fn new(seed: u32) -> Self {
+        Self {
+            h: seed,
+            pending: 0,
+            pending_len: 0,
+            len: 0,
+        }
     }
 
-    // Finalization mix (fmix32); the length is taken modulo 2^32 as in the
-    // reference, which hashes `int len`.
-    h ^= bytes.len() as u32;
-    h ^= h >> 16;
-    h = h.wrapping_mul(0x85eb_ca6b);
-    h ^= h >> 13;
-    h = h.wrapping_mul(0xc2b2_ae35);
-    h ^= h >> 16;
-    h
+    fn scramble(k: u32) -> u32 {
+        k.wrapping_mul(Self::C1)
+            .rotate_left(15)
+            .wrapping_mul(Self::C2)
+    }
+
+    /// Appends `bytes` to what is hashed.
+    pub fn write(&mut self, bytes: &[u8]) {
+        // The length is taken modulo 2^32 as in the reference (`int len`).
+        self.len = self.len.wrapping_add(bytes.len() as u32);
+        let mut rest = bytes;
+        while self.pending_len != 0 && !rest.is_empty() {
+            self.pending |= u32::from(rest[0]) << (8 * self.pending_len);
+            self.pending_len += 1;
+            rest = &rest[1..];
+            if self.pending_len == 4 {
+                self.block(self.pending);
+                (self.pending, self.pending_len) = (0, 0);
+            }
+        }
+        let mut blocks = rest.chunks_exact(4);
+        for b in &mut blocks {
+            self.block(u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        }
+        for (i, &byte) in blocks.remainder().iter().enumerate() {
+            self.pending |= u32::from(byte) << (8 * i);
+            self.pending_len += 1;
+        }
+    }
+
+    fn block(&mut self, k: u32) {
+        self.h ^= Self::scramble(k);
+        self.h = self
+            .h
+            .rotate_left(13)
+            .wrapping_mul(5)
+            .wrapping_add(0xe654_6b64);
+    }
+
+    /// The hash of every byte written (the tail mixed, then fmix32).
+    pub fn finish(self) -> u32 {
+        let mut h = self.h;
+        if self.pending_len != 0 {
+            h ^= Self::scramble(self.pending);
+        }
+        h ^= self.len;
+        h ^= h >> 16;
+        h = h.wrapping_mul(0x85eb_ca6b);
+        h ^= h >> 13;
+        h = h.wrapping_mul(0xc2b2_ae35);
+        h ^= h >> 16;
+        h
+    }
 }
 
 /// The specification's `uint32_to_float32`: the hash's bits reinterpreted as
@@ -97,20 +154,40 @@ pub fn channel_names(name: &str) -> Vec<String> {
         .collect()
 }
 
-/// One Cryptomatte type (e.g. "CryptoObject" over USD prim paths): its name
-/// and the precomputed float id of every name, indexed by our object index.
+/// Names of Cryptomatte ids: each name's MurmurHash3 (the id before
+/// `uint32_to_float32`) to the name.
+pub type CryptoNames = BTreeMap<u32, String>;
+
+/// One Cryptomatte type (e.g. "CryptoObject" over USD prim paths) as an EXR
+/// writes it: its name and the names of its ids.
 #[derive(Clone, Debug)]
 pub struct CryptoLayer {
     name: String,
-    names: Vec<String>,
-    ids: Vec<f32>,
+    names: CryptoNames,
 }
 
 impl CryptoLayer {
-    /// The float id of name `index` (an index into the names given to
-    /// [`CryptoLayer::new`]); panics when the index is out of range.
-    pub fn id(&self, index: u32) -> f32 {
-        self.ids[index as usize]
+    /// A layer called `name` (the channel prefix, e.g. "CryptoObject")
+    /// whose ids are named by `names`.
+    pub fn new(name: &str, names: CryptoNames) -> Self {
+        Self {
+            name: name.to_string(),
+            names,
+        }
+    }
+
+    /// The layer with only the names of the ids that occur in `pixels` (the
+    /// layer's values, [`CHANNELS`] per pixel): the manifest lists what the
+    /// image holds, not every object of the scene.
+    pub fn present_in(mut self, pixels: &[f32]) -> Self {
+        let present: BTreeSet<u32> = pixels
+            .chunks_exact(2)
+            .filter(|pair| pair[1] > 0.0)
+            .map(|pair| pair[0].to_bits())
+            .collect();
+        self.names
+            .retain(|&hash, _| present.contains(&hash_to_float(hash).to_bits()));
+        self
     }
 
     /// The layer's channel names in file order (see [`channel_names`]).
@@ -126,8 +203,7 @@ impl CryptoLayer {
         let manifest: Map<String, Value> = self
             .names
             .iter()
-            .zip(&self.ids)
-            .map(|(name, &id)| (name.clone(), Value::String(id_to_hex(id))))
+            .map(|(&hash, name)| (name.clone(), Value::String(id_to_hex(hash_to_float(hash)))))
             .collect();
         let manifest = Value::Object(manifest).to_string();
         [
@@ -140,34 +216,24 @@ impl CryptoLayer {
         .map(|(field, value)| (format!("cryptomatte/{key}/{field}"), value))
         .collect()
     }
-
-    /// A layer called `name` (the channel prefix, e.g. "CryptoObject") whose
-    /// object `i` is `names[i]` (e.g. a USD prim path); hashes every name once.
-    pub fn new(name: &str, names: Vec<String>) -> Self {
-        let ids = names.iter().map(|n| name_to_id(n)).collect();
-        Self {
-            name: name.to_string(),
-            names,
-            ids,
-        }
-    }
 }
 
 /// Camera samples of one pixel that hit one object.
 #[derive(Clone, Copy, Debug, Default)]
 struct Hit {
-    index: u32,
+    /// The object's id: the MurmurHash3 of its name.
+    id: u32,
     count: u32,
 }
 
 impl Hit {
-    /// Ranking order: more samples first, then the lower index (deterministic).
+    /// Ranking order: more samples first, then the lower id (deterministic).
     fn ranks_before(&self, other: &Hit) -> bool {
-        (self.count, std::cmp::Reverse(self.index)) > (other.count, std::cmp::Reverse(other.index))
+        (self.count, std::cmp::Reverse(self.id)) > (other.count, std::cmp::Reverse(other.id))
     }
 }
 
-/// Per-pixel sample counts per object index: the ranking pixel filter's
+/// Per-pixel sample counts per object id: the ranking pixel filter's
 /// accumulator for equally weighted samples (filter importance sampling), so
 /// an object's coverage is its fraction of the pixel's samples. Holds up to
 /// four distinct objects without allocating.
@@ -179,25 +245,26 @@ pub struct CryptoCoverage {
 }
 
 impl CryptoCoverage {
-    /// Records one camera sample that hit object `index`; samples that hit
-    /// nothing are not recorded (they only count in `samples` of [`Self::ranks`]).
-    pub fn add(&mut self, index: u32) {
-        self.add_count(index, 1);
+    /// Records one camera sample that hit the object of id `id` (the
+    /// MurmurHash3 of its name); samples that hit nothing are not recorded
+    /// (they only count in `samples` of [`Self::ranks`]).
+    pub fn add(&mut self, id: u32) {
+        self.add_count(id, 1);
     }
 
     /// Adds another accumulator's counts for the same pixel (e.g. a later pass).
     pub fn merge(&mut self, other: &CryptoCoverage) {
         for hit in other.hits() {
-            self.add_count(hit.index, hit.count);
+            self.add_count(hit.id, hit.count);
         }
     }
 
-    /// Writes the pixel's [`CHANNELS`] values in [`CryptoLayer::channel_names`]
-    /// order: (id, coverage) for the [`RANKS`] objects with the most samples,
-    /// by descending coverage (ties: lower index first), coverage = count /
+    /// Writes the pixel's [`CHANNELS`] values in [`channel_names`] order:
+    /// (float id, coverage) for the [`RANKS`] objects with the most samples,
+    /// by descending coverage (ties: lower id first), coverage = count /
     /// `samples`; unused ranks are (0, 0). Panics unless `out` has
     /// [`CHANNELS`] entries.
-    pub fn ranks(&self, layer: &CryptoLayer, samples: u32, out: &mut [f32]) {
+    pub fn ranks(&self, samples: u32, out: &mut [f32]) {
         assert_eq!(
             out.len(),
             CHANNELS,
@@ -219,38 +286,38 @@ impl CryptoCoverage {
         }
         out.fill(0.0);
         for (pair, hit) in out.chunks_exact_mut(2).zip(&top[..len]) {
-            pair[0] = layer.id(hit.index);
+            pair[0] = hash_to_float(hit.id);
             pair[1] = hit.count as f32 / samples as f32;
         }
     }
 
-    /// (object index, samples) of every object recorded, in first-hit
+    /// (object id, samples) of every object recorded, in first-hit
     /// order: what a film-state file stores.
     pub(super) fn counts(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
-        self.hits().map(|h| (h.index, h.count))
+        self.hits().map(|h| (h.id, h.count))
     }
 
-    /// Every recorded (index, count), in first-hit order.
+    /// Every recorded (id, count), in first-hit order.
     fn hits(&self) -> impl Iterator<Item = &Hit> {
         self.inline[..usize::from(self.inline_len)]
             .iter()
             .chain(&self.spill)
     }
 
-    /// Adds `count` samples to object `index`, keeping one entry per index.
-    pub(super) fn add_count(&mut self, index: u32, count: u32) {
+    /// Adds `count` samples to object `id`, keeping one entry per id.
+    pub(super) fn add_count(&mut self, id: u32, count: u32) {
         let inline_len = usize::from(self.inline_len);
         let existing = self.inline[..inline_len]
             .iter_mut()
             .chain(&mut self.spill)
-            .find(|hit| hit.index == index);
+            .find(|hit| hit.id == id);
         match existing {
             Some(hit) => hit.count += count,
             None if inline_len < INLINE_HITS => {
-                self.inline[inline_len] = Hit { index, count };
+                self.inline[inline_len] = Hit { id, count };
                 self.inline_len += 1;
             }
-            None => self.spill.push(Hit { index, count }),
+            None => self.spill.push(Hit { id, count }),
         }
     }
 }
@@ -269,9 +336,9 @@ mod tests {
             .sum()
     }
 
-    fn layer(count: usize) -> CryptoLayer {
-        let names = (0..count).map(|i| format!("/World/obj_{i}")).collect();
-        CryptoLayer::new("CryptoObject", names)
+    /// The float id the film writes for object id `id`.
+    fn id(id: u32) -> f32 {
+        hash_to_float(id)
     }
 
     #[test]
@@ -336,13 +403,33 @@ mod tests {
     }
 
     #[test]
-    fn manifest_is_json_mapping_names_to_ids() {
-        let names = vec![
+    fn murmur3_in_pieces_equals_murmur3_of_the_whole() {
+        let name = b"/World/scatter[12]/Geom/with a longer tail";
+        for cuts in [[0, 0], [1, 2], [3, 7], [5, 5], [4, 8], [17, 40]] {
+            let mut hasher = Murmur3::new(0);
+            hasher.write(&name[..cuts[0]]);
+            hasher.write(&name[cuts[0]..cuts[1]]);
+            hasher.write(&name[cuts[1]..]);
+            assert_eq!(hasher.finish(), murmur3_32(name, 0), "{cuts:?}");
+        }
+    }
+
+    #[test]
+    fn manifest_is_json_mapping_present_names_to_ids() {
+        let names = [
             "bunny".to_string(),
             "default".to_string(),
             "/World/quote\"back\\slash/ünï".to_string(),
+            "absent".to_string(),
         ];
-        let layer = CryptoLayer::new("CryptoObject", names.clone());
+        let hashes: Vec<u32> = names.iter().map(|n| murmur3_32(n.as_bytes(), 0)).collect();
+        let table: CryptoNames = hashes.iter().copied().zip(names.clone()).collect();
+        // Two pixels: the first three names present, "absent" nowhere (a
+        // zero-coverage rank does not count).
+        let mut pixels = [0.0; 2 * CHANNELS];
+        pixels[..6].copy_from_slice(&[id(hashes[0]), 0.5, id(hashes[1]), 0.5, id(hashes[3]), 0.0]);
+        pixels[CHANNELS..CHANNELS + 2].copy_from_slice(&[id(hashes[2]), 1.0]);
+        let layer = CryptoLayer::new("CryptoObject", table).present_in(&pixels);
         let metadata = layer.metadata();
         let value = |field: &str| {
             let key = format!("cryptomatte/3ae39a5/{field}");
@@ -356,13 +443,15 @@ mod tests {
         assert_eq!(value("conversion"), "uint32_to_float32");
 
         let manifest: Map<String, Value> = serde_json::from_str(&value("manifest")).unwrap();
-        assert_eq!(manifest.len(), names.len());
+        assert_eq!(manifest.len(), 3);
         assert_eq!(manifest["bunny"], "13851a76");
         assert_eq!(manifest["default"], "42c9679f");
-        for (index, name) in names.iter().enumerate() {
+        assert!(!manifest.contains_key("absent"));
+        for (name, &hash) in names.iter().zip(&hashes).take(3) {
             let hex = manifest[name.as_str()].as_str().unwrap();
-            let id = f32::from_bits(u32::from_str_radix(hex, 16).unwrap());
-            assert_eq!(id, layer.id(index as u32), "{name}");
+            let float = f32::from_bits(u32::from_str_radix(hex, 16).unwrap());
+            assert_eq!(float, name_to_id(name), "{name}");
+            assert_eq!(float, id(hash), "{name}");
         }
     }
 
@@ -382,24 +471,23 @@ mod tests {
             "CryptoObject02.B",
             "CryptoObject02.A",
         ];
-        assert_eq!(layer(1).channel_names(), expected);
+        assert_eq!(channel_names("CryptoObject"), expected);
     }
 
     #[test]
     fn ranks_sort_by_coverage() {
-        let layer = layer(3);
         let mut pixel = CryptoCoverage::default();
         for (index, count) in [(2, 3), (0, 5), (1, 2)] {
             (0..count).for_each(|_| pixel.add(index));
         }
         let mut out = [f32::NAN; CHANNELS];
-        pixel.ranks(&layer, 10, &mut out);
+        pixel.ranks(10, &mut out);
         let expected = [
-            layer.id(0),
+            id(0),
             0.5,
-            layer.id(2),
+            id(2),
             0.3,
-            layer.id(1),
+            id(1),
             0.2,
             0.0,
             0.0,
@@ -417,8 +505,7 @@ mod tests {
     fn decoder_recovers_coverage_and_keeps_largest_six() {
         // Ten objects hit 49 times in shuffled first-hit order, plus one
         // sample that misses; objects 7 and 4 tie for sixth place with 4
-        // samples each, and the lower index wins.
-        let layer = layer(10);
+        // samples each, and the lower id wins.
         let counts = [
             (7, 4),
             (3, 1),
@@ -446,11 +533,11 @@ mod tests {
         }
         pixel.merge(&other);
         let mut out = [0.0; CHANNELS];
-        pixel.ranks(&layer, samples, &mut out);
+        pixel.ranks(samples, &mut out);
 
         let kept = [1, 9, 2, 0, 6, 4];
         for (index, count) in counts {
-            let coverage = decode(&out, layer.id(index));
+            let coverage = decode(&out, id(index));
             let expected = if kept.contains(&index) {
                 count as f32 / samples as f32
             } else {
@@ -459,7 +546,7 @@ mod tests {
             assert_eq!(coverage, expected, "object {index}");
         }
         let ranked: Vec<f32> = out.chunks_exact(2).map(|pair| pair[0]).collect();
-        let expected: Vec<f32> = kept.iter().map(|&i| layer.id(i)).collect();
+        let expected: Vec<f32> = kept.iter().map(|&i| id(i)).collect();
         assert_eq!(ranked, expected);
     }
 }

@@ -12,8 +12,10 @@ mod filter;
 mod state;
 mod sums;
 
-pub use aov::{Aov, AovSample, AovSet, CameraHit, ALL as ALL_AOVS};
-pub use cryptomatte::{layer_key, name_to_id, CryptoCoverage, CryptoLayer};
+pub use aov::{Aov, AovSample, AovSet, CameraHit, CryptoIds, ALL as ALL_AOVS, CRYPTOMATTES};
+pub use cryptomatte::{
+    layer_key, murmur3_32, name_to_id, CryptoCoverage, CryptoLayer, CryptoNames, Murmur3,
+};
 pub use filter::{FilterKind, PixelFilter};
 pub use state::{read_film_state, write_film_state, FilmStateError, FILM_STATE_VERSION};
 pub use sums::{Film, Layer, NonFiniteSamples, PixelSum, Tile, TileFilm};

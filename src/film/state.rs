@@ -2,7 +2,7 @@
 //! settings and progress of the render that made it), so an interrupted
 //! render resumes bit-identically. Written atomically, checked by CRC-32.
 //!
-//! Layout, version 1 (integers and floats little-endian):
+//! Layout, version 2 (integers and floats little-endian):
 //!
 //! | bytes | what |
 //! |---|---|
@@ -13,7 +13,7 @@
 //! | 56 per pixel | `rgb` 3 x f64, `rgb_squared` 3 x f64, `count` u32, `opaque` u32, row-major over the window |
 //! | 4 x stride per pixel | summed AOVs (light paths, albedo, N, P) as f32, in set order |
 //! | 4 per pixel | minimum depth f32, when `Z` is chosen |
-//! | .. per pixel | Cryptomatte object then material coverage, when chosen: u32 n, then n x (u32 index, u32 samples) |
+//! | .. per pixel | Cryptomatte object, material then asset coverage, when chosen: u32 n, then n x (u32 id, u32 samples), the id being the MurmurHash3 of the name |
 //! | 4 | CRC-32 (IEEE) of every byte before it |
 
 use std::io::{BufWriter, Write};
@@ -31,7 +31,9 @@ use super::sums::{Film, NonFiniteSamples, PixelSum, Tile};
 /// The first bytes of every film-state file.
 const MAGIC: &[u8; 8] = b"CIRRUSFS";
 /// The layout version this build writes and reads.
-pub const FILM_STATE_VERSION: u32 = 1;
+/// (Version 1 stored Cryptomatte coverage by mesh and material index;
+/// version 2 by the names' MurmurHash3.)
+pub const FILM_STATE_VERSION: u32 = 2;
 /// Bytes of one [`PixelSum`] on disk.
 const PIXEL_BYTES: usize = 56;
 
@@ -283,9 +285,8 @@ impl<W: Write> Write for CrcWriter<W> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::film::CryptoLayer;
     use crate::film::TileFilm;
-    use crate::film::{Aov, AovSample, CameraHit};
+    use crate::film::{AovSample, CameraHit, CryptoIds};
     use glam::Vec3;
 
     /// A small cropped film with every AOV, a few samples per pixel and one NaN.
@@ -308,8 +309,11 @@ mod tests {
                                 normal: Vec3::Z,
                                 position: Vec3::splat(v),
                                 depth: v + 1.0,
-                                object: x % 3,
-                                material: Some(s),
+                                ids: CryptoIds {
+                                    object: x % 3,
+                                    material: Some(s),
+                                    asset: 0x8000_0000 | y,
+                                },
                             }),
                             ..AovSample::default()
                         };
@@ -325,19 +329,7 @@ mod tests {
 
     fn layers(film: &Film) -> Vec<Vec<u32>> {
         let mut all = vec![film.beauty_layer()];
-        let names = || ["a", "b", "c"].map(String::from).to_vec();
-        let crypto = [
-            CryptoLayer::new("CryptoObject", names()),
-            CryptoLayer::new("CryptoMaterial", names()),
-        ];
-        all.extend(film.aov_set().aovs().iter().map(|&a| {
-            let layer = match a {
-                Aov::CryptoObject => Some(&crypto[0]),
-                Aov::CryptoMaterial => Some(&crypto[1]),
-                _ => None,
-            };
-            film.aov_layer(a, layer)
-        }));
+        all.extend(film.aov_set().aovs().iter().map(|&a| film.aov_layer(a)));
         all.iter()
             .map(|l| l.pixels.iter().map(|v| v.to_bits()).collect())
             .collect()

@@ -4,8 +4,10 @@
 
 use glam::{UVec2, Vec3};
 
-use super::aov::{Aov, AovSample, AovSet};
-use super::cryptomatte::{CryptoCoverage, CryptoLayer, CHANNELS};
+use std::collections::BTreeSet;
+
+use super::aov::{Aov, AovSample, AovSet, CRYPTOMATTES};
+use super::cryptomatte::{CryptoCoverage, CHANNELS};
 use crate::image::{Channel, PixelType};
 
 /// One pixel's running sums of finite radiance samples, W/(m^2 sr).
@@ -46,8 +48,8 @@ pub(super) struct AovBuffers {
     pub(super) sums: Vec<f32>,
     /// Minimum camera-space depth per pixel, when `Z` is chosen.
     pub(super) depth: Option<Vec<f32>>,
-    /// Coverage per pixel for CryptoObject and CryptoMaterial, when chosen.
-    pub(super) crypto: [Option<Vec<CryptoCoverage>>; 2],
+    /// Coverage per pixel for each of [`CRYPTOMATTES`], when chosen.
+    pub(super) crypto: [Option<Vec<CryptoCoverage>>; 3],
 }
 
 impl AovBuffers {
@@ -69,7 +71,7 @@ impl AovBuffers {
             stride,
             sums: vec![0.0; stride * pixels],
             depth: set.contains(Aov::Z).then(|| vec![f32::INFINITY; pixels]),
-            crypto: [crypto(Aov::CryptoObject), crypto(Aov::CryptoMaterial)],
+            crypto: CRYPTOMATTES.map(crypto),
         }
     }
 
@@ -88,11 +90,10 @@ impl AovBuffers {
         if let Some(depth) = &mut self.depth {
             depth[i] = depth[i].min(hit.depth);
         }
-        if let Some(objects) = &mut self.crypto[0] {
-            objects[i].add(hit.object);
-        }
-        if let (Some(materials), Some(material)) = (&mut self.crypto[1], hit.material) {
-            materials[i].add(material);
+        for (coverage, aov) in self.crypto.iter_mut().zip(CRYPTOMATTES) {
+            if let (Some(coverage), Some(id)) = (coverage, hit.ids.of(aov)) {
+                coverage[i].add(id);
+            }
         }
     }
 
@@ -147,7 +148,12 @@ fn summed_value(aov: Aov, sample: &AovSample) -> Option<Vec3> {
         Aov::Albedo => Some(sample.albedo),
         Aov::N => hit(|h| h.normal),
         Aov::P => hit(|h| h.position),
-        Aov::Z | Aov::SampleCount | Aov::Variance | Aov::CryptoObject | Aov::CryptoMaterial => None,
+        Aov::Z
+        | Aov::SampleCount
+        | Aov::Variance
+        | Aov::CryptoObject
+        | Aov::CryptoMaterial
+        | Aov::CryptoAsset => None,
     }
 }
 
@@ -404,9 +410,20 @@ impl Film {
         }
     }
 
-    /// The layer of `aov` (which must be in the film's set); Cryptomatte
-    /// layers need their `crypto` names and ids.
-    pub fn aov_layer(&self, aov: Aov, crypto: Option<&CryptoLayer>) -> Layer {
+    /// Every id Cryptomatte `aov` recorded (its ranks beyond the sixth
+    /// included): the ids whose names a film-state file carries.
+    pub fn crypto_ids(&self, aov: Aov) -> BTreeSet<u32> {
+        let slot = CRYPTOMATTES.iter().position(|&a| a == aov);
+        let coverage = slot.and_then(|s| self.aovs.crypto[s].as_ref());
+        coverage
+            .into_iter()
+            .flatten()
+            .flat_map(|c| c.counts().map(|(id, _)| id))
+            .collect()
+    }
+
+    /// The layer of `aov` (which must be in the film's set).
+    pub fn aov_layer(&self, aov: Aov) -> Layer {
         let channels: Vec<Channel> = aov
             .channels()
             .iter()
@@ -418,11 +435,8 @@ impl Film {
         let width = channels.len();
         let mut pixels = vec![0.0f32; width * self.pixels.len()];
         let summed = self.aovs.summed.iter().find(|(a, _)| *a == aov);
-        let coverage = match aov {
-            Aov::CryptoObject => self.aovs.crypto[0].as_ref().zip(crypto),
-            Aov::CryptoMaterial => self.aovs.crypto[1].as_ref().zip(crypto),
-            _ => None,
-        };
+        let slot = CRYPTOMATTES.iter().position(|&a| a == aov);
+        let coverage = slot.and_then(|s| self.aovs.crypto[s].as_ref());
         for (i, (p, out)) in self.pixels.iter().zip(pixels.chunks_mut(width)).enumerate() {
             let n = f64::from(p.count.max(1));
             match aov {
@@ -436,10 +450,10 @@ impl Film {
                     }
                 }
                 Aov::Z => out[0] = self.aovs.depth.as_ref().map_or(f32::INFINITY, |d| d[i]),
-                Aov::CryptoObject | Aov::CryptoMaterial => {
-                    if let Some((coverage, layer)) = coverage {
+                Aov::CryptoObject | Aov::CryptoMaterial | Aov::CryptoAsset => {
+                    if let Some(coverage) = coverage {
                         debug_assert_eq!(width, CHANNELS);
-                        coverage[i].ranks(layer, p.count, out);
+                        coverage[i].ranks(p.count, out);
                     }
                 }
                 _ => {

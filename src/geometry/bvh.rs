@@ -322,12 +322,6 @@ impl Geometry {
             })
     }
 
-    /// The scene mesh a hit is on (an index into the scene's meshes): the
-    /// Cryptomatte object, the same for every instance of a prototype.
-    pub fn scene_mesh(&self, hit: &Hit) -> u32 {
-        self.leaves[hit.leaf as usize].mesh
-    }
-
     /// The shading data of `hit`, a hit of `ray` (see [`SurfacePoint`]): the
     /// point from the barycentric weights of the mesh-space vertices (not the
     /// ray parameter, which is less precise far from the origin), normals and

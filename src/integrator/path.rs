@@ -248,8 +248,10 @@ impl Path<'_, '_> {
                 normal: sp.ns,
                 position: sp.p,
                 depth: self.state.camera.depth(sp.p),
-                object: geometry.scene_mesh(&h),
-                material: (sp.material != NO_MATERIAL).then_some(sp.material),
+                ids: self
+                    .state
+                    .id_names
+                    .ids(&h, (sp.material != NO_MATERIAL).then_some(sp.material)),
             });
         }
         let end = RayEnd {

@@ -72,7 +72,7 @@ fn run_scenes(bench: &AovsBench) -> Result<()> {
                     let exr = bench
                         .out
                         .join(format!("{name}-{}.exr", ["beauty", "default"][i]));
-                    let header = ExrHeader::new(&state, &settings);
+                    let header = ExrHeader::new(&state, &settings).named(&state, &film);
                     let start = Instant::now();
                     write_film(
                         &exr,

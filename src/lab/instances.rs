@@ -1,7 +1,8 @@
 //! `cirrus bench instances`: what instancing costs to ingest. A
 //! stage of N PointInstancer instances of one T-triangle sphere
 //! (`scenes/make_instancing_stress.py`) is exported, loaded and built into
-//! the two-level BVH; the same prototype with one instance is the baseline,
+//! the two-level BVH (memory: with the Cryptomatte names a render keeps,
+//! `InstanceNames`, 8 bytes per instance); the same prototype with one instance is the baseline,
 //! so what N instances cost beyond the prototype is measured, not estimated.
 //!
 //! `Geometry::build` builds both BVH levels in one call, so the BLAS time is
@@ -17,7 +18,7 @@ use super::machine::machine_line;
 use super::stats::median;
 use super::{LabError, Result};
 use crate::geometry::Geometry;
-use crate::scene::Scene;
+use crate::scene::{InstanceNames, Scene};
 
 /// The target for load plus TLAS build at 1M instances, in seconds.
 const TARGET_SECONDS: f64 = 3.0;
@@ -237,8 +238,9 @@ fn memory_in_child(scene_dir: &Path) -> Result<[f64; 3]> {
     }
 }
 
-/// Loads `scene_dir` and builds its BVHs, then prints the resident bytes this
-/// added after the load, after the build, and at the peak (VmRSS, VmRSS and
+/// Loads `scene_dir` and builds its BVHs and its Cryptomatte names (what a
+/// render keeps per instance beside the BVHs), then prints the resident
+/// bytes this added after the load, after the build, and at the peak (VmRSS, VmRSS and
 /// VmHWM, each minus the VmRSS before loading), space-separated on one line.
 /// Meant for a process that has done nothing else (see [`memory_in_child`]).
 pub fn print_memory(scene_dir: &Path) -> Result<()> {
@@ -250,9 +252,10 @@ pub fn print_memory(scene_dir: &Path) -> Result<()> {
     let scene = Scene::load(scene_dir)?;
     let after_load = memory("VmRSS")? - before;
     let geometry = Geometry::build(&scene, true);
+    let names = InstanceNames::new(&scene);
     let after_build = memory("VmRSS")? - before;
     let peak = memory("VmHWM")? - before;
-    black_box(&geometry);
+    black_box((&geometry, &names));
     println!("{after_load} {after_build} {peak}");
     Ok(())
 }

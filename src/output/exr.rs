@@ -9,7 +9,7 @@ use std::path::Path;
 use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
-use crate::film::{Aov, AovSet, CryptoLayer, Film, Layer};
+use crate::film::{Aov, AovSet, CryptoLayer, CryptoNames, Film, Layer, CRYPTOMATTES};
 use crate::image::{write_exr, Channel, Compression, ExrImage, ImageError, PixelType};
 use crate::integrator::{RenderSettings, RenderStats};
 use crate::render_state::RenderState;
@@ -39,14 +39,46 @@ pub struct ExrHeader {
     /// `worldToCamera` and `worldToNDC` (Imath's row-vector layout, which is
     /// glam's column-major array of the column-vector matrix).
     matrices: Vec<(String, [f32; 16])>,
-    /// Names of the CryptoObject and CryptoMaterial ids (Mesh and Material
-    /// prim paths, indexed like the film's ids), when chosen.
-    crypto_names: [Option<Vec<String>>; 2],
+    /// Per Cryptomatte (in `CRYPTOMATTES` order), when chosen: the names of
+    /// the ids a film recorded, filled in by [`ExrHeader::named`] each time
+    /// a film is written, so that a film-state file carries what its
+    /// manifest needs and `cirrus merge` names the same ids a whole render
+    /// would.
+    #[serde(with = "names_as_pairs")]
+    crypto_names: [Option<CryptoNames>; 3],
+}
+
+/// Cryptomatte names in JSON as `[[id, name], ...]`: film-state headers are
+/// read through `#[serde(flatten)]`, which cannot parse integer map keys.
+mod names_as_pairs {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    use crate::film::CryptoNames;
+
+    type Pairs = [Option<Vec<(u32, String)>>; 3];
+
+    pub fn serialize<S: Serializer>(
+        names: &[Option<CryptoNames>; 3],
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
+        let pairs = names.each_ref().map(|n| {
+            n.as_ref()
+                .map(|n| n.iter().map(|(&id, name)| (id, name.clone())).collect())
+        });
+        Pairs::serialize(&pairs, s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<[Option<CryptoNames>; 3], D::Error> {
+        let pairs = Pairs::deserialize(d)?;
+        Ok(pairs.map(|p| p.map(|p| p.into_iter().collect())))
+    }
 }
 
 impl ExrHeader {
-    /// The header of a render of `state` with `settings`, with the
-    /// Cryptomatte names of the chosen Cryptomatte AOVs.
+    /// The header of a render of `state` with `settings`; its Cryptomatte
+    /// names are filled in by [`ExrHeader::named`].
     pub fn new(state: &RenderState, settings: &RenderSettings) -> Self {
         let attribute = |k: &str, v: String| (format!("cirrus/{k}"), v);
         let p = &settings.path;
@@ -71,11 +103,8 @@ impl ExrHeader {
             attribute("shutter", state.camera.shutter().to_string()),
         ];
         let camera = &state.camera;
-        let names = |aov: Aov, paths: Vec<String>| settings.aovs.contains(aov).then_some(paths);
-        let crypto_names = [
-            names(Aov::CryptoObject, state.id_names.objects.clone()),
-            names(Aov::CryptoMaterial, state.id_names.materials.clone()),
-        ];
+        let crypto_names =
+            CRYPTOMATTES.map(|aov| settings.aovs.contains(aov).then(CryptoNames::new));
         Self {
             strings,
             matrices: vec![
@@ -89,18 +118,35 @@ impl ExrHeader {
         }
     }
 
-    /// The Cryptomatte layers of the chosen AOVs.
-    fn crypto_layers(&self, aovs: &AovSet) -> [Option<CryptoLayer>; 2] {
-        let layer = |aov: Aov, names: &Option<Vec<String>>| {
-            names
-                .as_ref()
-                .filter(|_| aovs.contains(aov))
-                .map(|n| CryptoLayer::new(aov.name(), n.clone()))
-        };
-        [
-            layer(Aov::CryptoObject, &self.crypto_names[0]),
-            layer(Aov::CryptoMaterial, &self.crypto_names[1]),
-        ]
+    /// This header with the names of every Cryptomatte id `film` (a film
+    /// of a render of `state`) recorded, for writing the film or its state.
+    pub fn named(&self, state: &RenderState, film: &Film) -> Self {
+        let mut header = self.clone();
+        for (names, aov) in header.crypto_names.iter_mut().zip(CRYPTOMATTES) {
+            if let Some(names) = names {
+                names.extend(state.id_names.names(aov, &film.crypto_ids(aov)));
+            }
+        }
+        header
+    }
+
+    /// Adds the Cryptomatte names `other` (another part of the same frame)
+    /// carries: `cirrus merge` names the ids of every part.
+    pub fn add_names_of(&mut self, other: &ExrHeader) {
+        for (names, more) in self.crypto_names.iter_mut().zip(&other.crypto_names) {
+            if let (Some(names), Some(more)) = (names, more) {
+                names.extend(more.iter().map(|(&id, name)| (id, name.clone())));
+            }
+        }
+    }
+
+    /// The Cryptomatte of `aov` over `layer` (its pixels), written as the
+    /// layer `name`: the names of the ids the layer holds; `None` for other
+    /// AOVs.
+    fn crypto_layer(&self, aov: Aov, name: &str, layer: &Layer) -> Option<CryptoLayer> {
+        let slot = CRYPTOMATTES.iter().position(|&a| a == aov)?;
+        let names = self.crypto_names[slot].clone().unwrap_or_default();
+        Some(CryptoLayer::new(name, names).present_in(&layer.pixels))
     }
 }
 
@@ -133,12 +179,6 @@ pub fn write_film(
     compression: Compression,
     layers: &Layers,
 ) -> Result<(), ImageError> {
-    let crypto = header.crypto_layers(film.aov_set());
-    let crypto_of = |aov| match aov {
-        Aov::CryptoObject => crypto[0].as_ref(),
-        Aov::CryptoMaterial => crypto[1].as_ref(),
-        _ => None,
-    };
     let beauty = || FileLayer {
         name: None,
         layer: film.beauty_layer(),
@@ -147,11 +187,15 @@ pub fn write_film(
     let mut all = match layers {
         Layers::Film => std::iter::once(beauty())
             .chain(film.aov_set().aovs().iter().map(|&aov| {
-                let crypto = crypto_of(aov);
+                let layer = film.aov_layer(aov);
+                let crypto = header.crypto_layer(aov, aov.name(), &layer);
                 FileLayer {
                     name: Some(aov.name().to_string()),
-                    layer: film.aov_layer(aov, crypto),
-                    metadata: crypto.map(CryptoLayer::metadata).unwrap_or_default(),
+                    layer,
+                    metadata: crypto
+                        .as_ref()
+                        .map(CryptoLayer::metadata)
+                        .unwrap_or_default(),
                 }
             }))
             .collect(),
@@ -204,15 +248,10 @@ fn named_layer(film: &Film, header: &ExrHeader, named: &NamedLayer) -> FileLayer
         LayerSource::Beauty => (None, film.beauty_layer(), Vec::new()),
         LayerSource::Aovs(aovs) => {
             let aov = aovs[0];
-            let names = match aov {
-                Aov::CryptoObject => header.crypto_names[0].clone(),
-                Aov::CryptoMaterial => header.crypto_names[1].clone(),
-                _ => None,
-            };
-            let crypto = names.map(|names| CryptoLayer::new(&named.name, names));
-            let mut layer = film.aov_layer(aov, crypto.as_ref());
+            let mut layer = film.aov_layer(aov);
+            let crypto = header.crypto_layer(aov, &named.name, &layer);
             for other in &aovs[1..] {
-                let more = film.aov_layer(*other, None);
+                let more = film.aov_layer(*other);
                 layer
                     .pixels
                     .iter_mut()

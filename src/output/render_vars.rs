@@ -97,7 +97,8 @@ pub fn layer_of(var: &VarAttributes) -> Result<NamedLayer, String> {
     let needed = match &source {
         LayerSource::Beauty => 3,
         LayerSource::Aovs(aovs) => match aovs[0] {
-            Aov::Z | Aov::SampleCount | Aov::CryptoObject | Aov::CryptoMaterial => 1,
+            Aov::Z | Aov::SampleCount => 1,
+            aov if is_crypto(aov) => 1,
             _ => 3,
         },
     };
@@ -122,7 +123,10 @@ pub fn layer_of(var: &VarAttributes) -> Result<NamedLayer, String> {
 
 /// Whether `aov` is a Cryptomatte (its channels are ids: never half).
 fn is_crypto(aov: Aov) -> bool {
-    matches!(aov, Aov::CryptoObject | Aov::CryptoMaterial)
+    matches!(
+        aov,
+        Aov::CryptoObject | Aov::CryptoMaterial | Aov::CryptoAsset
+    )
 }
 
 /// A raw or intrinsic `sourceName`: `P`, `N`, `depth`, `albedo`, the
@@ -135,6 +139,7 @@ fn named_source(name: &str) -> Option<LayerSource> {
         "depth" | "z" | "hitDepth" => Aov::Z,
         "crypto_object" | "cryptomatte_object" => Aov::CryptoObject,
         "crypto_material" | "cryptomatte_material" => Aov::CryptoMaterial,
+        "crypto_asset" | "cryptomatte_asset" => Aov::CryptoAsset,
         _ => match crate::film::ALL_AOVS.into_iter().find(|a| a.name() == name) {
             Some(aov) => aov,
             None => return light_path(name),

@@ -274,6 +274,17 @@ pub struct MeshPart {
     pub mesh: u32,
     /// Prototype-from-mesh transform (the prim's local-to-prototype xform).
     pub transform: Transform,
+    /// The part's prim path below the prototype's root (`/Geom`; empty
+    /// when the root is the mesh itself): appended to an instance's
+    /// [`NameRun::root`], the object's Cryptomatte name. Absent in files
+    /// written before names (the mesh's `path` names it then).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// The nearest `component` or `assembly` model at or above the part
+    /// inside the prototype, as a path below the prototype's root (empty =
+    /// the root itself); `null` when none is inside the prototype.
+    #[serde(default)]
+    pub asset: Option<String>,
 }
 
 /// One volume placed in a prototype.
@@ -307,6 +318,63 @@ pub struct Instances {
     /// (and in files written before motion blur).
     #[serde(default)]
     pub motion: Option<InstanceMotion>,
+    /// The instances' names as the artist authored them, in runs of
+    /// consecutive instances (docs/conventions.md, "Cryptomatte names");
+    /// absent in files written before names.
+    #[serde(default)]
+    pub names: Option<Vec<NameRun>>,
+}
+
+/// How a run of consecutive instances is named: a few per instancer or
+/// instanceable prim, never one string per PointInstancer instance.
+#[derive(Clone, Debug, Deserialize)]
+pub struct NameRun {
+    /// Instances in the run (the runs' counts add up to `Instances::count`).
+    pub count: u64,
+    /// The name of each instance's prototype root (`/World/teapot_3`,
+    /// `/World/scatter[12]`).
+    pub root: NamePattern,
+    /// The nearest `component` or `assembly` model above the prototype
+    /// root; `null` when there is none.
+    pub asset: Option<NamePattern>,
+}
+
+/// A prim path that may hold the instance's `source_index`: `head`, then
+/// `[source_index]` when `indexed`, then `tail` (`/World/scatter` `[12]`
+/// `/Prototypes/tree/leaves`).
+#[derive(Clone, Debug, Deserialize)]
+pub struct NamePattern {
+    /// The path up to the PointInstancer (or all of it).
+    pub head: String,
+    /// Whether `[source_index]` follows `head`.
+    pub indexed: bool,
+    /// The path below the PointInstancer's prototype root, if any.
+    pub tail: String,
+}
+
+impl NamePattern {
+    /// Spells the name for an instance of `source_index` as pieces of UTF-8
+    /// given to `out` in order (no allocation).
+    pub fn spell(&self, source_index: u32, out: &mut dyn FnMut(&[u8])) {
+        out(self.head.as_bytes());
+        if self.indexed {
+            let mut digits = [0u8; 10];
+            let mut start = digits.len();
+            let mut n = source_index;
+            loop {
+                start -= 1;
+                digits[start] = b'0' + (n % 10) as u8;
+                n /= 10;
+                if n == 0 {
+                    break;
+                }
+            }
+            out(b"[");
+            out(&digits[start..]);
+            out(b"]");
+        }
+        out(self.tail.as_bytes());
+    }
 }
 
 /// World-from-prototype transforms of the moving instances at key times

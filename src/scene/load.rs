@@ -587,6 +587,18 @@ impl Checker<'_> {
         )?;
         let source_index = self.array("instances.source_index", &inst.source_index)?;
         self.count("instances.source_index", source_index.len(), n, "instances")?;
+        if let Some(runs) = &inst.names {
+            let named = runs
+                .iter()
+                .try_fold(0u64, |sum, r| sum.checked_add(r.count));
+            if named != Some(inst.count) {
+                let named = named.map_or("more than 2^64".into(), |c| c.to_string());
+                return Err(self.invalid(
+                    "instances.names",
+                    format!("its runs name {named} instances, expected {n}"),
+                ));
+            }
+        }
         self.instance_motion()
     }
 

@@ -23,6 +23,11 @@ pub(super) fn unit_scale() -> f32 {
 pub struct Material {
     /// Prim path of the Material.
     pub path: String,
+    /// When `path` is inside a native prototype (`/__Prototype_N/...`,
+    /// numbered anew at each load): the Material as seen through the first
+    /// instance that binds it (`/World/teapot_1/Looks/Red`), its CryptoMaterial
+    /// name; absent otherwise and in files written before names.
+    pub name: Option<String>,
     /// Which surface model renders it (default `preview_surface`).
     pub model: Model,
     /// The shader that was read, e.g. `UsdPreviewSurface`,
@@ -77,6 +82,7 @@ impl Default for Material {
     fn default() -> Self {
         Self {
             path: String::new(),
+            name: None,
             model: Model::PreviewSurface,
             shader: String::new(),
             skipped: Vec::new(),

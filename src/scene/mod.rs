@@ -19,6 +19,7 @@ mod export;
 mod format;
 mod load;
 mod material;
+mod names;
 mod subdivide;
 
 use std::path::{Path, PathBuf};
@@ -32,15 +33,16 @@ pub use export::{
 pub use format::Subdivision;
 pub use format::{
     affine, Array, Bounds, Camera, CameraMotion, Element, InstanceMotion, Instances, Light,
-    LightShape, Manifest, Mesh, MeshPart, Projection, Prototype, Render, RenderProduct, RenderVar,
-    Scalar, Source, Stage, Transform, UpAxis, Volume, VolumeField, VolumePart, FORMAT_NAME,
-    FORMAT_VERSION, NO_MATERIAL,
+    LightShape, Manifest, Mesh, MeshPart, NamePattern, NameRun, Projection, Prototype, Render,
+    RenderProduct, RenderVar, Scalar, Source, Stage, Transform, UpAxis, Volume, VolumeField,
+    VolumePart, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
 pub use material::{
     Channel, ColorSpace, Input, InputValue, Material, Model, NormalMap, Op, OpInput, OpenPbr,
     PrimvarInput, Rgb, StTransform, Texture, TextureInput, Wrap,
 };
+pub use names::InstanceNames;
 pub use subdivide::{Refinement, SubdivisionSummary};
 
 /// A loaded, validated scene: the manifest records and the bulk data they reference.

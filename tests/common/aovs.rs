@@ -36,7 +36,7 @@ pub const LIGHT_PATHS: [&str; 8] = [
 ];
 
 /// `--aovs default`, in the order the contract lists them.
-pub const DEFAULT: [&str; 13] = [
+pub const DEFAULT: [&str; 14] = [
     "emission",
     "diffuse_direct",
     "diffuse_indirect",
@@ -50,6 +50,7 @@ pub const DEFAULT: [&str; 13] = [
     "Z",
     "CryptoObject",
     "CryptoMaterial",
+    "CryptoAsset",
 ];
 
 /// `--aovs all` adds these to [`DEFAULT`].
@@ -86,7 +87,7 @@ pub fn aov_channels(aov: &str) -> Vec<(String, Format)> {
         "N" | "P" => with(&["X", "Y", "Z"], Format::Float),
         "Z" | "sample_count" => vec![(aov.to_string(), Format::Float)],
         "variance" => with(&["R", "G", "B"], Format::Float),
-        "CryptoObject" | "CryptoMaterial" => (0..3)
+        "CryptoObject" | "CryptoMaterial" | "CryptoAsset" => (0..3)
             .flat_map(|rank| {
                 ["R", "G", "B", "A"].map(|c| (format!("{aov}{rank:02}.{c}"), Format::Float))
             })
