@@ -132,7 +132,11 @@ impl RenderState {
         let geometry = Geometry::build(scene, shutter.blurs());
         let m = &scene.manifest;
         let id_names = IdNames {
-            objects: m.meshes.iter().map(|x| x.path.clone()).collect(),
+            objects: (m.meshes.iter().map(|x| &x.path))
+                .chain(m.points.iter().map(|x| &x.path))
+                .chain(m.curves.iter().map(|x| &x.path))
+                .cloned()
+                .collect(),
             materials: m.materials.iter().map(|x| x.path.clone()).collect(),
         };
         Ok(Self {

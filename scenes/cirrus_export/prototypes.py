@@ -132,29 +132,30 @@ class MeshTable:
 class Prototypes:
     """Cirrus prototypes: parts (mesh or volume + transform) in the prototype's space."""
 
-    def __init__(self, meshes: MeshTable, volumes) -> None:
+    def __init__(self, meshes: MeshTable, volumes, round_shapes: dict | None = None) -> None:
         self.records: list[dict] = []
         self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
         self.meshes, self._volumes = meshes, volumes
+        # Prim type -> (table, manifest list and key): Points, BasisCurves, NurbsCurves.
+        self._round = round_shapes or {}
 
     def add(self, path: str, parts: list[tuple[Usd.Prim, np.ndarray]]) -> int | None:
         """A prototype from (prim, prototype-from-part matrix) parts; None when all were skipped."""
-        record = {"path": path, "meshes": [], "volumes": []}
+        record = {"path": path, "meshes": [], "volumes": [], "points": [], "curves": []}
         lo, hi = EMPTY_BOX
         for prim, matrix in parts:
-            is_volume = prim.GetTypeName() == "Volume"
-            table = self._volumes if is_volume else self.meshes
+            kind = prim.GetTypeName()
+            table, (field, key) = {"Volume": (self._volumes, ("volumes", "volume"))}.get(
+                kind, self._round.get(kind, (self.meshes, ("meshes", "mesh"))))
             index = table.index(prim)
             if index is None:
                 continue
-            kind = "volume" if is_volume else "mesh"
-            record[f"{kind}es" if kind == "mesh" else f"{kind}s"].append(
-                {kind: index, "transform": to_3x4_list(matrix)})
+            record[field].append({key: index, "transform": to_3x4_list(matrix)})
             box = table.boxes[index]
             if box is not None:
                 corners = transform_points(box_corners(*box), matrix)
                 lo, hi = np.minimum(lo, corners.min(axis=0)), np.maximum(hi, corners.max(axis=0))
-        if not record["meshes"] and not record["volumes"]:
+        if not any(record[field] for field in ("meshes", "volumes", "points", "curves")):
             return None
         self.records.append(record)
         self.boxes.append((lo, hi))
