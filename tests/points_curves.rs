@@ -18,17 +18,8 @@ use common::{assert_within_4_sigma, cirrus_ok, estimate, scratch};
 
 /// `body` (prims under a Y-up, metre stage) as a stage in `dir`, exported.
 fn export_stage(dir: &Path, body: &str) -> PathBuf {
-    let usda = dir.join("stage.usda");
     let header = "#usda 1.0\n(\n    upAxis = \"Y\"\n    metersPerUnit = 1\n)\n";
-    std::fs::write(&usda, format!("{header}{body}\n")).unwrap();
-    let out = dir.join("out");
-    cirrus_ok(&[
-        "export".as_ref(),
-        usda.as_os_str(),
-        "-o".as_ref(),
-        out.as_os_str(),
-    ]);
-    out
+    common::export_usda(dir, &format!("{header}{body}\n"))
 }
 
 /// Rays down -z from uniformly random points of the window
@@ -282,4 +273,56 @@ def BasisCurves "Hair"
     let at = |x: usize| 16 * 32 + x;
     assert!(r[at(9)] > 2.0 * b[at(9)], "left sphere not red");
     assert!(b[at(22)] > 2.0 * r[at(22)], "right sphere not blue");
+}
+
+/// A points prim on a moving plain prim (translated 4 units along x over
+/// the shutter) goes under the top level like a moving mesh: a ray at time
+/// t meets the sphere where the instance is at t, and nowhere else.
+#[test]
+fn points_move_with_their_instance() {
+    let dir = scratch("points_motion");
+    let out = common::export_usda(
+        &dir,
+        r#"#usda 1.0
+(
+    metersPerUnit = 1
+    upAxis = "Y"
+    startTimeCode = 0
+    endTimeCode = 1
+)
+def Camera "Cam"
+{
+    double3 xformOp:translate = (0, 0, 10)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    double shutter:open = 0
+    double shutter:close = 1
+}
+def Xform "Mover"
+{
+    double3 xformOp:translate.timeSamples = {0: (0, 0, 0), 1: (4, 0, 0)}
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    def Points "Dot"
+    {
+        point3f[] points = [(0, 0, 0)]
+        float[] widths = [1]
+    }
+}
+"#,
+    );
+    let scene = Scene::load(&out).unwrap();
+    let geometry = Geometry::build(&scene, true);
+    let hit_at = |x: f32, time: f32| {
+        let ray = Ray::new(Vec3A::new(x, 0.0, 5.0), Vec3A::NEG_Z, 0.0, f32::INFINITY);
+        geometry
+            .intersect(&ray, time)
+            .map(|hit| geometry.surface_point(&hit).p)
+    };
+    for (x, time) in [(0.0, 0.0), (2.0, 0.5), (4.0, 1.0)] {
+        let p = hit_at(x, time).unwrap_or_else(|| panic!("no hit at x {x}, time {time}"));
+        assert!(
+            (p - Vec3::new(x, 0.0, 0.5)).length() < 1e-4,
+            "{p} at time {time}"
+        );
+    }
+    assert!(hit_at(4.0, 0.0).is_none() && hit_at(0.0, 1.0).is_none());
 }

@@ -14,7 +14,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .materials import NO_MATERIAL
-from .round_shapes import RoundContext
+from .round_shapes import RoundTable
 
 # UsdGeomCurves declares no fallback for `widths`; Hydra draws unauthored widths as 1.
 DEFAULT_WIDTH = 1.0
@@ -56,26 +56,8 @@ def _second_derivative(matrix: np.ndarray, t: float) -> np.ndarray:
     return np.array([6 * t, 2, 0, 0]) @ matrix
 
 
-class CurvesTable:
+class CurvesTable(RoundTable):
     """The manifest's curves records, each stored once per prototype path and material."""
-
-    def __init__(self, context: RoundContext) -> None:
-        self._c = context
-        self._by_key: dict[tuple, int | None] = {}
-
-    @property
-    def records(self) -> list[dict]:
-        return self._c.records
-
-    @property
-    def boxes(self) -> list:
-        return self._c.boxes
-
-    def index(self, prim: Usd.Prim) -> int | None:
-        key = self._c.key(prim)
-        if key not in self._by_key:
-            self._by_key[key] = self._add(prim, key)
-        return self._by_key[key]
 
     def _add(self, prim: Usd.Prim, key: tuple[str, int]) -> int | None:
         c = self._c

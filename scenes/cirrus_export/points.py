@@ -3,33 +3,15 @@
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from .round_shapes import RoundContext
+from .round_shapes import RoundTable
 
 # UsdGeomPoints declares no fallback for `widths`; Hydra (UsdImaging's points adapter) draws
 # unauthored widths as 1, which we follow, with a warning.
 DEFAULT_WIDTH = 1.0
 
 
-class PointsTable:
+class PointsTable(RoundTable):
     """The manifest's points records, each stored once per prototype path and material."""
-
-    def __init__(self, context: RoundContext) -> None:
-        self._c = context
-        self._by_key: dict[tuple, int | None] = {}
-
-    @property
-    def records(self) -> list[dict]:
-        return self._c.records
-
-    @property
-    def boxes(self) -> list:
-        return self._c.boxes
-
-    def index(self, prim: Usd.Prim) -> int | None:
-        key = self._c.key(prim)
-        if key not in self._by_key:
-            self._by_key[key] = self._add(prim, key)
-        return self._by_key[key]
 
     def _add(self, prim: Usd.Prim, key: tuple[str, int]) -> int | None:
         c, geom, name = self._c, UsdGeom.Points(prim), f"{self._c.source}: Points {prim.GetPath()}"

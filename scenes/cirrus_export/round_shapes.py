@@ -63,3 +63,30 @@ class RoundContext:
         self.records.append(record)
         self.boxes.append(((points - radii[:, None]).min(axis=0), (points + radii[:, None]).max(axis=0)))
         return len(self.records) - 1
+
+
+class RoundTable:
+    """A table of points or curves records, each prim stored once per prototype path and
+    material; subclasses read one prim in `_add`."""
+
+    def __init__(self, context: RoundContext) -> None:
+        self._c = context
+        self._by_key: dict[tuple, int | None] = {}
+
+    @property
+    def records(self) -> list[dict]:
+        return self._c.records
+
+    @property
+    def boxes(self) -> list:
+        return self._c.boxes
+
+    def index(self, prim: Usd.Prim) -> int | None:
+        """The record index of a prim, reading it the first time; None when it was skipped."""
+        key = self._c.key(prim)
+        if key not in self._by_key:
+            self._by_key[key] = self._add(prim, key)
+        return self._by_key[key]
+
+    def _add(self, prim: Usd.Prim, key: tuple[str, int]) -> int | None:
+        raise NotImplementedError

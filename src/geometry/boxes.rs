@@ -57,3 +57,18 @@ pub(super) fn padded(b: Aabb, index: usize) -> Aabb {
     let pad = b.min.abs().max(b.max.abs()) * (BOX_PADDING * jitter) + 1e-20;
     Aabb::new(b.min - pad, b.max + pad)
 }
+
+/// A world traversal ray carried into a placed shape's space by
+/// `from_world`, with the same parameterisation (`t` means the same point
+/// in both spaces); `None` when the transform collapses (a moving placement
+/// at a time its scale is zero).
+pub(super) fn local_ray(from_world: Affine3A, ray: &Ray) -> Option<Ray> {
+    from_world.is_finite().then(|| {
+        traversal_ray(
+            from_world.transform_point3a(ray.origin),
+            from_world.transform_vector3a(ray.direction),
+            ray.tmin,
+            ray.tmax,
+        )
+    })
+}

@@ -23,7 +23,7 @@ use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
 use rayon::prelude::*;
 
-use super::boxes::{padded, transform_box, traversal_ray};
+use super::boxes::{local_ray, padded, transform_box, traversal_ray};
 use super::intersect::{TriangleHit, WatertightRay};
 use super::motion::MovingInstances;
 use super::round_bvh::{RoundShapes, ShapeHit};
@@ -381,19 +381,10 @@ impl Geometry {
         }
     }
 
-    /// A world traversal ray in `leaf`'s mesh space at `time`, with the
-    /// same parameterisation (`t` means the same point in both spaces);
-    /// `None` when a moving placement collapses at that time.
+    /// A world traversal ray in `leaf`'s mesh space at `time` (see
+    /// [`local_ray`]).
     fn local_ray(&self, leaf: &PlacedMesh, ray: &Ray, time: f32) -> Option<Ray> {
-        let mesh_from_world = self.mesh_from_world(leaf, time);
-        mesh_from_world.is_finite().then(|| {
-            traversal_ray(
-                mesh_from_world.transform_point3a(ray.origin),
-                mesh_from_world.transform_vector3a(ray.direction),
-                ray.tmin,
-                ray.tmax,
-            )
-        })
+        local_ray(self.mesh_from_world(leaf, time), ray)
     }
 
     fn mesh(&self, leaf: &PlacedMesh) -> &MeshBvh {

@@ -15,7 +15,7 @@ use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray, RayHit};
 use rayon::prelude::*;
 
-use super::boxes::{padded, transform_box, traversal_ray};
+use super::boxes::{local_ray, padded, transform_box};
 use super::motion::MovingInstances;
 use super::round_intersect::{RoundHit, RoundRay};
 use super::round_surface::RoundShading;
@@ -227,14 +227,9 @@ impl RoundShapes {
         }
     }
 
-    /// `ray` in `leaf`'s shape space (same `t`); `None` when it collapses.
+    /// `ray` in `leaf`'s shape space at `time` (see [`local_ray`]).
     fn local_ray(&self, leaf: &PlacedShape, ray: &Ray, time: f32) -> Option<Ray> {
-        let from_world = self.shape_from_world(leaf, time);
-        from_world.is_finite().then(|| {
-            let origin = from_world.transform_point3a(ray.origin);
-            let direction = from_world.transform_vector3a(ray.direction);
-            traversal_ray(origin, direction, ray.tmin, ray.tmax)
-        })
+        local_ray(self.shape_from_world(leaf, time), ray)
     }
 
     fn shape(&self, leaf: &PlacedShape) -> &RoundBvh {

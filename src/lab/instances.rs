@@ -156,15 +156,7 @@ fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Re
     let export_s = start.elapsed().as_secs_f64();
 
     let [after_load, after_build, peak] = memory_in_child(&scene_dir)?;
-    let load_s = median(
-        (0..repeats)
-            .map(|_| {
-                let (seconds, scene) = timed(|| Scene::load(&scene_dir));
-                scene.map(|_| seconds)
-            })
-            .collect::<Result<_, _>>()?,
-    );
-    let scene = Scene::load(&scene_dir)?;
+    let (load_s, scene) = load_timed(&scene_dir, repeats)?;
     let count = scene.manifest.instances.count;
     if count != instances as u64 {
         return Err(LabError::Failed(format!(
@@ -185,6 +177,16 @@ fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Re
         after_build,
         peak,
     })
+}
+
+/// The median seconds of `repeats` loads of `scene_dir`, and the scene.
+pub(super) fn load_timed(scene_dir: &Path, repeats: usize) -> Result<(f64, Scene)> {
+    let seconds = (0..repeats.max(1)).map(|_| {
+        let (seconds, scene) = timed(|| Scene::load(scene_dir));
+        scene.map(|_| seconds)
+    });
+    let seconds = median(seconds.collect::<Result<_, _>>()?);
+    Ok((seconds, Scene::load(scene_dir)?))
 }
 
 /// Seconds `f` took, and its result (dropped by the caller, off the clock).

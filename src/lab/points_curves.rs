@@ -10,7 +10,7 @@ use std::path::Path;
 use glam::{UVec2, Vec3A};
 use rayon::prelude::*;
 
-use super::instances::{memory_in_child, run_venv_script, timed};
+use super::instances::{load_timed, memory_in_child, run_venv_script, timed};
 use super::machine::machine_line;
 use super::stats::median;
 use super::{LabError, Result};
@@ -115,15 +115,7 @@ fn measure(
     exported?;
     let [_, after_build, peak] = memory_in_child(&scene_dir)?;
     let repeats = bench.repeats.max(1);
-    let load_s = median(
-        (0..repeats)
-            .map(|_| {
-                let (seconds, scene) = timed(|| Scene::load(&scene_dir));
-                scene.map(|_| seconds)
-            })
-            .collect::<Result<_, _>>()?,
-    );
-    let scene = Scene::load(&scene_dir)?;
+    let (load_s, scene) = load_timed(&scene_dir, repeats)?;
     let m = &scene.manifest;
     let elements = m.points.iter().map(|p| p.points.count).sum::<u64>()
         + m.curves
