@@ -157,9 +157,22 @@ fn geometry_bytes(scene: &Scene, mesh_bytes: u64) -> u64 {
     let prototypes = scene.view(&m.instances.prototype);
     let placements: u64 = prototypes
         .iter()
-        .map(|&p| m.prototypes[p as usize].meshes.len() as u64)
+        .map(|&p| {
+            let proto = &m.prototypes[p as usize];
+            (proto.meshes.len() + proto.points.len() + proto.curves.len()) as u64
+        })
         .sum();
-    Geometry::bytes_for(mesh_bytes, total, building, placements)
+    // Points, and curve pieces (a curve of n vertices has n - 1).
+    let points = m.points.iter().map(|p| p.points.count);
+    let pieces = m
+        .curves
+        .iter()
+        .map(|c| c.points.count - c.vertex_counts.count);
+    let mut round: Vec<u64> = points.chain(pieces).collect();
+    round.sort_unstable_by(|a, b| b.cmp(a));
+    let round_building = round.iter().take(rayon::current_num_threads()).sum();
+    let round = [round.iter().sum(), round_building];
+    Geometry::bytes_for(mesh_bytes, total, building, placements, round)
 }
 
 /// Volumes: every distinct grid `Media::build` reads (density fields, and

@@ -428,8 +428,8 @@ fn a_million_point_instances_export_and_check() {
 
 /// What Cirrus cannot render yet is never dropped silently: subdivision
 /// surfaces are refined now (`tests/subdivision.rs`), so neither mesh is
-/// warned about, and Points and BasisCurves are
-/// each warned about by path. A SkelRoot is posed by UsdSkel now
+/// warned about; Points and BasisCurves render now (`tests/points_curves.rs`):
+/// a TetMesh and HermiteCurves are each warned about by path. A SkelRoot is posed by UsdSkel now
 /// (`tests/skinning.rs`): one with nothing bound to a skeleton is not warned
 /// about.
 #[test]
@@ -459,9 +459,11 @@ def Xform "World"
         point3f[] points = [(0, 2, 0)]
         float[] widths = [0.1]
     }}
-    def BasisCurves "Hair"
+    def TetMesh "Jelly"
     {{
-        uniform token type = "linear"
+    }}
+    def HermiteCurves "Hair"
+    {{
         int[] curveVertexCounts = [2]
         point3f[] points = [(0, 0, 0), (0, 1, 0)]
     }}
@@ -479,10 +481,11 @@ def Xform "World"
     assert!(!warnings.contains("/World/Smooth"), "{warnings}");
     assert!(!warnings.contains("/World/Flat"), "{warnings}");
     for what in [
-        "Points /World/Sparks is not rendered",
-        "BasisCurves /World/Hair is not rendered",
+        "TetMesh /World/Jelly is not rendered",
+        "HermiteCurves /World/Hair is not rendered",
     ] {
         assert!(warnings.contains(what), "no '{what}' in {warnings}");
     }
+    assert!(!warnings.contains("/World/Sparks"), "{warnings}");
     assert!(!warnings.contains("/World/Character"), "{warnings}");
 }

@@ -21,16 +21,7 @@ const CUBE: &str = r#"int[] faceVertexCounts = [4, 4, 4, 4, 4, 4]
 
 /// `body` (prims) as a stage in `dir`, exported; returns the scene folder.
 fn export_stage(dir: &Path, body: &str) -> PathBuf {
-    let usda = dir.join("stage.usda");
-    std::fs::write(&usda, format!("#usda 1.0\n{body}\n")).unwrap();
-    let out = dir.join("out");
-    cirrus_ok(&[
-        "export".as_ref(),
-        usda.as_os_str(),
-        "-o".as_ref(),
-        out.as_os_str(),
-    ]);
-    out
+    common::export_usda(dir, &format!("#usda 1.0\n{body}\n"))
 }
 
 fn warnings(scene: &Scene) -> String {

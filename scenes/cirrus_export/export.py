@@ -17,8 +17,11 @@ from .lights import export_lights
 from .materials import MaterialTable
 from .mtlx import MtlxDocuments
 from .motion import Recorder, add_motion, replaying_walker
+from .curves import CurvesTable
+from .points import PointsTable
 from .prototypes import MeshTable, Prototypes
 from .render_settings import chosen_settings
+from .round_shapes import RoundContext
 from .report import ExportError, Report
 from .skinning import Skinning
 from .volumes import VolumeTable
@@ -152,7 +155,11 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     skinning = Skinning(report, time)
     meshes = MeshTable(writer, materials, skinning, report, time, str(path))
     volumes = VolumeTable(resolver, report, time, frame_label)
-    prototypes = Prototypes(meshes, volumes)
+    points = PointsTable(RoundContext(writer, materials, report, time, str(path)))
+    curves = CurvesTable(RoundContext(writer, materials, report, time, str(path)))
+    round_shapes = {"Points": (points, ("points", "points")),
+                    **{kind: (curves, ("curves", "curves")) for kind in ("BasisCurves", "NurbsCurves")}}
+    prototypes = Prototypes(meshes, volumes, round_shapes)
     recorder = Recorder(prototypes)
     sink = Walker(recorder, skinning, report, time).walk_stage(stage)
     instances, prototype, matrices = instance_records(sink, writer)
@@ -176,6 +183,8 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
                   "up_axis": str(UsdGeom.GetStageUpAxis(stage))},
         "bounds": {"min": lo.tolist(), "max": hi.tolist()},
         "meshes": meshes.records,
+        "points": points.records,
+        "curves": curves.records,
         "prototypes": prototypes.records,
         "instances": instances,
         "materials": materials.materials,

@@ -26,11 +26,11 @@ from .report import Report
 from .skinning import Skinning
 from .xforms import compose, local_transform, to_3x4
 
-PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Volume"}
+PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Volume", "Points", "BasisCurves",
+              "NurbsCurves"}
 SKIPPED_PURPOSES = {UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy}
 # Renderable prim types Cirrus does not render yet: each is warned about by name.
-UNRENDERED_TYPES = {"Points", "BasisCurves", "NurbsCurves", "HermiteCurves", "NurbsPatch",
-                    "TetMesh"}
+UNRENDERED_TYPES = {"HermiteCurves", "NurbsPatch", "TetMesh"}
 
 
 @dataclass(frozen=True)

@@ -134,6 +134,17 @@ class MaterialTable:
             self.materials.append(record)
         return self._by_path[path]
 
+    def hair(self) -> int:
+        """The default look of curves with no bound material and no displayColor: a dark brown
+        rough dielectric (UsdPreviewSurface, ior 1.55 as keratin), one record for every such prim."""
+        path = "cirrus:hair"
+        if path not in self._by_path:
+            self._by_path[path] = len(self.materials)
+            record = {**self._fallback(path), "fallback": False, "shader": "hair default"}
+            record.update(diffuse_color=[0.09, 0.05, 0.025], roughness=0.35, ior=1.55)
+            self.materials.append(record)
+        return self._by_path[path]
+
     def _display_input(self, primvar: UsdGeom.Primvar, index: int, default, width: int):
         """A display primvar as a constant (constant interpolation) or a primvar input."""
         values = primvar.ComputeFlattened(self._time)

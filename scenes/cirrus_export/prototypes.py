@@ -164,35 +164,36 @@ class MeshTable:
 class Prototypes:
     """Cirrus prototypes: parts (mesh or volume + transform) in the prototype's space."""
 
-    def __init__(self, meshes: MeshTable, volumes) -> None:
+    def __init__(self, meshes: MeshTable, volumes, round_shapes: dict | None = None) -> None:
         self.records: list[dict] = []
         self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
         self.meshes, self._volumes = meshes, volumes
+        # Prim type -> (table, manifest list and key): Points, BasisCurves, NurbsCurves.
+        self._round = round_shapes or {}
 
     def add(self, path: str, parts: list[tuple[Usd.Prim, np.ndarray]], root: Usd.Prim,
             root_included: bool) -> int | None:
         """A prototype from (prim, prototype-from-part matrix) parts under `root` (whose own kind
-        counts when `root_included`); None when all were skipped. Mesh parts carry their
-        names below the root and the asset they belong to inside the prototype."""
-        record = {"path": path, "meshes": [], "volumes": []}
+        counts when `root_included`); None when all were skipped. Mesh, points and curves parts
+        carry their names below the root and the asset they belong to inside the prototype."""
+        record = {"path": path, "meshes": [], "volumes": [], "points": [], "curves": []}
         lo, hi = EMPTY_BOX
         for prim, matrix in parts:
-            is_volume = prim.GetTypeName() == "Volume"
-            table = self._volumes if is_volume else self.meshes
+            kind = prim.GetTypeName()
+            table, (field, key) = {"Volume": (self._volumes, ("volumes", "volume"))}.get(
+                kind, self._round.get(kind, (self.meshes, ("meshes", "mesh"))))
             index = table.index(prim)
             if index is None:
                 continue
-            if is_volume:
-                record["volumes"].append({"volume": index, "transform": to_3x4_list(matrix)})
-            else:
-                record["meshes"].append({"mesh": index, "transform": to_3x4_list(matrix),
-                                         "name": below(prim, root),
-                                         "asset": asset_within(prim, root, root_included)})
+            part = {key: index, "transform": to_3x4_list(matrix)}
+            if field != "volumes":
+                part.update(name=below(prim, root), asset=asset_within(prim, root, root_included))
+            record[field].append(part)
             box = table.boxes[index]
             if box is not None:
                 corners = transform_points(box_corners(*box), matrix)
                 lo, hi = np.minimum(lo, corners.min(axis=0)), np.maximum(hi, corners.max(axis=0))
-        if not record["meshes"] and not record["volumes"]:
+        if not any(record[field] for field in ("meshes", "volumes", "points", "curves")):
             return None
         self.records.append(record)
         self.boxes.append((lo, hi))

@@ -62,6 +62,22 @@ pub enum Bench {
         #[arg(long, default_value_t = 3)]
         repeats: usize,
     },
+    /// Points and curves: build time, memory and ray rates of a million
+    /// spheres and of 100k cubic hairs.
+    PointsCurves {
+        /// Points (spheres) of the first stage.
+        #[arg(long, default_value_t = 1_000_000)]
+        points: usize,
+        /// Cubic bspline hairs of the second stage.
+        #[arg(long, default_value_t = 100_000)]
+        curves: usize,
+        /// Random rays per rate.
+        #[arg(long, default_value_t = 1_000_000)]
+        rays: usize,
+        /// Timed repeats; the table shows medians.
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+    },
     /// Subdivision at load: refinement time and memory, samples/s of cages and refined surfaces.
     Subdivision {
         /// Scenes (USD or exported).
@@ -279,6 +295,17 @@ pub fn run(bench: Bench) -> Result<()> {
             let bench = EqualTimeBench::new(scenes, res, settings, quick, threads, (out, charts));
             lab::bench_fire(&bench)
         }
+        Bench::PointsCurves {
+            points,
+            curves,
+            rays,
+            repeats,
+        } => lab::bench_points_curves(&lab::PointsCurvesBench {
+            points,
+            curves,
+            rays,
+            repeats,
+        }),
         Bench::Subdivision { scenes, level } => lab::bench_subdivision(&scenes, level),
         Bench::Motion {
             instances,

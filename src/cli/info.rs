@@ -70,6 +70,21 @@ fn scene_summary(scene: &Scene) -> String {
         "triangles",
         format!("{unique} unique, {instanced} instanced"),
     );
+    let points: u64 = m.points.iter().map(|p| p.points.count).sum();
+    line("points", format!("{points} in {} prim(s)", m.points.len()));
+    let pieces: u64 = m
+        .curves
+        .iter()
+        .map(|c| c.points.count - c.vertex_counts.count)
+        .sum();
+    let curves: u64 = m.curves.iter().map(|c| c.vertex_counts.count).sum();
+    line(
+        "curves",
+        format!(
+            "{curves} in {} prim(s), {pieces} tube pieces",
+            m.curves.len()
+        ),
+    );
     line(
         "lights",
         counted(m.lights.len(), m.lights.iter().map(|l| l.shape.type_name())),

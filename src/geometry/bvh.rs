@@ -16,50 +16,22 @@
 //! a CWBVH over the chunks: those temporaries then only ever cover one chunk
 //! per thread.
 
-use std::ops::Range;
-
 use glam::{Affine3A, Vec2, Vec3A};
 use obvhs::aabb::Aabb;
-use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
-use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::cwbvh::CwBvh;
-use obvhs::ploc::morton::morton_encode_u64_unorm;
-use obvhs::ploc::PlocBuilder;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
-use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
+use super::boxes::{local_ray, padded, transform_box, traversal_ray};
 use super::intersect::{TriangleHit, WatertightRay};
 use super::motion::MovingInstances;
+use super::round_bvh::{RoundShapes, ShapeHit};
+use super::round_intersect::RoundHit;
 use super::surface::{MeshShading, SurfacePoint};
+use super::top_level::{build_cwbvh, TopLevel};
 use crate::motion::TransformTrack;
 use crate::scene::{affine, Scene};
-
-/// Build quality for both levels: obvhs's balanced preset.
-const BUILD_PARAMS: BvhBuildParams = BvhBuildParams::medium_build();
-
-/// Largest magnitude of a traversal ray's `inv_direction`. obvhs's own
-/// `Ray::new` turns direction components below `f32::EPSILON` into
-/// 1/EPSILON (8.4e6), so an axis-parallel ray starting inside a slab by
-/// `d` only reaches `t = d * 8.4e6` before the box test fails; 1e30 keeps
-/// that reach beyond any scene while every product in obvhs's quantized
-/// node test stays finite (an infinite inverse would give 0 * inf = NaN).
-const MAX_INV_DIRECTION: f32 = 1e30;
-
-/// Relative padding of every box: a ray exactly on a box face (an
-/// axis-aligned ray along a mesh's border), or within rounding of it after
-/// the instance transform, is then strictly inside the slab. Each box gets
-/// between 1 and 2 times this, varied by its index: PLOC merges only mutual
-/// nearest neighbours, and on perfectly regular input (instancer grids,
-/// tessellated planes) every candidate ties, one pair merges per pass and the
-/// build goes quadratic (100k instances in a row: 22 s instead of 0.1 s).
-const BOX_PADDING: f32 = 1e-6;
-
-/// Placed meshes per chunk of the top level, each chunk built on its own
-/// (see [`TopLevel`]): small enough that a chunk's build temporaries are a
-/// few MB, large enough that the tree over the chunks stays small.
-const TOP_CHUNK: usize = 1 << 14;
 
 /// Acceleration structures over a scene's meshes, ready for closest-hit and
 /// occlusion queries, with the per-vertex data that shading interpolates.
@@ -80,6 +52,8 @@ pub struct Geometry {
     /// World-from-mesh tracks of the placements of moving instances (all
     /// top-level leaves), indexed by [`PlacedMesh::motion`].
     tracks: Vec<TransformTrack>,
+    /// The points and curves prims; `None` when the scene places none.
+    round: Option<RoundShapes>,
 }
 
 /// How a scene mesh enters the BVHs, by how often the scene places it.
@@ -117,20 +91,6 @@ struct TriangleSource {
     triangle: u32,
 }
 
-/// The top-level BVH over the placed meshes, in two tiers: the placed
-/// meshes are sorted along a Morton curve of their box centres and cut into
-/// Morton cells of at most [`TOP_CHUNK`] ([`morton_cells`]), each cell gets
-/// its own CWBVH (built in parallel),
-/// and one CWBVH goes over the runs' boxes. This is the Morton split of an
-/// LBVH (Lauterbach et al. 2009, "Fast BVH Construction on GPUs") above PLOC
-/// subtrees; a ray walks the root, then each chunk it enters.
-struct TopLevel {
-    /// Over the chunks' `total_aabb`s; its primitives index `chunks`.
-    root: CwBvh,
-    /// Each chunk's `primitive_indices` index [`Geometry::leaves`] directly.
-    chunks: Vec<CwBvh>,
-}
-
 /// One mesh of one instance: a top-level leaf.
 struct PlacedMesh {
     /// At the frame itself; a moving placement's is at the ray's time.
@@ -153,15 +113,20 @@ pub struct Hit {
     /// Instance index (into the scene's instance arrays).
     pub instance: u32,
     /// Which of the instance's prototype's meshes: an index into
-    /// `prototypes[p].meshes`, whose `mesh` field is the scene mesh.
+    /// `prototypes[p].meshes`, whose `mesh` field is the scene mesh; for a
+    /// points or curves prim, the mesh count plus its position among the
+    /// prototype's points, then curves parts.
     pub prototype_mesh: u32,
-    /// Triangle index within that mesh.
+    /// Triangle index within that mesh (point, or curve piece).
     pub triangle: u32,
     /// Weights of the triangle's second and third vertices (the first's is
-    /// `1 - x - y`).
+    /// `1 - x - y`); on a curve piece, the fraction along it and 0.
     pub barycentrics: Vec2,
-    /// The placed mesh hit (an index into `Geometry::leaves`).
+    /// The placed mesh hit (an index into `Geometry::leaves`), or the
+    /// placed points or curves prim.
     leaf: u32,
+    /// The sphere or tube hit, for points and curves.
+    round: Option<RoundHit>,
     /// The ray's time, frames: where a moving mesh was when hit.
     time: f32,
 }
@@ -184,12 +149,21 @@ impl Geometry {
     /// `mesh_bytes` bytes of mesh arrays (its shading copy is as large),
     /// `triangles` triangles, of which `building` are in the meshes built at
     /// once (the largest, one per worker thread), and `placements` placed
-    /// meshes (instance x prototype mesh), estimated from the scene alone.
-    pub fn bytes_for(mesh_bytes: u64, triangles: u64, building: u64, placements: u64) -> u64 {
+    /// meshes, points and curves prims (instance x prototype part), and
+    /// `[elements, building]` points and curve pieces, `building` of them in
+    /// the prims built at once, estimated from the scene alone.
+    pub fn bytes_for(
+        mesh_bytes: u64,
+        triangles: u64,
+        building: u64,
+        placements: u64,
+        [elements, elements_building]: [u64; 2],
+    ) -> u64 {
         mesh_bytes
             + triangles * BVH_BYTES_PER_TRIANGLE
             + building * BVH_BUILD_BYTES_PER_TRIANGLE
             + placements * TOP_LEVEL_BYTES_PER_PLACEMENT
+            + RoundShapes::bytes_for(elements, elements_building)
     }
 
     /// Builds the world-space BVH over the meshes placed once, one BVH per
@@ -270,6 +244,7 @@ impl Geometry {
             top,
             leaves,
             tracks,
+            round: RoundShapes::build(scene, &moving),
         }
     }
 
@@ -302,7 +277,11 @@ impl Geometry {
                 }
             });
         }
-        closest
+        if let Some(hit) = &closest {
+            ray.tmax = hit.t;
+        }
+        let round = self.round.as_ref().and_then(|r| r.intersect(ray, time));
+        round.map(|hit| self.round_hit(hit, time)).or(closest)
     }
 
     /// Whether anything blocks `ray` within `(ray.tmin, ray.tmax)` at
@@ -320,6 +299,7 @@ impl Geometry {
                         .is_some_and(|local| self.mesh(leaf).occluded(&local))
                 })
             })
+            || self.round.as_ref().is_some_and(|r| r.occluded(ray, time))
     }
 
     /// The shading data of `hit`, a hit of `ray` (see [`SurfacePoint`]): the
@@ -327,6 +307,17 @@ impl Geometry {
     /// ray parameter, which is less precise far from the origin), normals and
     /// tangents through the placement's inverse transpose.
     pub fn surface_point(&self, hit: &Hit) -> SurfacePoint {
+        if let (Some(round), Some(on)) = (&self.round, hit.round) {
+            let (leaf, element) = (hit.leaf, hit.triangle);
+            return round.surface_point(
+                &ShapeHit {
+                    leaf,
+                    element,
+                    hit: on,
+                },
+                hit.time,
+            );
+        }
         let leaf = &self.leaves[hit.leaf as usize];
         self.shading[leaf.mesh as usize].surface_point(
             &self.mesh_from_world(leaf, hit.time),
@@ -346,6 +337,26 @@ impl Geometry {
             triangle,
             barycentrics: hit.barycentrics,
             leaf,
+            round: None,
+            time,
+        }
+    }
+
+    /// The [`Hit`] of a points or curves hit at `time`.
+    fn round_hit(&self, hit: ShapeHit, time: f32) -> Hit {
+        let round = self
+            .round
+            .as_ref()
+            .expect("round hits come from round shapes");
+        let [instance, prototype_mesh, _] = round.ids(hit.leaf);
+        Hit {
+            t: hit.hit.t,
+            instance,
+            prototype_mesh,
+            triangle: hit.element,
+            barycentrics: Vec2::new(hit.hit.s, 0.0),
+            leaf: hit.leaf,
+            round: Some(hit.hit),
             time,
         }
     }
@@ -359,19 +370,10 @@ impl Geometry {
         }
     }
 
-    /// A world traversal ray in `leaf`'s mesh space at `time`, with the
-    /// same parameterisation (`t` means the same point in both spaces);
-    /// `None` when a moving placement collapses at that time.
+    /// A world traversal ray in `leaf`'s mesh space at `time` (see
+    /// [`local_ray`]).
     fn local_ray(&self, leaf: &PlacedMesh, ray: &Ray, time: f32) -> Option<Ray> {
-        let mesh_from_world = self.mesh_from_world(leaf, time);
-        mesh_from_world.is_finite().then(|| {
-            traversal_ray(
-                mesh_from_world.transform_point3a(ray.origin),
-                mesh_from_world.transform_vector3a(ray.direction),
-                ray.tmin,
-                ray.tmax,
-            )
-        })
+        local_ray(self.mesh_from_world(leaf, time), ray)
     }
 
     fn mesh(&self, leaf: &PlacedMesh) -> &MeshBvh {
@@ -473,122 +475,6 @@ impl MeshBvh {
     }
 }
 
-impl TopLevel {
-    /// Builds the top level over the placed meshes' world boxes (in
-    /// placement order; primitive indices refer to that order). `boxes` and
-    /// the Morton codes are freed before the root is built.
-    fn build(boxes: Vec<Aabb>) -> Self {
-        let mut centres = Aabb::INVALID;
-        for b in &boxes {
-            centres.extend(b.center());
-        }
-        let scale = (centres.max - centres.min)
-            .max(Vec3A::splat(f32::MIN_POSITIVE))
-            .recip();
-        let mut keyed: Vec<(u64, u32)> = boxes
-            .par_iter()
-            .enumerate()
-            .map(|(i, b)| {
-                let unit = ((b.center() - centres.min) * scale)
-                    .clamp(Vec3A::ZERO, Vec3A::splat(MORTON_MAX));
-                (morton_encode_u64_unorm(unit.as_dvec3()), i as u32)
-            })
-            .collect();
-        keyed.par_sort_unstable();
-        let mut runs = Vec::new();
-        morton_cells(&keyed, 0..keyed.len(), &mut runs);
-        let chunks: Vec<CwBvh> = runs
-            .into_par_iter()
-            .map(|run| {
-                let ids = &keyed[run];
-                let mut bvh = build_cwbvh(ids.iter().map(|&(_, i)| boxes[i as usize]).collect());
-                for index in &mut bvh.primitive_indices {
-                    *index = ids[*index as usize].1;
-                }
-                // obvhs reserves a node per primitive, about four times what
-                // a chunk uses; kept for every chunk, that would be 80 MB.
-                bvh.nodes.shrink_to_fit();
-                bvh
-            })
-            .collect();
-        drop((keyed, boxes));
-        let root = build_cwbvh(chunks.iter().map(|chunk| chunk.total_aabb).collect());
-        Self { root, chunks }
-    }
-
-    /// Calls `hit(ray, leaf)` for each top-level leaf (an index into
-    /// [`Geometry::leaves`]) whose box `ray` enters, with `ray.tmax` cut to
-    /// the nearest hit so far; `hit` returns its hit's `t`, or infinity for a
-    /// miss, as obvhs's traversal closures do.
-    fn traverse(&self, ray: Ray, mut hit: impl FnMut(&Ray, usize) -> f32) {
-        self.root.ray_traverse(ray, &mut RayHit::none(), |ray, id| {
-            let chunk = &self.chunks[self.root.primitive_indices[id] as usize];
-            let mut nearest = f32::INFINITY;
-            chunk.ray_traverse(*ray, &mut RayHit::none(), |ray, id| {
-                let t = hit(ray, chunk.primitive_indices[id] as usize);
-                nearest = nearest.min(t);
-                t
-            });
-            nearest
-        });
-    }
-
-    /// Whether `hit(ray, leaf)` is true for any top-level leaf whose box
-    /// `ray` enters; stops at the first.
-    fn any(&self, ray: Ray, mut hit: impl FnMut(&Ray, usize) -> bool) -> bool {
-        let found = |yes: bool| if yes { 0.0 } else { f32::INFINITY };
-        !self.root.ray_traverse_miss(ray, |ray, id| {
-            let chunk = &self.chunks[self.root.primitive_indices[id] as usize];
-            found(!chunk.ray_traverse_miss(*ray, |ray, id| {
-                found(hit(ray, chunk.primitive_indices[id] as usize))
-            }))
-        })
-    }
-}
-
-/// A CWBVH over `boxes`, as obvhs's `build_cwbvh` makes it (PLOC, the
-/// reinsertion optimizer, then conversion to BVH8), minus its debug-build
-/// validation, and with `boxes` freed as soon as PLOC has copied them.
-fn build_cwbvh(boxes: Vec<Aabb>) -> CwBvh {
-    let p = BUILD_PARAMS;
-    let mut bvh2 = PlocBuilder::with_capacity(boxes.len()).build(
-        p.ploc_search_distance,
-        &boxes,
-        (0..boxes.len() as u32).collect(),
-        p.sort_precision,
-        p.search_depth_threshold,
-    );
-    drop(boxes);
-    ReinsertionOptimizer::default().run(&mut bvh2, p.reinsertion_batch_ratio, None);
-    bvh2_to_cwbvh(&bvh2, p.max_prims_per_leaf.clamp(1, 3), true, false)
-}
-
-/// Splits `keyed[range]` (sorted by Morton code) into runs of at most
-/// [`TOP_CHUNK`], cutting at the highest bit where the range's first and last
-/// codes differ, as an LBVH splits: each run is then one cell of the Morton
-/// octree, compact in space, where a fixed-size stretch of the curve can
-/// jump across the scene and give its chunk a box overlapping its
-/// neighbours'. Runs of one repeated code are halved by count.
-fn morton_cells(keyed: &[(u64, u32)], range: Range<usize>, runs: &mut Vec<Range<usize>>) {
-    if range.len() <= TOP_CHUNK {
-        runs.push(range);
-        return;
-    }
-    let (first, last) = (keyed[range.start].0, keyed[range.end - 1].0);
-    let mid = if first == last {
-        range.start + range.len() / 2
-    } else {
-        let bit = 1 << (63 - (first ^ last).leading_zeros());
-        range.start + keyed[range.clone()].partition_point(|&(key, _)| key & bit == 0)
-    };
-    morton_cells(keyed, range.start..mid, runs);
-    morton_cells(keyed, mid..range.end, runs);
-}
-
-/// Largest Morton coordinate, just below 1: obvhs's 21-bit encoding wraps
-/// 1.0 around to 0.
-const MORTON_MAX: f32 = 1.0 - f32::EPSILON;
-
 /// Each scene mesh's [`MeshRole`]: how many times the instances place it,
 /// counted per prototype (a placement whose transform turns out singular
 /// still counts; a moving instance's counts twice, as its mesh cannot be
@@ -677,82 +563,4 @@ fn placements<'a>(
                 })
         },
     )
-}
-
-/// A box containing the image of `b` under `m` (its eight corners' bounds).
-fn transform_box(m: &Affine3A, b: &Aabb) -> Aabb {
-    let mut out = Aabb::INVALID;
-    for corner in 0..8 {
-        let pick = |bit: usize, lo: f32, hi: f32| if corner & bit == 0 { lo } else { hi };
-        let p = Vec3A::new(
-            pick(1, b.min.x, b.max.x),
-            pick(2, b.min.y, b.max.y),
-            pick(4, b.min.z, b.max.z),
-        );
-        out.extend(m.transform_point3a(p));
-    }
-    out
-}
-
-/// An obvhs ray with `inv_direction` clamped to [`MAX_INV_DIRECTION`].
-fn traversal_ray(origin: Vec3A, direction: Vec3A, tmin: f32, tmax: f32) -> Ray {
-    let max = Vec3A::splat(MAX_INV_DIRECTION);
-    Ray {
-        origin,
-        direction,
-        inv_direction: direction.recip().clamp(-max, max),
-        tmin,
-        tmax,
-    }
-}
-
-/// Box `index` grown on each side by 1 to 2 times [`BOX_PADDING`] of its
-/// coordinates' magnitude (plus a tiny absolute amount, so a face at 0 moves
-/// too); the factor is a hash of `index`, to break PLOC's ties.
-fn padded(b: Aabb, index: usize) -> Aabb {
-    let jitter = 1.0 + ((index as u32).wrapping_mul(0x9e37_79b9) >> 8) as f32 / (1 << 24) as f32;
-    let pad = b.min.abs().max(b.max.abs()) * (BOX_PADDING * jitter) + 1e-20;
-    Aabb::new(b.min - pad, b.max + pad)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sampling::Pcg32;
-
-    /// A top level of several chunks finds, for random rays, the same nearest
-    /// box entry as testing every box: no chunk is lost and every leaf maps
-    /// back to its own box.
-    #[test]
-    fn chunked_top_level_finds_the_nearest_box_of_all() {
-        let mut rng = Pcg32::new(7, 0);
-        let mut point = || Vec3A::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 100.0;
-        let boxes: Vec<Aabb> = (0..3 * TOP_CHUNK + 5)
-            .map(|_| {
-                let p = point();
-                Aabb::new(p, p + Vec3A::splat(0.5))
-            })
-            .collect();
-        let top = TopLevel::build(boxes.clone());
-        for _ in 0..1000 {
-            let (origin, target) = (point(), point());
-            let ray = traversal_ray(origin, target - origin, 0.0, f32::INFINITY);
-            let nearest = |t: f32| if t < 0.0 { 0.0 } else { t };
-            let expected = boxes
-                .iter()
-                .map(|b| b.intersect_ray(&ray))
-                .filter(|t| t.is_finite())
-                .map(nearest)
-                .fold(f32::INFINITY, f32::min);
-            let mut found = f32::INFINITY;
-            top.traverse(ray, |ray, leaf| {
-                let t = boxes[leaf].intersect_ray(ray);
-                if t.is_finite() {
-                    found = found.min(nearest(t));
-                }
-                f32::INFINITY
-            });
-            assert_eq!(found, expected);
-        }
-    }
 }

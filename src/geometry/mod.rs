@@ -22,11 +22,16 @@
 //!
 //! [`Scene`]: crate::scene::Scene
 
+mod boxes;
 mod bvh;
 mod frame;
 mod intersect;
 mod motion;
+mod round_bvh;
+mod round_intersect;
+mod round_surface;
 mod surface;
+mod top_level;
 
 pub use bvh::{Geometry, Hit};
 pub use frame::Frame;

@@ -144,22 +144,20 @@ pub fn run(bench: &InstancesBench) -> Result<()> {
 /// `repeats` of each here.
 fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Result<Costs> {
     let stage = dir.join(format!("stress_{instances}.usdc"));
-    generate(&stage, instances, triangles)?;
+    let args = [
+        "--instances".to_owned(),
+        instances.to_string(),
+        "--triangles".to_owned(),
+        triangles.to_string(),
+    ];
+    run_venv_script("scenes/make_instancing_stress.py", &stage, &args)?;
     let scene_dir = dir.join(format!("stress_{instances}"));
     let start = Instant::now();
     crate::scene::export(&stage, &scene_dir, &Default::default())?;
     let export_s = start.elapsed().as_secs_f64();
 
     let [after_load, after_build, peak] = memory_in_child(&scene_dir)?;
-    let load_s = median(
-        (0..repeats)
-            .map(|_| {
-                let (seconds, scene) = timed(|| Scene::load(&scene_dir));
-                scene.map(|_| seconds)
-            })
-            .collect::<Result<_, _>>()?,
-    );
-    let scene = Scene::load(&scene_dir)?;
+    let (load_s, scene) = load_timed(&scene_dir, repeats)?;
     let count = scene.manifest.instances.count;
     if count != instances as u64 {
         return Err(LabError::Failed(format!(
@@ -182,23 +180,33 @@ fn measure(dir: &Path, instances: usize, triangles: usize, repeats: usize) -> Re
     })
 }
 
+/// The median seconds of `repeats` loads of `scene_dir`, and the scene.
+pub(super) fn load_timed(scene_dir: &Path, repeats: usize) -> Result<(f64, Scene)> {
+    let seconds = (0..repeats.max(1)).map(|_| {
+        let (seconds, scene) = timed(|| Scene::load(scene_dir));
+        scene.map(|_| seconds)
+    });
+    let seconds = median(seconds.collect::<Result<_, _>>()?);
+    Ok((seconds, Scene::load(scene_dir)?))
+}
+
 /// Seconds `f` took, and its result (dropped by the caller, off the clock).
-fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
+pub(super) fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
     let start = Instant::now();
     let value = black_box(f());
     (start.elapsed().as_secs_f64(), value)
 }
 
-/// Runs `scenes/make_instancing_stress.py` under the `.venv` of the checkout
-/// named by `$CIRRUS_HOME` (else the one this binary was built from).
-fn generate(stage: &Path, instances: usize, triangles: usize) -> Result<()> {
+/// Runs a stage generator (`script`, relative to the checkout) writing
+/// `stage` with `args`, under the `.venv` of the checkout named by
+/// `$CIRRUS_HOME` (else the one this binary was built from).
+pub(super) fn run_venv_script(script: &str, stage: &Path, args: &[String]) -> Result<()> {
     let root = crate::scene::repo_root();
-    let script = root.join("scenes/make_instancing_stress.py");
+    let script = root.join(script);
     let out = Command::new(root.join(".venv/bin/python"))
         .arg(&script)
         .arg(stage)
-        .args(["--instances", &instances.to_string()])
-        .args(["--triangles", &triangles.to_string()])
+        .args(args)
         .output()
         .map_err(|e| LabError::system(format!("running {}", script.display()), e))?;
     if !out.status.success() {
@@ -214,7 +222,7 @@ fn generate(stage: &Path, instances: usize, triangles: usize) -> Result<()> {
 /// Runs [`print_memory`] on `scene_dir` in a fresh `cirrus` process and
 /// returns its three numbers. A fresh process per stage keeps memory freed by
 /// an earlier stage, and kept by the allocator, out of the next one's count.
-fn memory_in_child(scene_dir: &Path) -> Result<[f64; 3]> {
+pub(super) fn memory_in_child(scene_dir: &Path) -> Result<[f64; 3]> {
     let exe = std::env::current_exe()
         .map_err(|e| LabError::system("finding the cirrus executable", e))?;
     let out = Command::new(&exe)

@@ -9,6 +9,7 @@
 //! Studies, one file each (the convergence study a folder), import only
 //! the shared helpers, never each other:
 //! - `instances`: ingest time and memory of a PointInstancer stage.
+//! - `points_curves`: build time, memory and ray rates of points and hair curves.
 //! - `vdb`: the sparse grid layout's load time, memory and lookup rates.
 //! - `render`: ray rates and equal-time MSE of the estimators and samplers.
 //! - `volumes`: majorants and volume estimators at equal time.
@@ -36,6 +37,7 @@ mod markdown;
 mod metrics;
 mod motion;
 mod peers;
+mod points_curves;
 mod reference;
 mod render;
 mod scenes;
@@ -60,6 +62,7 @@ pub use fire::run as bench_fire;
 pub use instances::{print_memory as instances_memory, run as bench_instances, InstancesBench};
 pub use motion::{run as bench_motion, MotionBench};
 pub use peers::Peer;
+pub use points_curves::{run as bench_points_curves, PointsCurvesBench};
 pub use render::run as bench_render;
 pub use subdivision::run as bench_subdivision;
 pub use vdb::{run as bench_vdb, VdbBench};

@@ -145,6 +145,7 @@ impl MeshLight {
                     .any(|&mat| materials.is_emissive(mat))
             })
             .collect();
+        warn_emissive_round_shapes(scene, materials);
         if !emissive_meshes.contains(&true) {
             return Vec::new();
         }
@@ -258,5 +259,25 @@ impl MeshLight {
             power,
             bounds,
         })
+    }
+}
+
+/// Points and curves prims are not light-sampled: an emissive one lights
+/// the scene only where paths hit it (unbiased, but noisy). One warning
+/// names them all.
+fn warn_emissive_round_shapes(scene: &Scene, materials: &Materials) {
+    let m = &scene.manifest;
+    let points = m.points.iter().map(|p| (&p.path, p.material));
+    let curves = m.curves.iter().map(|c| (&c.path, c.material));
+    let emissive: Vec<&str> = points
+        .chain(curves)
+        .filter(|&(_, material)| materials.is_emissive(material))
+        .map(|(path, _)| path.as_str())
+        .collect();
+    if !emissive.is_empty() {
+        log::warn!(
+            "{}: emissive points or curves are not light-sampled; they light the scene only where paths hit them (noisier)",
+            emissive.join(", ")
+        );
     }
 }

@@ -3,9 +3,11 @@
 //! of those it has (one element of 1 to 4 floats per point), interpolated
 //! barycentrically at a hit like `uvs`.
 
+use std::collections::BTreeMap;
+
 use glam::{Vec2, Vec3, Vec4};
 
-use crate::scene::Scene;
+use crate::scene::{Array, Scene};
 
 /// The primvar names material inputs read, in the order first met: a
 /// name's position is its id.
@@ -46,26 +48,46 @@ struct PrimvarArray {
 }
 
 impl MeshPrimvars {
-    /// Every scene mesh's primvars among `names`, by scene mesh index.
+    /// Every scene mesh's primvars among `names`, by scene mesh index, then
+    /// every points prim's and every curves prim's (the geometry's object
+    /// indices). A point is a triangle of three times its index; a curve
+    /// piece from vertex v is (v, v + 1, v + 1), which the piece's hit
+    /// weights (fraction along it, 0) interpolate linearly.
     pub(crate) fn build_all(scene: &Scene, names: &PrimvarNames) -> Vec<Self> {
-        scene
-            .manifest
+        let m = &scene.manifest;
+        let shape = |primvars: &BTreeMap<String, Array<f32>>, triangles: &dyn Fn() -> Vec<_>| {
+            let arrays = names.names.iter().enumerate().filter_map(|(id, name)| {
+                let array = primvars.get(name)?;
+                let values = scene.view(array).to_vec();
+                Some((id as u32, array.width as usize, values))
+            });
+            let arrays: Vec<_> = arrays.collect();
+            if arrays.is_empty() {
+                Self::default()
+            } else {
+                Self::new(triangles(), arrays.into_iter())
+            }
+        };
+        let meshes = m
             .meshes
             .iter()
-            .map(|mesh| {
-                let arrays = names.names.iter().enumerate().filter_map(|(id, name)| {
-                    let array = mesh.primvars.get(name)?;
-                    let values = scene.view(array).to_vec();
-                    Some((id as u32, array.width as usize, values))
-                });
-                let arrays: Vec<_> = arrays.collect();
-                if arrays.is_empty() {
-                    Self::default()
-                } else {
-                    Self::new(scene.view(&mesh.triangles).to_vec(), arrays.into_iter())
-                }
+            .map(|mesh| shape(&mesh.primvars, &|| scene.view(&mesh.triangles).to_vec()));
+        let points = m.points.iter().map(|p| {
+            shape(&p.primvars, &|| {
+                (0..p.points.count as u32).map(|i| [i; 3]).collect()
             })
-            .collect()
+        });
+        let curves = m.curves.iter().map(|c| {
+            let pieces = || {
+                scene
+                    .piece_starts(c)
+                    .iter()
+                    .map(|&v| [v, v + 1, v + 1])
+                    .collect()
+            };
+            shape(&c.primvars, &pieces)
+        });
+        meshes.chain(points).chain(curves).collect()
     }
 
     /// A mesh of `triangles` with `(id, width, values)` primvars

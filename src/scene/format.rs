@@ -51,6 +51,14 @@ pub struct Manifest {
     pub bounds: Bounds,
     /// Unique geometry, stored once and shared by prototypes.
     pub meshes: Vec<Mesh>,
+    /// `UsdGeomPoints`, stored once and shared by prototypes (absent in
+    /// files written before points).
+    #[serde(default)]
+    pub points: Vec<Points>,
+    /// `UsdGeomBasisCurves` (and `NurbsCurves` as their control polygon),
+    /// as linear round tubes (absent in files written before curves).
+    #[serde(default)]
+    pub curves: Vec<Curves>,
     /// What instances place: meshes and volumes in the prototype's space.
     pub prototypes: Vec<Prototype>,
     /// Every placed copy, plain prims included, as structure of arrays.
@@ -253,6 +261,49 @@ pub struct Subdivision {
     pub holes: Array<u32>,
 }
 
+/// A `UsdGeomPoints` prim: spheres in its prototype's local space.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Points {
+    /// Prim path (inside the prototype for instanced geometry).
+    pub path: String,
+    /// `points`: sphere centres, scene units (points whose width is negative
+    /// or not finite are left out by the exporter, with a warning).
+    pub points: Array<[f32; 3]>,
+    /// `widths`: sphere diameters, scene units; one (constant) or one per
+    /// point. Unauthored: one width of 1 (with a warning).
+    pub widths: Array<f32>,
+    /// Bound material (or the `displayColor` one); [`NO_MATERIAL`] = none.
+    pub material: u32,
+    /// The primvars some bound material reads, by name (default none): f32,
+    /// `width` 1 to 4, one element per point.
+    #[serde(default)]
+    pub primvars: BTreeMap<String, Array<f32>>,
+}
+
+/// A `UsdGeomBasisCurves` prim as linear round tubes (docs/conventions.md,
+/// "Points and curves"): the exporter evaluates cubic curves into linear
+/// pieces and closes periodic ones, so every curve here is a polyline of
+/// linear swept spheres.
+#[derive(Clone, Debug, Deserialize)]
+pub struct Curves {
+    /// Prim path (inside the prototype for instanced geometry).
+    pub path: String,
+    /// Polyline vertices, scene units, curve after curve.
+    pub points: Array<[f32; 3]>,
+    /// Tube diameter per vertex, scene units (USD `widths`, evaluated at the
+    /// vertices), finite and not negative.
+    pub widths: Array<f32>,
+    /// Vertices per curve (2 or more), summing to the count of `points`.
+    pub vertex_counts: Array<u32>,
+    /// Bound material (or the `displayColor` one, or the hair default);
+    /// [`NO_MATERIAL`] = none.
+    pub material: u32,
+    /// The primvars some bound material reads, by name (default none): f32,
+    /// `width` 1 to 4, one element per vertex.
+    #[serde(default)]
+    pub primvars: BTreeMap<String, Array<f32>>,
+}
+
 /// `triangle_materials` entry for a triangle with no bound material (grey default).
 pub const NO_MATERIAL: u32 = u32::MAX;
 
@@ -265,6 +316,36 @@ pub struct Prototype {
     pub meshes: Vec<MeshPart>,
     /// Volumes of this prototype.
     pub volumes: Vec<VolumePart>,
+    /// Points prims of this prototype (absent in files written before points).
+    #[serde(default)]
+    pub points: Vec<PointsPart>,
+    /// Curves prims of this prototype (absent in files written before curves).
+    #[serde(default)]
+    pub curves: Vec<CurvesPart>,
+}
+
+/// One points prim placed in a prototype.
+#[derive(Clone, Debug, Deserialize)]
+pub struct PointsPart {
+    /// Index into `Manifest::points`.
+    pub points: u32,
+    /// Prototype-from-points transform.
+    pub transform: Transform,
+    /// Its Cryptomatte names.
+    #[serde(flatten)]
+    pub names: PartNames,
+}
+
+/// One curves prim placed in a prototype.
+#[derive(Clone, Debug, Deserialize)]
+pub struct CurvesPart {
+    /// Index into `Manifest::curves`.
+    pub curves: u32,
+    /// Prototype-from-curves transform.
+    pub transform: Transform,
+    /// Its Cryptomatte names.
+    #[serde(flatten)]
+    pub names: PartNames,
 }
 
 /// One mesh placed in a prototype.
@@ -274,10 +355,19 @@ pub struct MeshPart {
     pub mesh: u32,
     /// Prototype-from-mesh transform (the prim's local-to-prototype xform).
     pub transform: Transform,
+    /// Its Cryptomatte names.
+    #[serde(flatten)]
+    pub names: PartNames,
+}
+
+/// What a placed mesh, points or curves part of a prototype is called, for
+/// Cryptomatte (docs/conventions.md, "Cryptomatte names").
+#[derive(Clone, Debug, Default, Deserialize)]
+pub struct PartNames {
     /// The part's prim path below the prototype's root (`/Geom`; empty
-    /// when the root is the mesh itself): appended to an instance's
+    /// when the root is the part itself): appended to an instance's
     /// [`NameRun::root`], the object's Cryptomatte name. Absent in files
-    /// written before names (the mesh's `path` names it then).
+    /// written before names (the part's `path` names it then).
     #[serde(default)]
     pub name: Option<String>,
     /// The nearest `component` or `assembly` model at or above the part

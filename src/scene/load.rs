@@ -3,6 +3,8 @@
 //! `bytemuck`, never parsed element by element. Every array reference, index,
 //! enum and transform is validated here, so nothing downstream re-checks.
 
+mod round_shapes;
+
 use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -286,6 +288,7 @@ impl Checker<'_> {
             let volumes = proto.volumes.iter().map(|p| (p.volume, &p.transform));
             self.parts(i, ("volumes", "volume"), volumes, m.volumes.len())?;
         }
+        self.round_shapes()?;
         self.instances()?;
         for (i, mat) in m.materials.iter().enumerate() {
             self.material(&format!("materials[{i}]"), mat)?;

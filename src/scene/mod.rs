@@ -32,10 +32,11 @@ pub use export::{
 };
 pub use format::Subdivision;
 pub use format::{
-    affine, Array, Bounds, Camera, CameraMotion, Element, InstanceMotion, Instances, Light,
-    LightShape, Manifest, Mesh, MeshPart, NamePattern, NameRun, Projection, Prototype, Render,
-    RenderProduct, RenderVar, Scalar, Source, Stage, Transform, UpAxis, Volume, VolumeField,
-    VolumePart, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+    affine, Array, Bounds, Camera, CameraMotion, Curves, CurvesPart, Element, InstanceMotion,
+    Instances, Light, LightShape, Manifest, Mesh, MeshPart, NamePattern, NameRun, PartNames,
+    Points, PointsPart, Projection, Prototype, Render, RenderProduct, RenderVar, Scalar, Source,
+    Stage, Transform, UpAxis, Volume, VolumeField, VolumePart, FORMAT_NAME, FORMAT_VERSION,
+    NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
 pub use material::{
@@ -93,7 +94,8 @@ pub enum OpenError {
 /// Bytes of bulk data a scene holds, by what they describe.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ArrayBytes {
-    /// Mesh points, triangles, normals, UVs, primvars and per-triangle materials.
+    /// Mesh points, triangles, normals, UVs, primvars and per-triangle
+    /// materials; points and curves prims' arrays.
     pub meshes: u64,
     /// Instance transforms, prototype, source and source-index arrays.
     pub instances: u64,
@@ -237,6 +239,24 @@ impl Scene {
         self.blob.view(array)
     }
 
+    /// The first vertex of each curve of `curves`, then the vertex count.
+    pub fn curve_starts(&self, curves: &Curves) -> Vec<u32> {
+        let counts = self.view(&curves.vertex_counts);
+        let starts = counts.iter().scan(0, |start, &n| {
+            *start += n;
+            Some(*start)
+        });
+        std::iter::once(0).chain(starts).collect()
+    }
+
+    /// The linear pieces of `curves`, curve after curve: each one's first
+    /// vertex (its second is the next one).
+    pub fn piece_starts(&self, curves: &Curves) -> Vec<u32> {
+        let starts = self.curve_starts(curves);
+        let pieces = starts.windows(2).flat_map(|w| w[0]..w[1] - 1);
+        pieces.collect()
+    }
+
     /// CRC-32 of `scene.json` and `scene.bin` together: a fingerprint of the
     /// exported contents (the blob from memory: it was read once at load).
     pub fn content_crc(&self) -> std::io::Result<u32> {
@@ -263,7 +283,22 @@ impl Scene {
                     + m.primvars.values().map(|a| bytes(a.bytes())).sum::<u64>()
                     + bytes(m.triangle_materials.bytes())
             })
-            .sum();
+            .sum::<u64>();
+        let primvars = |p: &std::collections::BTreeMap<String, Array<f32>>| {
+            p.values().map(|a| bytes(a.bytes())).sum::<u64>()
+        };
+        let points = self
+            .manifest
+            .points
+            .iter()
+            .map(|p| bytes(p.points.bytes()) + bytes(p.widths.bytes()) + primvars(&p.primvars));
+        let curves = self.manifest.curves.iter().map(|c| {
+            bytes(c.points.bytes())
+                + bytes(c.widths.bytes())
+                + bytes(c.vertex_counts.bytes())
+                + primvars(&c.primvars)
+        });
+        let meshes = meshes + points.chain(curves).sum::<u64>();
         let i = &self.manifest.instances;
         let instances = bytes(i.prototype.bytes())
             + bytes(i.transform.bytes())

@@ -12,7 +12,7 @@
 use super::format::NameRun;
 use super::Scene;
 
-/// How every placed mesh of a scene is named.
+/// How every placed mesh, points and curves prim of a scene is named.
 pub struct InstanceNames {
     /// Per instance, its prototype.
     prototype: Vec<u32>,
@@ -54,15 +54,20 @@ impl InstanceNames {
             .prototypes
             .iter()
             .map(|p| {
-                p.meshes
-                    .iter()
-                    .map(|part| match (&runs, &part.name) {
+                // In the order of `Hit::prototype_mesh`: meshes, points, curves.
+                let meshes = p.meshes.iter().map(|x| (&x.names, &m.meshes[x.mesh as usize].path));
+                let points = p.points.iter().map(|x| (&x.names, &m.points[x.points as usize].path));
+                let curves = p.curves.iter().map(|x| (&x.names, &m.curves[x.curves as usize].path));
+                meshes
+                    .chain(points)
+                    .chain(curves)
+                    .map(|(names, path)| match (&runs, &names.name) {
                         (Some(_), Some(name)) => PartName {
                             name: name.clone(),
-                            asset: part.asset.clone(),
+                            asset: names.asset.clone(),
                         },
                         _ => PartName {
-                            name: m.meshes[part.mesh as usize].path.clone(),
+                            name: path.clone(),
                             asset: None,
                         },
                     })

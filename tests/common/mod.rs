@@ -54,6 +54,21 @@ pub fn cirrus_ok(args: &[&std::ffi::OsStr]) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
+/// The USD layer `text` written to `dir/stage.usda` and exported by
+/// `cirrus export` into `dir/out`, which it returns.
+pub fn export_usda(dir: &Path, text: &str) -> PathBuf {
+    let usda = dir.join("stage.usda");
+    std::fs::write(&usda, text).unwrap();
+    let out = dir.join("out");
+    cirrus_ok(&[
+        "export".as_ref(),
+        usda.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    out
+}
+
 /// The project's venv Python (usd-core, OpenEXR, numpy), made by `.ci/setup`.
 pub fn venv_python() -> PathBuf {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python");
