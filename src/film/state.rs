@@ -2,7 +2,8 @@
 //! settings and progress of the render that made it), so an interrupted
 //! render resumes bit-identically. Written atomically, checked by CRC-32.
 //!
-//! Layout, version 1 (integers and floats little-endian):
+//! Layout, version 2 (integers and floats little-endian; version 1, which
+//! this build still reads, is the same without `adaptive` and its section):
 //!
 //! | bytes | what |
 //! |---|---|
@@ -14,6 +15,7 @@
 //! | 4 x stride per pixel | summed AOVs (light paths, albedo, N, P) as f32, in set order |
 //! | 4 per pixel | minimum depth f32, when `Z` is chosen |
 //! | .. per pixel | Cryptomatte object then material coverage, when chosen: u32 n, then n x (u32 index, u32 samples) |
+//! | 29 per pixel | when `adaptive`: the half buffer's `rgb` 3 x f64 and `count` u32, then u8 1 if the pixel samples in the current pass |
 //! | 4 | CRC-32 (IEEE) of every byte before it |
 
 use std::io::{BufWriter, Write};
@@ -31,7 +33,9 @@ use super::sums::{Film, NonFiniteSamples, PixelSum, Tile};
 /// The first bytes of every film-state file.
 const MAGIC: &[u8; 8] = b"CIRRUSFS";
 /// The layout version this build writes and reads.
-pub const FILM_STATE_VERSION: u32 = 1;
+pub const FILM_STATE_VERSION: u32 = 2;
+/// The oldest layout this build reads (a film without adaptive sampling).
+const OLDEST_VERSION: u32 = 1;
 /// Bytes of one [`PixelSum`] on disk.
 const PIXEL_BYTES: usize = 56;
 
@@ -63,6 +67,9 @@ struct Frame<H> {
     window: [u32; 4],
     aovs: String,
     non_finite: NonFiniteRecord,
+    /// The film keeps adaptive sampling's half buffer (absent in version 1).
+    #[serde(default)]
+    adaptive: bool,
     header: H,
 }
 
@@ -93,6 +100,7 @@ pub fn write_film_state<H: Serialize>(
             count: film.non_finite.count,
             first: film.non_finite.first.map(|(p, s)| [p.x, p.y, s]),
         },
+        adaptive: film.keeps_halves(),
         header,
     };
     let json = serde_json::to_vec(&frame).map_err(|e| FilmStateError::Io {
@@ -155,6 +163,15 @@ fn write_sums(out: &mut impl Write, film: &Film) -> std::io::Result<()> {
             out.write_all(&samples.to_le_bytes())?;
         }
     }
+    if let Some(halves) = &film.halves {
+        for (half, &active) in halves.sums.iter().zip(&halves.active) {
+            for v in half.rgb {
+                out.write_all(&v.to_le_bytes())?;
+            }
+            out.write_all(&half.count.to_le_bytes())?;
+            out.write_all(&[u8::from(active)])?;
+        }
+    }
     Ok(())
 }
 
@@ -175,9 +192,9 @@ fn decode<H: DeserializeOwned>(bytes: &[u8]) -> Result<(H, Film), String> {
         bytes: &body[MAGIC.len()..],
     };
     let version = r.u32()?;
-    if version != FILM_STATE_VERSION {
+    if !(OLDEST_VERSION..=FILM_STATE_VERSION).contains(&version) {
         return Err(format!(
-            "version {version}; this Cirrus reads version {FILM_STATE_VERSION}"
+            "version {version}; this Cirrus reads versions {OLDEST_VERSION} to {FILM_STATE_VERSION}"
         ));
     }
     let json_len = usize::try_from(r.u64()?).map_err(|_| "frame length overflows")?;
@@ -215,6 +232,20 @@ fn decode<H: DeserializeOwned>(bytes: &[u8]) -> Result<(H, Film), String> {
         *coverage = CryptoCoverage::default();
         for _ in 0..r.u32()? {
             coverage.add_count(r.u32()?, r.u32()?);
+        }
+    }
+    if frame.adaptive {
+        film.keep_halves();
+    }
+    if let Some(halves) = &mut film.halves {
+        for (half, active) in halves.sums.iter_mut().zip(&mut halves.active) {
+            half.rgb = [r.f64()?, r.f64()?, r.f64()?];
+            half.count = r.u32()?;
+            *active = match r.take(1)? {
+                [0] => false,
+                [1] => true,
+                other => return Err(format!("active flag {other:?} is neither 0 nor 1")),
+            };
         }
     }
     if !r.bytes.is_empty() {
@@ -358,6 +389,50 @@ mod tests {
         );
         assert_eq!(back.non_finite, film.non_finite);
         assert_eq!(layers(&back), layers(&film));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn adaptive_films_round_trip_and_version_1_files_still_read() {
+        let dir = std::env::temp_dir().join(format!("cirrus_film_adaptive_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("a.checkpoint");
+        let mut adaptive =
+            Film::cropped(film().resolution, film().window, film().aov_set().clone());
+        adaptive.keep_halves();
+        for tile in adaptive.tiles(4) {
+            let mut t = adaptive.tile_film(tile);
+            for s in 0..4u32 {
+                let v = Vec3::new(s as f32, 1.0, 2.0 * (tile.origin.x + s) as f32);
+                t.add(tile.origin, s, v, &AovSample::default());
+            }
+            adaptive.merge(&t);
+        }
+        adaptive.decide_active(0.01);
+        write_film_state(&path, &adaptive, &0u32).unwrap();
+        let (_, back): (u32, Film) = read_film_state(&path).unwrap();
+        assert!(back.halves.is_some() && back.halves == adaptive.halves);
+        assert_eq!(layers(&back), layers(&adaptive));
+        // A version-1 file: a film without halves, as older builds wrote it.
+        write_film_state(&path, &film(), &0u32).unwrap();
+        let mut bytes = std::fs::read(&path).unwrap();
+        bytes[8..12].copy_from_slice(&1u32.to_le_bytes());
+        let body = bytes.len() - 4;
+        let crc = crc32fast::hash(&bytes[..body]);
+        bytes[body..].copy_from_slice(&crc.to_le_bytes());
+        std::fs::write(&path, &bytes).unwrap();
+        let (_, old): (u32, Film) = read_film_state(&path).unwrap();
+        assert!(!old.keeps_halves());
+        assert_eq!(layers(&old), layers(&film()));
+        bytes[8..12].copy_from_slice(&3u32.to_le_bytes());
+        let crc = crc32fast::hash(&bytes[..body]);
+        bytes[body..].copy_from_slice(&crc.to_le_bytes());
+        std::fs::write(&path, &bytes).unwrap();
+        let err = read_film_state::<u32>(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("version 3; this Cirrus reads versions 1 to 2"),
+            "{err}"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -123,5 +123,6 @@ pub(super) fn settings(spp: u32, aovs: AovSet) -> RenderSettings {
             equiangular: true,
         },
         aovs,
+        adaptive: None,
     }
 }

@@ -43,6 +43,7 @@ pub(crate) fn base_settings(budget: Budget, seed: u64) -> RenderSettings {
             equiangular: true,
         },
         aovs: AovSet::beauty_only(),
+        adaptive: None,
     }
 }
 
