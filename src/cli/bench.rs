@@ -113,6 +113,10 @@ pub enum Bench {
         /// Folder for the reference EXRs and the charts.
         #[arg(long, default_value = "out/bench-render")]
         out: PathBuf,
+        /// Instead: the seconds adaptive sampling (--noise-threshold) takes
+        /// to reach uniform sampling's relMSE at each budget.
+        #[arg(long)]
+        adaptive: bool,
     },
     /// Participating media: density lookups per camera ray, null-collision
     /// share, majorant violations and the equal-time relative MSE against a
@@ -258,10 +262,14 @@ pub fn run(bench: Bench) -> Result<()> {
             repeats,
             threads,
             out,
+            adaptive,
         } => {
             let settings = (reference_spp, times, repeats);
             let bench = EqualTimeBench::new(scenes, res, settings, None, threads, (out, None));
-            lab::bench_render(&bench)
+            match adaptive {
+                true => lab::bench_adaptive(&bench),
+                false => lab::bench_render(&bench),
+            }
         }
         Bench::Volumes {
             scenes,

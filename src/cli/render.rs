@@ -16,9 +16,9 @@ use cirrus::farm::{
     save_interrupted, write_finished, write_snapshot, Fingerprint, FrameRange, ImageFormat,
     OutputFlags, PartInfo, RenderIdentity,
 };
-use cirrus::film::AovSet;
 use cirrus::film::Film;
 use cirrus::film::FilterKind;
+use cirrus::film::{AdaptiveSampling, AovSet};
 use cirrus::image::Compression;
 use cirrus::integrator::{
     self, Budget, PathSettings, Periodic, RenderControl, RenderSettings, RenderStats, Snapshot,
@@ -96,6 +96,15 @@ pub struct RenderArgs {
     /// scenes; docs/volumes.md). Both unbiased.
     #[arg(long, default_value = "off", value_parser = on_off, value_name = "on|off", action = clap::ArgAction::Set)]
     camera_ray_transmittance: bool,
+    /// Adaptive sampling: a pixel stops once its relative noise estimate is
+    /// under this (e.g. 0.05), checked between passes; --spp stays the cap.
+    /// Off by default (it is slightly biased: docs/rendering.md).
+    #[arg(long, value_name = "T", value_parser = parse_noise_threshold, allow_hyphen_values = true)]
+    noise_threshold: Option<f32>,
+    /// Samples every pixel takes before adaptive sampling may stop it
+    /// [default: max(4, ceil(16 / T^0.3)) as in Cycles: 32 at 0.1, 64 at 0.01].
+    #[arg(long, requires = "noise_threshold", value_parser = clap::value_parser!(u32).range(2..))]
+    min_spp: Option<u32>,
     /// AOVs beside the beauty: default, all, beauty (none) or a
     /// comma-separated list (emission, diffuse_direct, diffuse_indirect,
     /// specular_direct, specular_indirect, transmission, volume_direct,
@@ -184,6 +193,14 @@ fn parse_seconds(s: &str) -> Result<Duration, String> {
         .ok_or_else(|| format!("{s:?}: must be a positive number of seconds"))
 }
 
+/// Parses `--noise-threshold`: a positive, finite relative error.
+fn parse_noise_threshold(s: &str) -> Result<f32, String> {
+    s.parse::<f32>()
+        .ok()
+        .filter(|t| t.is_finite() && *t > 0.0)
+        .ok_or_else(|| format!("{s:?}: must be a positive number, e.g. 0.05"))
+}
+
 /// Runs `cirrus render`: one frame, or each of `--frames` in turn.
 pub fn run(args: RenderArgs) -> Result<()> {
     let signal = StopSignal::install().context("cannot install the SIGINT/SIGTERM handlers")?;
@@ -240,11 +257,17 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
             camera_ray_transmittance: args.camera_ray_transmittance,
         },
         aovs: AovSet::default(),
+        adaptive: args
+            .noise_threshold
+            .map(|t| AdaptiveSampling::new(t, args.min_spp)),
     };
     let film_output = args.output.as_deref().is_some_and(is_film_output);
     let part = args.part.request();
     if film_output && args.preview_every.is_some() {
         bail!("--preview-every: a film state (-o *.film) has no preview; write an EXR");
+    }
+    if settings.adaptive.is_some() && part.sample_range.is_some() {
+        bail!("--noise-threshold cannot be split by --sample-range: which pixels stop depends on all their samples; split the frame by --tile or --crop instead");
     }
     if part.is_part() && !film_output {
         bail!("--tile, --crop and --sample-range render a part of a frame: write it with -o PART.film and join the parts with cirrus merge");

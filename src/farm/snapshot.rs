@@ -63,9 +63,15 @@ impl Fingerprint {
             ),
             ("aovs", settings.aovs.to_string()),
         ];
+        // Only adaptive renders name it, so older checkpoints still match.
+        let adaptive = settings.adaptive.map(|a| {
+            let value = format!("{} (--min-spp {})", a.threshold, a.min_samples);
+            ("noise-threshold", value)
+        });
         Ok(Self(
             entries
                 .into_iter()
+                .chain(adaptive)
                 .map(|(k, v)| (k.to_string(), v))
                 .collect(),
         ))

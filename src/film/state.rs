@@ -14,6 +14,7 @@
 //! | 4 x stride per pixel | summed AOVs (light paths, albedo, N, P) as f32, in set order |
 //! | 4 per pixel | minimum depth f32, when `Z` is chosen |
 //! | .. per pixel | Cryptomatte object, material then asset coverage, when chosen: u32 n, then n x (u32 id, u32 samples), the id being the MurmurHash3 of the name |
+//! | 29 per pixel | when `adaptive`: the half buffer's `rgb` 3 x f64 and `count` u32, then u8 1 if the pixel samples in the current pass |
 //! | 4 | CRC-32 (IEEE) of every byte before it |
 
 use std::io::{BufWriter, Write};
@@ -32,7 +33,8 @@ use super::sums::{Film, NonFiniteSamples, PixelSum, Tile};
 const MAGIC: &[u8; 8] = b"CIRRUSFS";
 /// The layout version this build writes and reads.
 /// (Version 1 stored Cryptomatte coverage by mesh and material index;
-/// version 2 by the names' MurmurHash3.)
+/// version 2 by the names' MurmurHash3, and adaptive sampling's half
+/// buffer when the frame says `adaptive`.)
 pub const FILM_STATE_VERSION: u32 = 2;
 /// Bytes of one [`PixelSum`] on disk.
 const PIXEL_BYTES: usize = 56;
@@ -65,6 +67,9 @@ struct Frame<H> {
     window: [u32; 4],
     aovs: String,
     non_finite: NonFiniteRecord,
+    /// The film keeps adaptive sampling's half buffer.
+    #[serde(default)]
+    adaptive: bool,
     header: H,
 }
 
@@ -95,6 +100,7 @@ pub fn write_film_state<H: Serialize>(
             count: film.non_finite.count,
             first: film.non_finite.first.map(|(p, s)| [p.x, p.y, s]),
         },
+        adaptive: film.keeps_halves(),
         header,
     };
     let json = serde_json::to_vec(&frame).map_err(|e| FilmStateError::Io {
@@ -157,6 +163,15 @@ fn write_sums(out: &mut impl Write, film: &Film) -> std::io::Result<()> {
             out.write_all(&samples.to_le_bytes())?;
         }
     }
+    if let Some(halves) = &film.halves {
+        for (half, &active) in halves.sums.iter().zip(&halves.active) {
+            for v in half.rgb {
+                out.write_all(&v.to_le_bytes())?;
+            }
+            out.write_all(&half.count.to_le_bytes())?;
+            out.write_all(&[u8::from(active)])?;
+        }
+    }
     Ok(())
 }
 
@@ -179,7 +194,8 @@ fn decode<H: DeserializeOwned>(bytes: &[u8]) -> Result<(H, Film), String> {
     let version = r.u32()?;
     if version != FILM_STATE_VERSION {
         return Err(format!(
-            "version {version}; this Cirrus reads version {FILM_STATE_VERSION}"
+            "version {version}; this Cirrus reads version {FILM_STATE_VERSION} (render again, or \
+             finish it with the Cirrus that wrote it)"
         ));
     }
     let json_len = usize::try_from(r.u64()?).map_err(|_| "frame length overflows")?;
@@ -217,6 +233,20 @@ fn decode<H: DeserializeOwned>(bytes: &[u8]) -> Result<(H, Film), String> {
         *coverage = CryptoCoverage::default();
         for _ in 0..r.u32()? {
             coverage.add_count(r.u32()?, r.u32()?);
+        }
+    }
+    if frame.adaptive {
+        film.keep_halves();
+    }
+    if let Some(halves) = &mut film.halves {
+        for (half, active) in halves.sums.iter_mut().zip(&mut halves.active) {
+            half.rgb = [r.f64()?, r.f64()?, r.f64()?];
+            half.count = r.u32()?;
+            *active = match r.take(1)? {
+                [0] => false,
+                [1] => true,
+                other => return Err(format!("active flag {other:?} is neither 0 nor 1")),
+            };
         }
     }
     if !r.bytes.is_empty() {
@@ -350,6 +380,49 @@ mod tests {
         );
         assert_eq!(back.non_finite, film.non_finite);
         assert_eq!(layers(&back), layers(&film));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn adaptive_films_round_trip_and_other_versions_are_refused() {
+        let dir = std::env::temp_dir().join(format!("cirrus_film_adaptive_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("a.checkpoint");
+        let mut adaptive =
+            Film::cropped(film().resolution, film().window, film().aov_set().clone());
+        adaptive.keep_halves();
+        for tile in adaptive.tiles(4) {
+            let mut t = adaptive.tile_film(tile);
+            for s in 0..4u32 {
+                let v = Vec3::new(s as f32, 1.0, 2.0 * (tile.origin.x + s) as f32);
+                t.add(tile.origin, s, v, &AovSample::default());
+            }
+            adaptive.merge(&t);
+        }
+        adaptive.decide_active(0.01);
+        write_film_state(&path, &adaptive, &0u32).unwrap();
+        let (_, back): (u32, Film) = read_film_state(&path).unwrap();
+        assert!(back.halves.is_some() && back.halves == adaptive.halves);
+        assert_eq!(layers(&back), layers(&adaptive));
+        // A film without halves reads back without them.
+        write_film_state(&path, &film(), &0u32).unwrap();
+        let (_, plain): (u32, Film) = read_film_state(&path).unwrap();
+        assert!(!plain.keeps_halves());
+        assert_eq!(layers(&plain), layers(&film()));
+        // Version 1 (coverage by index) and a future version are refused.
+        let mut bytes = std::fs::read(&path).unwrap();
+        let body = bytes.len() - 4;
+        for version in [1u32, 3] {
+            bytes[8..12].copy_from_slice(&version.to_le_bytes());
+            let crc = crc32fast::hash(&bytes[..body]);
+            bytes[body..].copy_from_slice(&crc.to_le_bytes());
+            std::fs::write(&path, &bytes).unwrap();
+            let err = read_film_state::<u32>(&path).unwrap_err().to_string();
+            assert!(
+                err.contains(&format!("version {version}; this Cirrus reads version 2")),
+                "{err}"
+            );
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

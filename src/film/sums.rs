@@ -6,6 +6,7 @@ use glam::{UVec2, Vec3};
 
 use std::collections::BTreeSet;
 
+use super::adaptive::{ActivePixels, HalfSum, Halves};
 use super::aov::{Aov, AovSample, AovSet, CRYPTOMATTES};
 use super::cryptomatte::{CryptoCoverage, CHANNELS};
 use crate::image::{Channel, PixelType};
@@ -216,6 +217,8 @@ pub struct TileFilm {
     /// Its dropped samples.
     pub non_finite: NonFiniteSamples,
     aovs: AovBuffers,
+    /// Sums of the odd-indexed samples, for adaptive sampling.
+    halves: Option<Vec<HalfSum>>,
 }
 
 impl TileFilm {
@@ -227,6 +230,7 @@ impl TileFilm {
             pixels: vec![PixelSum::default(); pixels],
             non_finite: NonFiniteSamples::default(),
             aovs: AovBuffers::new(set, pixels),
+            halves: None,
         }
     }
 
@@ -250,6 +254,12 @@ impl TileFilm {
         sum.count += 1;
         sum.opaque += u32::from(aovs.opaque);
         self.aovs.add(i, aovs);
+        if let Some(half) = self.halves.as_mut().filter(|_| sample % 2 == 1) {
+            half[i].add(&HalfSum {
+                rgb: radiance.to_array().map(f64::from),
+                count: 1,
+            });
+        }
     }
 }
 
@@ -268,6 +278,8 @@ pub struct Film {
     set: AovSet,
     /// The chosen AOVs' accumulators.
     pub(super) aovs: AovBuffers,
+    /// Adaptive sampling's half buffer and active pixels, when on.
+    pub(super) halves: Option<Halves>,
 }
 
 impl Film {
@@ -290,7 +302,50 @@ impl Film {
             non_finite: NonFiniteSamples::default(),
             aovs: AovBuffers::new(&set, pixels),
             set,
+            halves: None,
         }
+    }
+
+    /// Keeps the half buffer adaptive sampling decides from (see
+    /// `adaptive.rs`), with every pixel active; call on an empty film. A
+    /// film that keeps it already is left as it is.
+    pub fn keep_halves(&mut self) {
+        if self.halves.is_none() {
+            self.halves = Some(Halves::new(self.pixels.len()));
+        }
+    }
+
+    /// Whether the film keeps the half buffer (an adaptive render's).
+    pub fn keeps_halves(&self) -> bool {
+        self.halves.is_some()
+    }
+
+    /// At a pass boundary of an adaptive render: decides which pixels take
+    /// the next pass's samples (`adaptive.rs`), every pixel's error under
+    /// `threshold` against the sums so far.
+    pub fn decide_active(&mut self, threshold: f32) {
+        if let Some(halves) = &mut self.halves {
+            let full = self.pixels.iter().map(|p| (p.rgb, p.count));
+            halves.decide(full, self.window.size.x as usize, threshold);
+        }
+    }
+
+    /// The pixels that take the current pass's samples; `None` when the
+    /// film does not adapt (every pixel does).
+    pub fn active_pixels(&self) -> Option<ActivePixels> {
+        let halves = self.halves.as_ref()?;
+        let (origin, width) = (self.window.origin, self.window.size.x);
+        Some(ActivePixels::new(origin, width, halves.active.clone()))
+    }
+
+    /// An empty film of `tile` (inside the window) that sums what this one
+    /// does, ready to [`merge`](Self::merge) into it.
+    pub fn tile_film(&self, tile: Tile) -> TileFilm {
+        let mut film = TileFilm::new(tile, &self.set);
+        if self.halves.is_some() {
+            film.halves = Some(vec![HalfSum::default(); film.pixels.len()]);
+        }
+        film
     }
 
     /// Bytes the sums of a film of `pixels` pixels accumulating `set` hold
@@ -312,7 +367,10 @@ impl Film {
         (self.pixels.capacity() * std::mem::size_of::<PixelSum>()
             + 4 * a.sums.capacity()
             + 4 * a.depth.as_ref().map_or(0, Vec::capacity)
-            + crypto * std::mem::size_of::<CryptoCoverage>()) as u64
+            + crypto * std::mem::size_of::<CryptoCoverage>()
+            + self.halves.as_ref().map_or(0, |h| {
+                h.sums.capacity() * std::mem::size_of::<HalfSum>() + h.active.capacity()
+            })) as u64
     }
 
     /// The AOVs this film accumulates.
@@ -352,6 +410,9 @@ impl Film {
                 let to = self.index(t.origin + UVec2::new(x, y));
                 self.pixels[to].add(&tile.pixels[from]);
                 self.aovs.merge(to, &tile.aovs, from);
+                if let (Some(h), Some(t)) = (&mut self.halves, &tile.halves) {
+                    h.sums[to].add(&t[from]);
+                }
             }
         }
         self.non_finite.merge(&tile.non_finite);

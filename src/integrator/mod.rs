@@ -7,6 +7,9 @@
 //! sample count the image is bit-identical whatever the thread count, and
 //! whether or not the render was stopped and resumed (see `progress.rs`).
 //! (`--time` budgets stop after a number of passes that depends on speed.)
+//! Adaptive sampling keeps that: which pixels sample in a pass is decided
+//! over the whole film when the pass starts, from the sums every tile has
+//! then, and kept in the film (and its checkpoints) until the pass ends.
 
 mod gathered;
 mod media;
@@ -22,7 +25,7 @@ use std::time::{Duration, Instant};
 use glam::{UVec2, Vec2};
 use rayon::prelude::*;
 
-use crate::film::AovSet;
+use crate::film::{ActivePixels, AdaptiveSampling, AovSet};
 use crate::film::{Film, NonFiniteSamples, Tile, TileFilm};
 use crate::film::{FilterKind, PixelFilter};
 use crate::render_state::RenderState;
@@ -161,6 +164,9 @@ pub struct RenderSettings {
     pub path: PathSettings,
     /// The AOVs accumulated beside the beauty.
     pub aovs: AovSet,
+    /// Stop each pixel once its noise estimate is under a threshold
+    /// (`--noise-threshold`; slightly biased, off by default).
+    pub adaptive: Option<AdaptiveSampling>,
 }
 
 /// Rays traced, by kind.
@@ -253,6 +259,10 @@ pub fn render_from(
         }
         Budget::Time(limit) => seconds() / limit.as_secs_f64(),
     };
+    let mut start = start;
+    if settings.adaptive.is_some() {
+        start.film.keep_halves();
+    }
     let shared = Mutex::new(start);
     let last_saves = Mutex::new(vec![Instant::now(); control.periodic.len()]);
     loop {
@@ -276,15 +286,30 @@ pub fn render_from(
             .filter(|&(_, &s)| s == done)
             .map(|(i, _)| i)
             .collect();
+        let active = settings.adaptive.and_then(|adaptive| {
+            let mut now = lock(&shared);
+            if pending.len() == tiles.len() && done - first >= adaptive.min_samples {
+                // A new pass (not one resumed half-way): decide it.
+                now.film.decide_active(adaptive.threshold);
+            }
+            now.film.active_pixels()
+        });
+        if active.as_ref().is_some_and(|a| a.count() == 0) {
+            break; // Every pixel has converged.
+        }
         pending.par_iter().for_each(|&i| {
             if (control.stop)() {
                 return;
             }
-            let mut out = TileFilm::new(tiles[i], &settings.aovs);
+            let mut out = lock(&shared).film.tile_film(tiles[i]);
             let mut rays = RayCounts::default();
             let mut tracking = TrackingStats::default();
             let counts = (&mut rays, &mut tracking);
-            render_tile(state, settings, &filter, done..end, &mut out, counts);
+            let pass = Pass {
+                samples: done..end,
+                active: active.as_ref(),
+            };
+            render_tile(state, settings, &filter, pass, &mut out, counts);
             let mut now = lock(&shared);
             now.film.merge(&out);
             now.progress.tile_samples[i] = end;
@@ -322,12 +347,20 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Samples `samples` of every pixel of one tile into `out`.
+/// The samples one pass takes.
+struct Pass<'a> {
+    /// Sample indices.
+    samples: std::ops::Range<u32>,
+    /// The pixels that take them (all when `None`).
+    active: Option<&'a ActivePixels>,
+}
+
+/// Samples `pass` of every pixel of one tile that it names into `out`.
 fn render_tile(
     state: &RenderState,
     settings: &RenderSettings,
     filter: &PixelFilter,
-    samples: std::ops::Range<u32>,
+    pass: Pass,
     out: &mut TileFilm,
     (rays, tracking): (&mut RayCounts, &mut TrackingStats),
 ) {
@@ -336,7 +369,10 @@ fn render_tile(
     for y in tile.origin.y..tile.origin.y + tile.size.y {
         for x in tile.origin.x..tile.origin.x + tile.size.x {
             let pixel = UVec2::new(x, y);
-            for index in samples.clone() {
+            if pass.active.is_some_and(|a| !a.contains(pixel)) {
+                continue;
+            }
+            for index in pass.samples.clone() {
                 sampler.start_pixel_sample(pixel, index);
                 let film = pixel.as_vec2() + Vec2::splat(0.5) + filter.sample(sampler.next_2d());
                 let u_lens = sampler.next_2d();

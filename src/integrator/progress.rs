@@ -116,6 +116,14 @@ impl Snapshot {
                 settings.aovs
             ));
         }
+        if film.keeps_halves() != settings.adaptive.is_some() {
+            let with = |on: bool| if on { "with" } else { "without" };
+            return Err(format!(
+                "it was rendered {} adaptive sampling, this render is {} it",
+                with(film.keeps_halves()),
+                with(settings.adaptive.is_some())
+            ));
+        }
         let tiles = film.tiles(TILE_SIZE).len();
         let p = &self.progress;
         if p.tile_samples.len() != tiles {

@@ -125,5 +125,6 @@ pub(super) fn settings(spp: u32, aovs: AovSet) -> RenderSettings {
             camera_ray_transmittance: false,
         },
         aovs,
+        adaptive: None,
     }
 }

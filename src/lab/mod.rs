@@ -25,6 +25,7 @@
 //! (SVG charts), `files` (CSV and text files), `peers` (the peer
 //! renderers, driven through `scenes/peers/render_peer.py`).
 
+mod adaptive;
 mod aovs;
 mod chart;
 mod converge;
@@ -55,6 +56,7 @@ use crate::render_state::RenderStateError;
 use crate::scene::{ExportError, OpenError, SceneError};
 use crate::volumes::VolumeError;
 
+pub use adaptive::run as bench_adaptive;
 pub use aovs::{run as bench_aovs, AovsBench};
 pub use converge::{parse_method, run as converge, ConvergeOptions, Method};
 pub use equal_time::EqualTimeBench;

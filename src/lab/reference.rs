@@ -44,6 +44,7 @@ pub(crate) fn base_settings(budget: Budget, seed: u64) -> RenderSettings {
             camera_ray_transmittance: false,
         },
         aovs: AovSet::beauty_only(),
+        adaptive: None,
     }
 }
 
