@@ -2,226 +2,23 @@
 //! scene (exported folder, its scene.json, or a USD file exported through the
 //! cache), the grid table for anything else (OpenVDB says when it is not a VDB).
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::Result;
 
-use cirrus::scene::{self, Scene};
-use cirrus::volumes::{GridInfo, VdbFile};
+use cirrus::scene;
+use cirrus::volumes::{grid_table, VdbFile};
 
 pub fn run(file: &Path) -> Result<()> {
     let is_scene = file.is_dir() || file.file_name().is_some_and(|n| n == scene::MANIFEST_FILE);
-    if is_scene || cirrus::scene::is_usd(file) {
+    if is_scene || scene::is_usd(file) {
         print!(
             "{}",
-            scene_summary(&cirrus::scene::Scene::open(file, &Default::default())?)
+            scene::summary(&scene::Scene::open(file, &Default::default())?)
         );
     } else {
         let vdb = VdbFile::open(file)?;
         print!("{}", grid_table(&vdb));
     }
     Ok(())
-}
-
-/// Counts of everything a scene holds, one line per kind.
-fn scene_summary(scene: &Scene) -> String {
-    let m = &scene.manifest;
-    let mut out = format!(
-        "{}: scene from {}",
-        scene.dir.display(),
-        m.source.path.display()
-    );
-    if let Some(t) = m.source.time_code {
-        out += &format!(" at time {t}");
-    }
-    out += "\n";
-    let mut line = |label: &str, value: String| out += &format!("  {label:<12} {value}\n");
-
-    // Triangles per prototype, then per instance through its prototype.
-    let proto_triangles: Vec<u64> = m
-        .prototypes
-        .iter()
-        .map(|p| {
-            p.meshes
-                .iter()
-                .map(|part| m.meshes[part.mesh as usize].triangles.count)
-                .sum()
-        })
-        .collect();
-    let instanced: u64 = scene
-        .view(&m.instances.prototype)
-        .iter()
-        .map(|&p| proto_triangles[p as usize])
-        .sum();
-    let unique: u64 = m.meshes.iter().map(|mesh| mesh.triangles.count).sum();
-
-    line("prototypes", m.prototypes.len().to_string());
-    line(
-        "instances",
-        format!(
-            "{} from {} source prim(s)",
-            m.instances.count,
-            m.instances.instance_sources.len()
-        ),
-    );
-    line("meshes", m.meshes.len().to_string());
-    line(
-        "triangles",
-        format!("{unique} unique, {instanced} instanced"),
-    );
-    let points: u64 = m.points.iter().map(|p| p.points.count).sum();
-    line("points", format!("{points} in {} prim(s)", m.points.len()));
-    let pieces: u64 = m
-        .curves
-        .iter()
-        .map(|c| c.points.count - c.vertex_counts.count)
-        .sum();
-    let curves: u64 = m.curves.iter().map(|c| c.vertex_counts.count).sum();
-    line(
-        "curves",
-        format!(
-            "{curves} in {} prim(s), {pieces} tube pieces",
-            m.curves.len()
-        ),
-    );
-    line(
-        "lights",
-        counted(m.lights.len(), m.lights.iter().map(|l| l.shape.type_name())),
-    );
-    let skipped: Vec<&scene::Material> = m.skipped_looks().collect();
-    line(
-        "materials",
-        format!(
-            "{}; {} fell back, {} skipped a richer look",
-            counted(m.materials.len(), m.material_models()),
-            m.fallback_count(),
-            skipped.len()
-        ),
-    );
-    for mat in skipped {
-        line("", format!("{}: {}", mat.path, mat.skipped.join("; ")));
-    }
-    line("subdivided", scene.subdivision.to_string());
-    line("textures", m.textures.len().to_string());
-    line("volumes", m.volumes.len().to_string());
-    for v in &m.volumes {
-        let fields: Vec<String> = v
-            .fields
-            .iter()
-            .map(|(name, f)| format!("{name} = {}:{}[{}]", f.file.display(), f.grid, f.index))
-            .collect();
-        line("", format!("{}: {}", v.path, fields.join(", ")));
-    }
-    let c = &m.camera;
-    line(
-        "camera",
-        format!(
-            "{} ({}, focal length {}, aperture {} x {})",
-            c.path.as_deref().unwrap_or("default, framing the bounds"),
-            format!("{:?}", c.projection).to_lowercase(),
-            c.focal_length,
-            c.horizontal_aperture,
-            c.vertical_aperture
-        ),
-    );
-    line(
-        "resolution",
-        m.render
-            .resolution
-            .map_or("not set".to_owned(), |[w, h]| format!("{w} x {h}")),
-    );
-    line(
-        "bounds",
-        format!(
-            "[{}] .. [{}] ({} m per unit, {:?} up)",
-            join(m.bounds.min),
-            join(m.bounds.max),
-            m.stage.meters_per_unit,
-            m.stage.up_axis
-        ),
-    );
-    let bytes = scene.array_bytes();
-    let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
-    line(
-        "arrays",
-        format!(
-            "meshes {:.2} MiB, instances {:.2} MiB",
-            mib(bytes.meshes),
-            mib(bytes.instances)
-        ),
-    );
-    line("warnings", m.warnings.len().to_string());
-    out
-}
-
-/// "3 (1 distant, 2 rect)": a total and its breakdown by name.
-fn counted<'a>(total: usize, names: impl Iterator<Item = &'a str>) -> String {
-    let mut by_name = BTreeMap::<&str, usize>::new();
-    for name in names {
-        *by_name.entry(name).or_default() += 1;
-    }
-    if by_name.is_empty() {
-        return total.to_string();
-    }
-    let parts: Vec<String> = by_name.iter().map(|(n, c)| format!("{c} {n}")).collect();
-    format!("{total} ({})", parts.join(", "))
-}
-
-fn join(v: [f32; 3]) -> String {
-    format!("{} {} {}", v[0], v[1], v[2])
-}
-
-/// The grid table of a VDB file: one row per grid, in file order.
-fn grid_table(vdb: &VdbFile) -> String {
-    let mut out = format!("{}: {} grid(s)\n", vdb.path().display(), vdb.grids().len());
-    for (i, g) in vdb.grids().iter().enumerate() {
-        out += &format!("\n[{i}] {}  ({}, {})\n", g.name, g.value_type, g.grid_class);
-        out += &format!("    voxel size      {}\n", vec3(g.voxel_size.to_array()));
-        out += &format!("    active voxels   {}\n", g.active_voxel_count);
-        out += &bounds_line(g);
-        match g.world_from_index {
-            Some(m) => {
-                let m = glam::DMat4::from(m);
-                out += "    world_from_index\n";
-                for r in 0..4 {
-                    out += &format!("      {}\n", vec3_4(m.row(r).to_array()));
-                }
-            }
-            None => {
-                out += "    transform       non-affine (frustum): not supported for rendering\n"
-            }
-        }
-    }
-    out
-}
-
-fn bounds_line(g: &GridInfo) -> String {
-    if g.active_voxel_count == 0 {
-        return "    index bounds    empty\n".to_owned();
-    }
-    let d = g.dims();
-    format!(
-        "    index bounds    [{}, {}, {}] .. [{}, {}, {}]  ({} x {} x {})\n",
-        g.index_min.x,
-        g.index_min.y,
-        g.index_min.z,
-        g.index_max.x,
-        g.index_max.y,
-        g.index_max.z,
-        d.x,
-        d.y,
-        d.z
-    )
-}
-
-fn vec3(v: [f64; 3]) -> String {
-    format!("{:.6} {:.6} {:.6}", v[0], v[1], v[2])
-}
-
-fn vec3_4(v: [f64; 4]) -> String {
-    format!(
-        "{:>12.6} {:>12.6} {:>12.6} {:>12.6}",
-        v[0], v[1], v[2], v[3]
-    )
 }

@@ -111,7 +111,8 @@ fn measure(
     ];
     run_venv_script("scenes/make_points_curves.py", &stage, &args)?;
     let scene_dir = dir.join(format!("stage_{i}"));
-    let (export_s, exported) = timed(|| crate::scene::export(&stage, &scene_dir, &Default::default()));
+    let (export_s, exported) =
+        timed(|| crate::scene::export(&stage, &scene_dir, &Default::default()));
     exported?;
     let [_, after_build, peak] = memory_in_child(&scene_dir)?;
     let repeats = bench.repeats.max(1);

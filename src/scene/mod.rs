@@ -21,6 +21,7 @@ mod load;
 mod material;
 mod names;
 mod subdivide;
+mod summary;
 
 use std::path::{Path, PathBuf};
 
@@ -45,6 +46,7 @@ pub use material::{
 };
 pub use names::InstanceNames;
 pub use subdivide::{Refinement, SubdivisionSummary};
+pub use summary::summary;
 
 /// A loaded, validated scene: the manifest records and the bulk data they reference.
 pub struct Scene {

@@ -55,9 +55,18 @@ impl InstanceNames {
             .iter()
             .map(|p| {
                 // In the order of `Hit::prototype_mesh`: meshes, points, curves.
-                let meshes = p.meshes.iter().map(|x| (&x.names, &m.meshes[x.mesh as usize].path));
-                let points = p.points.iter().map(|x| (&x.names, &m.points[x.points as usize].path));
-                let curves = p.curves.iter().map(|x| (&x.names, &m.curves[x.curves as usize].path));
+                let meshes = p
+                    .meshes
+                    .iter()
+                    .map(|x| (&x.names, &m.meshes[x.mesh as usize].path));
+                let points = p
+                    .points
+                    .iter()
+                    .map(|x| (&x.names, &m.points[x.points as usize].path));
+                let curves = p
+                    .curves
+                    .iter()
+                    .map(|x| (&x.names, &m.curves[x.curves as usize].path));
                 meshes
                     .chain(points)
                     .chain(curves)
