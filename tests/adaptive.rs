@@ -8,7 +8,6 @@ mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 use common::aovs::{render_args, Exr};
 
@@ -31,16 +30,6 @@ fn command(out: &Path, spp: u32, set: &[(&str, &str)], extra: &[&str]) -> Comman
     let mut c = Command::new(env!("CARGO_BIN_EXE_cirrus"));
     c.args(args).stdout(Stdio::piped()).stderr(Stdio::piped());
     c
-}
-
-/// Runs `command`, panicking with its stderr unless it succeeds.
-fn succeeds(mut command: Command) {
-    let out = command.output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
 }
 
 fn scratch(test: &str) -> PathBuf {
@@ -66,13 +55,13 @@ fn the_sky_gets_fewer_samples_and_the_mean_is_kept() {
     let dir = scratch("mean");
     let (adaptive, uniform) = (dir.join("adaptive.exr"), dir.join("uniform.exr"));
     let spp = 512;
-    succeeds(command(
+    common::succeeds(command(
         &adaptive,
         spp,
         &[("--noise-threshold", "0.02")],
         &[],
     ));
-    succeeds(command(&uniform, spp, &[("--seed", "2")], &[]));
+    common::succeeds(command(&uniform, spp, &[("--seed", "2")], &[]));
     let (a, u) = (Exr::read(&adaptive), Exr::read(&uniform));
     // Threshold 0.02: automatic minimum ceil(16 / 0.02^0.3) = 53, first
     // checked at the pass boundary 64; the sky's error is exactly 0.
@@ -104,8 +93,8 @@ fn adaptive_renders_do_not_depend_on_the_thread_count() {
     let dir = scratch("threads");
     let (one, two) = (dir.join("one.exr"), dir.join("two.exr"));
     let t = ("--noise-threshold", "0.05");
-    succeeds(command(&one, 128, &[t], &[]));
-    succeeds(command(&two, 128, &[t, ("--threads", "2")], &[]));
+    common::succeeds(command(&one, 128, &[t], &[]));
+    common::succeeds(command(&two, 128, &[t, ("--threads", "2")], &[]));
     assert!(
         common::channel_bits(&one) == common::channel_bits(&two),
         "1 and 2 threads differ"
@@ -121,26 +110,12 @@ fn a_resumed_adaptive_render_is_bit_identical() {
     let spp = 2048;
     let flags = [("--noise-threshold", "0.01")];
     let whole = dir.join("whole.exr");
-    succeeds(command(&whole, spp, &flags, &[]));
+    common::succeeds(command(&whole, spp, &flags, &[]));
     let exr = dir.join("resumed.exr");
     let checkpoint = dir.join("resumed.checkpoint");
-    let child = command(&exr, spp, &flags, &["--checkpoint-every", "0.2"])
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while !checkpoint.exists() {
-        assert!(start.elapsed() < Duration::from_secs(60), "no checkpoint");
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    let killed = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
-    let out = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(143), "finished first? {stderr}");
-    succeeds(command(&exr, spp, &flags, &["--resume"]));
+    let render = command(&exr, spp, &flags, &["--checkpoint-every", "0.2"]);
+    common::interrupted_after_checkpoint(render, &checkpoint, "TERM");
+    common::succeeds(command(&exr, spp, &flags, &["--resume"]));
     assert!(
         common::channel_bits(&exr) == common::channel_bits(&whole),
         "the resumed adaptive render differs"

@@ -15,7 +15,6 @@ mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 use common::aovs::{decode_cryptomatte, Exr, Matte};
 
@@ -48,15 +47,6 @@ fn render_command(scene: &Path, out: &Path, spp: u32, extra: &[&str]) -> Command
     .stdout(Stdio::piped())
     .stderr(Stdio::piped());
     c
-}
-
-fn succeeds(mut command: Command) {
-    let out = command.output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
 }
 
 /// The `cryptomatte/*` attributes of an EXR.
@@ -106,7 +96,7 @@ fn instances_are_named_by_their_own_prim_paths_stably_across_exports() {
     for export_dir in ["first", "second"] {
         let scene = export(&dir.join(export_dir));
         let exr = dir.join(format!("{export_dir}.exr"));
-        succeeds(render_command(&scene, &exr, 4, &["--threads", "1"]));
+        common::succeeds(render_command(&scene, &exr, 4, &["--threads", "1"]));
         renders.push(Exr::read(&exr));
     }
     let exr = &renders[0];
@@ -183,24 +173,12 @@ fn instances_are_named_by_their_own_prim_paths_stably_across_exports() {
     assert!(!exr.strings.values().any(|v| v.contains("__Prototype")));
 }
 
-/// Waits until `ready` holds, panicking after a minute.
-fn wait_for(what: &str, mut ready: impl FnMut() -> bool) {
-    let start = Instant::now();
-    while !ready() {
-        assert!(
-            start.elapsed() < Duration::from_secs(60),
-            "timed out: {what}"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
-}
-
 #[test]
 fn merged_and_resumed_frames_carry_the_whole_renders_manifests() {
     let dir = common::scratch("cryptomatte_parts");
     let scene = export(&dir);
     let whole = dir.join("whole.exr");
-    succeeds(render_command(&scene, &whole, 256, &["--threads", "2"]));
+    common::succeeds(render_command(&scene, &whole, 256, &["--threads", "2"]));
     let whole = Exr::read(&whole);
 
     // Two tiles, each seeing some of the objects, merged.
@@ -208,7 +186,7 @@ fn merged_and_resumed_frames_carry_the_whole_renders_manifests() {
         .map(|i| {
             let part = dir.join(format!("part{i}.film"));
             let tile = format!("{i}/2");
-            succeeds(render_command(&scene, &part, 256, &["--tile", &tile]));
+            common::succeeds(render_command(&scene, &part, 256, &["--tile", &tile]));
             part
         })
         .collect();
@@ -225,19 +203,9 @@ fn merged_and_resumed_frames_carry_the_whole_renders_manifests() {
     let resumed = dir.join("resumed.exr");
     let checkpoint = dir.join("resumed.checkpoint");
     let flags = ["--threads", "1", "--checkpoint-every", "0.1"];
-    let child = render_command(&scene, &resumed, 256, &flags)
-        .spawn()
-        .unwrap();
-    wait_for("a checkpoint", || checkpoint.exists());
-    let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let out = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(130), "{stderr}");
-    succeeds(render_command(
+    let render = render_command(&scene, &resumed, 256, &flags);
+    common::interrupted_after_checkpoint(render, &checkpoint, "INT");
+    common::succeeds(render_command(
         &scene,
         &resumed,
         256,

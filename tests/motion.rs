@@ -11,7 +11,6 @@ mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
 
 /// Image size of the statistical renders: 8 pixels per scene unit.
 const RES: &str = "64x32";
@@ -55,7 +54,7 @@ fn stage(name: &str) -> PathBuf {
 /// Renders `scene` to `out` (box filter, beauty and variance, one thread)
 /// with `extra` flags; the G channel and its variance, per pixel.
 fn render(scene: &Path, out: &Path, extra: &[&str]) -> (Vec<f64>, Vec<f64>) {
-    succeeds(render_command(scene, out, extra));
+    common::succeeds(render_command(scene, out, extra));
     let channels = common::channel_bits(out);
     let plane = |name: &str| -> Vec<f64> {
         let (_, bits) = channels
@@ -78,25 +77,6 @@ fn render_command(scene: &Path, out: &Path, extra: &[&str]) -> Command {
     c.args(["--filter", "box", "--aovs", "variance", "--threads", "1"]);
     c.args(extra);
     c
-}
-
-/// Per band of [`BAND`] columns: the mean of the pixels and its variance.
-fn bands(images: &[(Vec<f64>, Vec<f64>)]) -> Vec<(f64, f64)> {
-    let n = (images.len() * BAND * HEIGHT) as f64;
-    (0..WIDTH / BAND)
-        .map(|band| {
-            let (mut sum, mut variance) = (0.0, 0.0);
-            for (value, var) in images {
-                for y in 0..HEIGHT {
-                    for x in band * BAND..(band + 1) * BAND {
-                        sum += value[y * WIDTH + x];
-                        variance += var[y * WIDTH + x];
-                    }
-                }
-            }
-            (sum / n, variance / (n * n))
-        })
-        .collect()
 }
 
 /// The blurred render of `name` (its camera's shutter 0..1) against the
@@ -138,9 +118,9 @@ fn blurred_equals_average_of_stills(name: &str) {
         &["--spp", STILL_SPP, "--seed", "7"],
     );
     let (blurred, stills, frame_0) = (
-        bands(std::slice::from_ref(&blurred)),
-        bands(&stills),
-        bands(std::slice::from_ref(&frame_0)),
+        common::column_bands(std::slice::from_ref(&blurred), (WIDTH, HEIGHT), BAND),
+        common::column_bands(&stills, (WIDTH, HEIGHT), BAND),
+        common::column_bands(std::slice::from_ref(&frame_0), (WIDTH, HEIGHT), BAND),
     );
     let mut widest = 0.0f64;
     for (band, ((b, vb), (s, vs))) in blurred.iter().zip(&stills).enumerate() {
@@ -230,7 +210,7 @@ fn a_render_time_shutter_reaches_the_exporter() {
     let flags = ["--spp", "4", "--seed", "2"];
     let mut forwarded = render_command(&usda, &a, &[&flags[..], &["--shutter", "0,1"]].concat());
     forwarded.env("XDG_CACHE_HOME", dir.join("cache"));
-    succeeds(forwarded);
+    common::succeeds(forwarded);
     render(&exported("motion_sphere"), &b, &flags);
     assert!(
         common::channel_bits(&a) == common::channel_bits(&b),
@@ -407,16 +387,6 @@ fn blurred_command(scene: &Path, out: &Path, spp: u32, extra: &[&str]) -> Comman
     c
 }
 
-/// Runs `command`, panicking with its stderr unless it succeeds.
-fn succeeds(mut command: Command) {
-    let out = command.output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
 /// Time is one of each sample's dimensions: a blurred frame (whose EXR
 /// header states its shutter) split into tiles merges bit-identically to
 /// the whole, and a blurred
@@ -426,7 +396,7 @@ fn blurred_farm_parts_and_resumed_renders_are_bit_identical() {
     let dir = common::scratch("motion_farm");
     let scene = exported("motion_sphere");
     let whole = dir.join("whole.exr");
-    succeeds(blurred_command(&scene, &whole, 16, &["--threads", "2"]));
+    common::succeeds(blurred_command(&scene, &whole, 16, &["--threads", "2"]));
     let whole_bits = common::channel_bits(&whole);
     let meta = exr::meta::MetaData::read_from_file(&whole, false).unwrap();
     let shutter = meta.headers[0]
@@ -440,7 +410,7 @@ fn blurred_farm_parts_and_resumed_renders_are_bit_identical() {
     let mut parts = Vec::new();
     for (i, flags) in [["--tile", "0/2"], ["--tile", "1/2"]].iter().enumerate() {
         let part = dir.join(format!("tile{i}.film"));
-        succeeds(blurred_command(
+        common::succeeds(blurred_command(
             &scene,
             &part,
             16,
@@ -460,29 +430,13 @@ fn blurred_farm_parts_and_resumed_renders_are_bit_identical() {
 
     let spp = 1024;
     let whole = dir.join("long.exr");
-    succeeds(blurred_command(&scene, &whole, spp, &["--threads", "2"]));
+    common::succeeds(blurred_command(&scene, &whole, spp, &["--threads", "2"]));
     let exr = dir.join("resumed.exr");
     let checkpoint = dir.join("resumed.checkpoint");
     let flags = ["--threads", "1", "--checkpoint-every", "0.2"];
-    let child = blurred_command(&scene, &exr, spp, &flags).spawn().unwrap();
-    let start = Instant::now();
-    while !checkpoint.exists() {
-        assert!(start.elapsed() < Duration::from_secs(60), "no checkpoint");
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    let killed = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
-    let out = child.wait_with_output().unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(143),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    succeeds(blurred_command(
+    let render = blurred_command(&scene, &exr, spp, &flags);
+    common::interrupted_after_checkpoint(render, &checkpoint, "TERM");
+    common::succeeds(blurred_command(
         &scene,
         &exr,
         spp,

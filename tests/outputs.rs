@@ -7,7 +7,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 fn scene() -> PathBuf {
@@ -27,17 +27,6 @@ fn render(out: &Path, extra: &[&str]) -> Command {
     c
 }
 
-/// Runs `command`, panicking with its stderr unless it succeeds; its output.
-fn succeeds(mut command: Command) -> Output {
-    let out = command.output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
-
 /// Runs `command` expecting exit code 1; its stderr.
 fn fails(mut command: Command) -> String {
     let out = command.output().unwrap();
@@ -54,23 +43,23 @@ fn modified(path: &Path) -> std::time::SystemTime {
 fn a_second_render_to_the_same_path_overwrites_it() {
     let dir = common::scratch("outputs_overwrite");
     let exr = dir.join("out.exr");
-    succeeds(render(&exr, &["--seed", "1"]));
+    common::succeeds(render(&exr, &["--seed", "1"]));
     let first = std::fs::read(&exr).unwrap();
-    succeeds(render(&exr, &["--seed", "2"]));
+    common::succeeds(render(&exr, &["--seed", "2"]));
     assert_ne!(std::fs::read(&exr).unwrap(), first, "the output was kept");
     // `--force` is still accepted (old scripts), and changes nothing.
-    succeeds(render(&exr, &["--seed", "2", "--force"]));
+    common::succeeds(render(&exr, &["--seed", "2", "--force"]));
 }
 
 #[test]
 fn skip_existing_keeps_a_complete_output_and_renders_a_missing_one() {
     let dir = common::scratch("outputs_skip");
     let exr = dir.join("out.exr");
-    let out = succeeds(render(&exr, &["--skip-existing"]));
+    let out = common::succeeds(render(&exr, &["--skip-existing"]));
     assert!(exr.exists(), "{}", String::from_utf8_lossy(&out.stderr));
     let (bytes, time) = (std::fs::read(&exr).unwrap(), modified(&exr));
     std::thread::sleep(Duration::from_millis(20));
-    let out = succeeds(render(&exr, &["--skip-existing", "--seed", "5"]));
+    let out = common::succeeds(render(&exr, &["--skip-existing", "--seed", "5"]));
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_eq!(stdout.lines().count(), 1, "{stdout}");
     assert!(stdout.contains("out.exr is complete"), "{stdout}");
@@ -78,7 +67,7 @@ fn skip_existing_keeps_a_complete_output_and_renders_a_missing_one() {
     assert_eq!(std::fs::read(&exr).unwrap(), bytes);
     // A checkpoint beside it: the render is unfinished, so it runs again.
     std::fs::write(dir.join("out.checkpoint"), b"stale").unwrap();
-    succeeds(render(&exr, &["--skip-existing", "--seed", "5"]));
+    common::succeeds(render(&exr, &["--skip-existing", "--seed", "5"]));
     assert_ne!(std::fs::read(&exr).unwrap(), bytes);
     assert!(!dir.join("out.checkpoint").exists());
 }
@@ -87,7 +76,7 @@ fn skip_existing_keeps_a_complete_output_and_renders_a_missing_one() {
 fn missing_output_folders_are_created() {
     let dir = common::scratch("outputs_folders");
     let exr = dir.join("shots/sh010/beauty.exr");
-    succeeds(render(&exr, &[]));
+    common::succeeds(render(&exr, &[]));
     assert!(exr.exists() && exr.with_extension("png").exists());
 }
 
@@ -124,7 +113,7 @@ fn a_failed_write_leaves_a_film_state_and_the_command_to_finish() {
     let dir = common::scratch("outputs_rescue");
     let whole = dir.join("whole.exr");
     let flags = ["--spp", "256", "--checkpoint-every", "0.05"];
-    succeeds(render(&whole, &flags));
+    common::succeeds(render(&whole, &flags));
 
     let shot = dir.join("shot");
     let exr = shot.join("out.exr");
@@ -158,7 +147,7 @@ fn a_failed_write_leaves_a_film_state_and_the_command_to_finish() {
     std::fs::remove_file(&shot).unwrap();
     let mut merge = Command::new(env!("CARGO_BIN_EXE_cirrus"));
     merge.arg("merge").args(&args);
-    succeeds(merge);
+    common::succeeds(merge);
     let (a, b) = (common::channel_bits(&whole), common::channel_bits(&exr));
     assert_eq!(a.len(), b.len());
     for ((name, x), (_, y)) in a.iter().zip(&b) {
@@ -213,9 +202,9 @@ def Xform "cams"
         c.env("XDG_CACHE_HOME", dir.join("cache"));
         c
     };
-    succeeds(run("front.exr", Some("/cams/front")));
-    succeeds(run("side.exr", Some("/cams/side")));
-    succeeds(run("default.exr", None));
+    common::succeeds(run("front.exr", Some("/cams/front")));
+    common::succeeds(run("side.exr", Some("/cams/side")));
+    common::succeeds(run("default.exr", None));
     let bits = |name: &str| common::channel_bits(&dir.join(name));
     assert_ne!(
         bits("front.exr"),
@@ -274,8 +263,8 @@ def Camera "cam"
         c.stdout(Stdio::piped()).stderr(Stdio::piped());
         c
     };
-    succeeds(run("seq/shot.####.exr", &["--frames", "1-3"]));
-    succeeds(run("two.exr", &["--frame", "2"]));
+    common::succeeds(run("seq/shot.####.exr", &["--frames", "1-3"]));
+    common::succeeds(run("two.exr", &["--frame", "2"]));
     let bits = |name: &str| common::channel_bits(&dir.join(name));
     let frames: Vec<_> = (1..=3)
         .map(|f| bits(&format!("seq/shot.{f:04}.exr")))
@@ -292,7 +281,7 @@ def Camera "cam"
 
     let first = modified(&dir.join("seq/shot.0001.exr"));
     std::fs::remove_file(dir.join("seq/shot.0003.exr")).unwrap();
-    succeeds(run(
+    common::succeeds(run(
         "seq/shot.####.exr",
         &["--frames", "1-3x2", "--skip-existing"],
     ));

@@ -88,7 +88,7 @@ fn interrupted_and_resumed_renders_are_bit_identical() {
     let dir = common::scratch("reliability_resume");
     let spp = 192;
     let whole = dir.join("whole.exr");
-    succeeds(command(&whole, spp, &["--threads", "2"]));
+    common::succeeds(command(&whole, spp, &["--threads", "2"]));
 
     let exr = dir.join("resumed.exr");
     let checkpoint = dir.join("resumed.checkpoint");
@@ -119,7 +119,7 @@ fn interrupted_and_resumed_renders_are_bit_identical() {
         assert!(taken < spp, "SIG{signal}: the render finished first");
         last_checkpoint = modified(&checkpoint);
     }
-    succeeds(command(&exr, spp, &["--threads", "2", "--resume"]));
+    common::succeeds(command(&exr, spp, &["--threads", "2", "--resume"]));
     assert!(
         !checkpoint.exists() && !partial.exists(),
         "checkpoint or partial EXR left behind after finishing"
@@ -130,13 +130,6 @@ fn interrupted_and_resumed_renders_are_bit_identical() {
     for ((name, x), (_, y)) in a.iter().zip(&b) {
         assert!(x == y, "channel {name} differs after resuming");
     }
-}
-
-/// Runs `cirrus`, panicking with its stderr unless it succeeds.
-fn succeeds(mut command: Command) {
-    let out = command.output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
 }
 
 /// Runs `cirrus` expecting failure with exit code 1; returns its stderr.
@@ -241,7 +234,7 @@ fn a_render_killed_while_writing_leaves_the_old_output_whole() {
     let exr = dir.join("out.exr");
     // Large and cheap: writing takes long enough to be caught in the act.
     let big = ["--res", "1600x1200", "--compression", "zip"];
-    succeeds(command(&exr, 1, &big));
+    common::succeeds(command(&exr, 1, &big));
     let before = std::fs::read(&exr).unwrap();
     let child = command(&exr, 1, &[&big[..], &["--seed", "9"]].concat())
         .spawn()

@@ -199,25 +199,6 @@ fn planes(out: &Path) -> (Vec<f64>, Vec<f64>) {
     (plane("G"), plane("variance.G"))
 }
 
-/// Per band of [`BAND`] columns: the mean of the pixels and its variance.
-fn bands(images: &[(Vec<f64>, Vec<f64>)]) -> Vec<(f64, f64)> {
-    let n = (images.len() * BAND * HEIGHT) as f64;
-    (0..WIDTH / BAND)
-        .map(|band| {
-            let (mut sum, mut variance) = (0.0, 0.0);
-            for (value, var) in images {
-                for y in 0..HEIGHT {
-                    for x in band * BAND..(band + 1) * BAND {
-                        sum += value[y * WIDTH + x];
-                        variance += var[y * WIDTH + x];
-                    }
-                }
-            }
-            (sum / n, variance / (n * n))
-        })
-        .collect()
-}
-
 /// `cirrus export STAGE -o DIR`: the scene folder.
 fn export(stage: &Path, dir: PathBuf) -> PathBuf {
     let result = cirrus(&[
@@ -269,7 +250,7 @@ fn a_blob_moved_by_a_uniform_velocity_is_the_average_of_translated_stills() {
     let scene = export(&moving, dir.join("moving"));
     let out = dir.join("blurred.exr");
     render(&scene, &out, &["--spp", "64", "--seed", "1"]);
-    let blurred = bands(&[planes(&out)]);
+    let blurred = common::column_bands(&[planes(&out)], (WIDTH, HEIGHT), BAND);
     let still = |k: usize, seed: usize| {
         let out = dir.join(format!("still{k}.exr"));
         let scene = dir.join(format!("stills/frame{k}"));
@@ -277,8 +258,8 @@ fn a_blob_moved_by_a_uniform_velocity_is_the_average_of_translated_stills() {
         planes(&out)
     };
     let stills: Vec<_> = (0..K).map(|k| still(k, 100 + k)).collect();
-    let stills = bands(&stills);
-    let frame_0 = bands(&[still(K, 7)]);
+    let stills = common::column_bands(&stills, (WIDTH, HEIGHT), BAND);
+    let frame_0 = common::column_bands(&[still(K, 7)], (WIDTH, HEIGHT), BAND);
     let mut widest = 0.0f64;
     for (band, ((b, vb), (s, vs))) in blurred.iter().zip(&stills).enumerate() {
         let sigma = (vb + vs).sqrt().max(1e-5 * s);

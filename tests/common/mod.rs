@@ -6,7 +6,7 @@ pub mod aovs;
 pub mod render;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Output};
 
 /// Debian's Python, which has pyopenvdb (the venv's does not).
 pub const SYSTEM_PYTHON: &str = "/usr/bin/python3";
@@ -227,4 +227,70 @@ pub fn channel_bits(path: &Path) -> Vec<(String, Vec<u32>)> {
     }
     out.sort();
     out
+}
+
+/// Runs `command`, panicking with its stderr unless it succeeds; its output.
+pub fn succeeds(mut command: Command) -> Output {
+    let out = command.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// Starts `command`, a render writing `checkpoint` often, waits (at most a
+/// minute) for its first checkpoint, then sends it `signal` ("TERM" or
+/// "INT") and checks it stopped as an interrupted render does (exit code
+/// 128 + the signal's number), not by finishing first.
+pub fn interrupted_after_checkpoint(mut command: Command, checkpoint: &Path, signal: &str) {
+    let child = command.spawn().unwrap();
+    let start = std::time::Instant::now();
+    while !checkpoint.exists() {
+        assert!(
+            start.elapsed().as_secs() < 60,
+            "no checkpoint {}",
+            checkpoint.display()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let killed = Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let out = child.wait_with_output().unwrap();
+    let code = match signal {
+        "INT" => 130,
+        "TERM" => 143,
+        other => panic!("no exit code known for SIG{other}"),
+    };
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(code), "finished first? {stderr}");
+}
+
+/// Per band of `band` columns of `width` x `height` images (each a plane of
+/// values and one of their variances): the mean over the images' pixels in
+/// the band and the variance of that mean.
+pub fn column_bands(
+    images: &[(Vec<f64>, Vec<f64>)],
+    (width, height): (usize, usize),
+    band: usize,
+) -> Vec<(f64, f64)> {
+    let n = (images.len() * band * height) as f64;
+    (0..width / band)
+        .map(|b| {
+            let (mut sum, mut variance) = (0.0, 0.0);
+            for (value, var) in images {
+                for y in 0..height {
+                    for x in b * band..(b + 1) * band {
+                        sum += value[y * width + x];
+                        variance += var[y * width + x];
+                    }
+                }
+            }
+            (sum / n, variance / (n * n))
+        })
+        .collect()
 }
