@@ -265,12 +265,22 @@ fn converge_adds_peer_rows() {
         "mitsuba's mean bias against our reference {bias}"
     );
     let equal_time = std::fs::read_to_string(out.join("equal_time.md")).unwrap();
+    // One equal-time row per budget (1, 2, 4 spp), then the peer's row in
+    // the seconds-to-relMSE table, beside ours.
+    let (budgets, time_to_error) = equal_time
+        .split_once("## Seconds to reach relMSE")
+        .expect("no time-to-error table");
     assert_eq!(
-        equal_time
+        budgets
             .matches("| lambert_plane_dome | mitsuba-scalar |")
             .count(),
-        3
+        3,
+        "{equal_time}"
     );
+    for series in ["mitsuba-scalar", "default"] {
+        let row = format!("| lambert_plane_dome | {series} |");
+        assert_eq!(time_to_error.matches(&row).count(), 1, "{equal_time}");
+    }
     let svg = std::fs::read_to_string(out.join("lambert_plane_dome-relmse-own-time.svg")).unwrap();
     assert_eq!(curves(&svg), 2);
 }

@@ -315,3 +315,55 @@ fn production_assets_report_refined_triangles() {
         );
     }
 }
+
+/// Instance memory budget, bytes per instance beyond its prototype: what
+/// `cirrus bench instances` holds a million instances to (250 MB).
+const INSTANCE_BUDGET: u64 = 250;
+
+/// 1000 instances of the refined Teapot asset (a PointInstancer over a
+/// reference to it) refine its cages once and cost, in the memory estimate,
+/// no more than the instance budget each beyond one Teapot.
+#[test]
+fn a_thousand_instanced_teapots_fit_the_instance_budget() {
+    let teapot = asset("usd-wg/full_assets/Teapot/Teapot.usd");
+    let estimate = |count: usize| {
+        let dir = scratch(&format!("subdivision_teapots_{count}"));
+        let positions: Vec<String> = (0..count)
+            .map(|i| format!("({}, 0, {})", 40 * (i % 32), 40 * (i / 32)))
+            .collect();
+        let out = export_stage(
+            &dir,
+            &format!(
+                "def PointInstancer \"Teapots\"\n{{\n point3f[] positions = [{}]\n \
+                 int[] protoIndices = [{}]\n rel prototypes = </Teapots/Protos/Teapot>\n \
+                 def Scope \"Protos\"\n {{\n  def Xform \"Teapot\" (references = @{}@) {{}}\n }}\n}}",
+                positions.join(", "),
+                vec!["0"; count].join(", "),
+                teapot.display()
+            ),
+        );
+        let scene = Scene::load(&out).unwrap();
+        assert_eq!(scene.manifest.instances.count, count as u64);
+        assert!(scene.subdivision.refined > 0, "the Teapot did not refine");
+        let one_copy = scene.manifest.meshes.len();
+        let memory =
+            cirrus::memory::estimate(&scene, glam::UVec2::new(64, 64), &Default::default());
+        (memory.unwrap(), scene.subdivision.refined, one_copy)
+    };
+    let (one, refined_one, meshes_one) = estimate(1);
+    let (many, refined_many, meshes_many) = estimate(1000);
+    assert_eq!(
+        (refined_many, meshes_many),
+        (refined_one, meshes_one),
+        "1000 instances refined or stored the Teapot more than once"
+    );
+    let per_instance = (many.scene + many.geometry - one.scene - one.geometry) / 999;
+    eprintln!(
+        "Teapot x1: scene {} + geometry {} bytes; x1000: {} bytes per added instance",
+        one.scene, one.geometry, per_instance
+    );
+    assert!(
+        per_instance <= INSTANCE_BUDGET,
+        "{per_instance} bytes per instance, over the {INSTANCE_BUDGET}-byte budget"
+    );
+}

@@ -187,7 +187,8 @@ impl Scene {
     /// Loads an exported scene for [`Scene::open`]. A shutter that blurs
     /// must be the one the scene was exported with: its motion keys cover
     /// that interval only, and rendering another would leave what moves
-    /// still without a word.
+    /// still without a word. Velocity fields advect volumes over any
+    /// shutter, so a scene that has them renders, with a warning.
     fn load_exported(
         path: &Path,
         shutter: Option<Shutter>,
@@ -199,16 +200,28 @@ impl Scene {
             .camera
             .shutter
             .map_or(Shutter::CLOSED, |[open, close]| Shutter { open, close });
-        match shutter {
-            Some(asked) if asked.blurs() && asked != exported => {
-                Err(OpenError::ShutterNotExported {
-                    asked,
-                    exported,
-                    path: path.to_path_buf(),
-                })
-            }
-            _ => Ok(scene),
+        let Some(asked) = shutter.filter(|s| s.blurs() && *s != exported) else {
+            return Ok(scene);
+        };
+        let velocities = scene
+            .manifest
+            .volumes
+            .iter()
+            .any(|v| v.fields.contains_key("velocity"));
+        if !velocities {
+            return Err(OpenError::ShutterNotExported {
+                asked,
+                exported,
+                path: path.to_path_buf(),
+            });
         }
+        log::warn!(
+            "--shutter {asked}: {} was exported with shutter {exported}: its velocity fields blur \
+             over {asked}, but transforms move only as keyed for {exported} (export it with \
+             `cirrus export --shutter {asked}` if anything else moves)",
+            path.display()
+        );
+        Ok(scene)
     }
 
     /// Loads a scene from its folder or its `scene.json`, validating everything
