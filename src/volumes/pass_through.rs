@@ -8,7 +8,9 @@
 //! collisions): for tentative collisions t_i of rate sigma_maj and any
 //! control extinction sigma_c,
 //!
-//!     E[ prod_i (1 - (sigma_t(t_i) - sigma_c) / sigma_maj) ] = exp(-integral of (sigma_t - sigma_c)),
+//! ```text
+//! E[ prod_i (1 - (sigma_t(t_i) - sigma_c) / sigma_maj) ] = exp(-integral of (sigma_t - sigma_c)),
+//! ```
 //!
 //! so exp(-integral of sigma_c) times the product is unbiased for T. The control is each
 //! majorant segment's minorant: every factor then lies in [sigma_c / sigma_maj, 1]
