@@ -285,10 +285,12 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
     let pool = pool.build().context("cannot start worker threads")?;
     let start = Instant::now();
     let options = cirrus::scene::OpenOptions {
-        frame: args.frame,
-        camera: args.camera.as_deref(),
-        settings: args.settings.as_deref(),
-        shutter: args.shutter,
+        export: cirrus::scene::ExportOptions {
+            frame: args.frame,
+            camera: args.camera.as_deref(),
+            settings: args.settings.as_deref(),
+            shutter: args.shutter,
+        },
         refinement: cirrus::scene::Refinement::Level(args.subdiv_level),
     };
     let scene = cirrus::scene::Scene::open(&args.scene, &options)?;

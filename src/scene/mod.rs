@@ -127,16 +127,10 @@ impl Manifest {
 /// the default level.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct OpenOptions<'a> {
-    /// USD time code to export (USD input only).
-    pub frame: Option<f64>,
-    /// Camera prim to render (USD input only).
-    pub camera: Option<&'a str>,
-    /// `UsdRender.Settings` prim whose products and vars drive the render
-    /// (USD input only; default: see [`ExportOptions::settings`]).
-    pub settings: Option<&'a str>,
-    /// Replaces the camera's shutter (frames): for USD input the export keys
-    /// motion over it; an exported scene keeps the motion it was exported with.
-    pub shutter: Option<Shutter>,
+    /// How a USD file is exported. Its frame, camera and settings apply to
+    /// USD input only; its shutter, for an exported scene, must be the one
+    /// the scene was exported with (or one its velocity fields serve).
+    pub export: ExportOptions<'a>,
     /// How subdivision surfaces are refined.
     pub refinement: Refinement,
 }
@@ -149,13 +143,13 @@ impl Scene {
     /// or its scene.json, as `options` say (their defaults: the stage's own
     /// frame, camera and shutter, subdivision at the default level).
     pub fn open(path: &Path, options: &OpenOptions) -> Result<Self, OpenError> {
-        let OpenOptions {
+        let OpenOptions { export, refinement } = *options;
+        let ExportOptions {
             frame,
             camera,
             settings,
             shutter,
-            refinement,
-        } = *options;
+        } = export;
         if !is_usd(path) {
             let flag = match (frame, camera, settings) {
                 (Some(_), _, _) => "--frame",
@@ -166,15 +160,7 @@ impl Scene {
             let path = path.to_path_buf();
             return Err(OpenError::UsdOnly { flag, path });
         }
-        let export = export_cached(
-            path,
-            &ExportOptions {
-                frame,
-                camera,
-                settings,
-                shutter,
-            },
-        )?;
+        let export = export_cached(path, &export)?;
         let scene = Self::load_with(&export.dir, refinement)?;
         if export.reused {
             for warning in &scene.manifest.warnings {
