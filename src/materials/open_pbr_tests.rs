@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3};
 
 use super::bsdf::Bsdf;
 use super::open_pbr::{OpenPbrInputs, ShadingFrames};
-use super::test_support::directions;
+use super::test_support::{assert_samples_follow_density, directions};
 use crate::geometry::Frame;
 use crate::sampling::{warp, Pcg32};
 
@@ -377,13 +377,10 @@ fn pdf_integrates_to_the_sampled_fraction() {
     }
 }
 
-/// Chi-square test of each lobe's sampling against its density (pbrt-v4's
-/// bsdfs_test): 10 x 20 bins in (cos theta, phi) over the sphere, expected
-/// counts from the pdf integrated on 16 x 16 points per bin, bins expecting
-/// fewer than 5 pooled; the statistic must stay below df + 5 sqrt(2 df).
+/// Each lobe's sampling against its density, by a chi-square test
+/// ([`assert_samples_follow_density`]).
 #[test]
 fn each_lobe_samples_its_density() {
-    let (nt, np, sub) = (10usize, 20usize, 16usize);
     let mut rng = Pcg32::new(24, 0);
     let lobes = [
         (
@@ -430,54 +427,7 @@ fn each_lobe_samples_its_density() {
     for (name, i) in lobes {
         let wo = directions(&[0.6])[0];
         let bsdf = Bsdf::from_open_pbr(&i, &frames(0.0, true), wo);
-        let n = 100_000;
-        let bin = |w: Vec3| {
-            let t = (((w.z + 1.0) * 0.5 * nt as f32) as usize).min(nt - 1);
-            let phi = w.y.atan2(w.x).rem_euclid(std::f32::consts::TAU);
-            let p = ((phi / std::f32::consts::TAU * np as f32) as usize).min(np - 1);
-            t * np + p
-        };
-        let mut observed = vec![0.0f64; nt * np];
-        for _ in 0..n {
-            let u = Vec2::new(rng.next_f32(), rng.next_f32());
-            if let Some(s) = bsdf.sample(wo, rng.next_f32(), u).filter(|s| !s.delta) {
-                observed[bin(s.wi)] += 1.0;
-            }
-        }
-        let mut expected = vec![0.0f64; nt * np];
-        for (t, p) in (0..nt).flat_map(|t| (0..np).map(move |p| (t, p))) {
-            let mut sum = 0.0f64;
-            for (a, b) in (0..sub).flat_map(|a| (0..sub).map(move |b| (a, b))) {
-                let z = -1.0 + 2.0 * (t as f32 + (a as f32 + 0.5) / sub as f32) / nt as f32;
-                let phi =
-                    std::f32::consts::TAU * (p as f32 + (b as f32 + 0.5) / sub as f32) / np as f32;
-                let s = (1.0 - z * z).max(0.0).sqrt();
-                sum += f64::from(bsdf.pdf(wo, Vec3::new(s * phi.cos(), s * phi.sin(), z)));
-            }
-            // Each bin spans 2/nt in z and 2 pi/np in phi (equal areas).
-            let area = 4.0 * std::f64::consts::PI / (nt * np) as f64;
-            expected[t * np + p] = sum / (sub * sub) as f64 * area * n as f64;
-        }
-        let (mut chi2, mut df, mut pooled_o, mut pooled_e) = (0.0f64, 0usize, 0.0, 0.0);
-        for (o, e) in observed.iter().zip(&expected) {
-            if *e < 5.0 {
-                pooled_o += o;
-                pooled_e += e;
-            } else {
-                chi2 += (o - e) * (o - e) / e;
-                df += 1;
-            }
-        }
-        if pooled_e >= 5.0 {
-            chi2 += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
-            df += 1;
-        }
-        let df = df.saturating_sub(1).max(1) as f64;
-        eprintln!("{name}: chi2 {chi2:.1} for {df} dof");
-        assert!(
-            chi2 < df + 5.0 * (2.0 * df).sqrt(),
-            "{name}: chi2 {chi2} for {df} dof"
-        );
+        assert_samples_follow_density(name, &bsdf, wo, &mut rng);
     }
 }
 

@@ -3,6 +3,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::bsdf::Bsdf;
 use super::param::Param;
 use super::preview_surface::PreviewSurface;
 use crate::geometry::SurfacePoint;
@@ -135,4 +136,61 @@ pub(crate) fn random_surface(rng: &mut Pcg32) -> (PreviewSurface, bool) {
         s.opacity = Param::Constant(if u() < 0.3 { 1.0 } else { u() });
     });
     (s, u() < 0.5)
+}
+
+/// Chi-square test of `bsdf`'s sampling from `wo` against its density
+/// (pbrt-v4's bsdfs_test): 100k samples in 10 x 20 bins in (cos theta, phi)
+/// over the sphere, expected counts from the pdf integrated on 16 x 16
+/// points per bin, bins expecting fewer than 5 pooled; the statistic must
+/// stay below df + 5 sqrt(2 df). Dirac samples are not counted.
+pub(crate) fn assert_samples_follow_density(name: &str, bsdf: &Bsdf, wo: Vec3, rng: &mut Pcg32) {
+    let (nt, np, sub) = (10usize, 20usize, 16usize);
+    let n = 100_000;
+    let bin = |w: Vec3| {
+        let t = (((w.z + 1.0) * 0.5 * nt as f32) as usize).min(nt - 1);
+        let phi = w.y.atan2(w.x).rem_euclid(std::f32::consts::TAU);
+        let p = ((phi / std::f32::consts::TAU * np as f32) as usize).min(np - 1);
+        t * np + p
+    };
+    let mut observed = vec![0.0f64; nt * np];
+    for _ in 0..n {
+        let u = Vec2::new(rng.next_f32(), rng.next_f32());
+        if let Some(s) = bsdf.sample(wo, rng.next_f32(), u).filter(|s| !s.delta) {
+            observed[bin(s.wi)] += 1.0;
+        }
+    }
+    let mut expected = vec![0.0f64; nt * np];
+    for (t, p) in (0..nt).flat_map(|t| (0..np).map(move |p| (t, p))) {
+        let mut sum = 0.0f64;
+        for (a, b) in (0..sub).flat_map(|a| (0..sub).map(move |b| (a, b))) {
+            let z = -1.0 + 2.0 * (t as f32 + (a as f32 + 0.5) / sub as f32) / nt as f32;
+            let phi =
+                std::f32::consts::TAU * (p as f32 + (b as f32 + 0.5) / sub as f32) / np as f32;
+            let s = (1.0 - z * z).max(0.0).sqrt();
+            sum += f64::from(bsdf.pdf(wo, Vec3::new(s * phi.cos(), s * phi.sin(), z)));
+        }
+        // Each bin spans 2/nt in z and 2 pi/np in phi (equal areas).
+        let area = 4.0 * std::f64::consts::PI / (nt * np) as f64;
+        expected[t * np + p] = sum / (sub * sub) as f64 * area * n as f64;
+    }
+    let (mut chi2, mut df, mut pooled_o, mut pooled_e) = (0.0f64, 0usize, 0.0, 0.0);
+    for (o, e) in observed.iter().zip(&expected) {
+        if *e < 5.0 {
+            pooled_o += o;
+            pooled_e += e;
+        } else {
+            chi2 += (o - e) * (o - e) / e;
+            df += 1;
+        }
+    }
+    if pooled_e >= 5.0 {
+        chi2 += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
+        df += 1;
+    }
+    let df = df.saturating_sub(1).max(1) as f64;
+    eprintln!("{name}: chi2 {chi2:.1} for {df} dof");
+    assert!(
+        chi2 < df + 5.0 * (2.0 * df).sqrt(),
+        "{name}: chi2 {chi2} for {df} dof"
+    );
 }
