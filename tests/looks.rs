@@ -9,7 +9,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::render::{exported, Image, Render, PIXEL_ROUNDING};
-use common::{assert_within_4_sigma, estimate};
+use common::{assert_within_4_sigma, estimate, Estimate};
 use serde_json::{json, Value};
 
 /// A copy of the exported scene folder `from` in `to`, its manifest and
@@ -103,6 +103,60 @@ fn open_pbr_base_color_reads_the_primvar() {
     assert!(
         right > 2.0 * left,
         "red {left} on the left, {right} on the right"
+    );
+}
+
+/// The plane of `open_pbr_base_color_reads_the_primvar` as a black smooth
+/// dielectric (specular only, roughness 0) seen straight down: it mirrors
+/// the constant dome, so pixel / dome is the Fresnel factor at normal
+/// incidence, F0 = 0.04 in every channel without a film. A thin film
+/// (0.5 um of ior 2, OpenPBR's `thin_film_*` read from the scene) colours
+/// it: the channels part by far more than 4 sigma.
+#[test]
+fn a_thin_film_colours_the_reflection() {
+    let dir = common::scratch("looks_thin_film");
+    let mirror = |film: f32| {
+        let to = dir.join(format!("film{film}"));
+        std::fs::create_dir_all(&to).unwrap();
+        let scene = patched(&exported("lambert_plane_dome"), &to, |m, _| {
+            m["materials"][0] = json!({
+                "path": "/World/Looks/Film", "model": "open_pbr",
+                "shader": "ND_open_pbr_surface_surfaceshader",
+                "open_pbr": {
+                    "base_color": [0, 0, 0], "specular_roughness": 0,
+                    "thin_film_weight": film, "thin_film_thickness": 0.5, "thin_film_ior": 2.0
+                }
+            });
+        });
+        Render {
+            scene: scene.to_str().unwrap(),
+            res: (8, 8),
+            spp: 4,
+            seed: 5,
+            extra: &[],
+        }
+        .run(&dir)
+    };
+    let fresnel = |image: &Image, c: usize| {
+        let dome = [1.5, 3.0, 6.0][c];
+        estimate(image.rgb[c].iter().map(|v| f64::from(*v) / dome))
+    };
+    let bare = mirror(0.0);
+    for c in 0..3 {
+        assert_within_4_sigma(
+            &format!("bare F0, channel {c}"),
+            fresnel(&bare, c),
+            0.04,
+            PIXEL_ROUNDING,
+        );
+    }
+    let film = mirror(1.0);
+    let [r, g, b] = [0, 1, 2].map(|c| fresnel(&film, c));
+    let apart =
+        |a: Estimate, b: Estimate| (a.mean - b.mean).abs() > 4.0 * (a.sigma + b.sigma) + 0.01;
+    assert!(
+        apart(r, g) || apart(g, b) || apart(r, b),
+        "film F: {r:?} {g:?} {b:?}"
     );
 }
 

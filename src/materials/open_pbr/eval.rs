@@ -73,13 +73,11 @@ impl OpenPbr {
         let cos_h = wo_l.dot(h);
         let mut fresnel = Vec3::ZERO;
         if self.metal > 0.0 {
-            fresnel += self.metal
-                * self.metal_scale
-                * fresnel::f82_tint(self.metal_f0, self.metal_b, cos_h);
+            fresnel += self.metal * self.metal_scale * self.metal_fresnel(cos_h);
         }
         if self.gloss > 0.0 {
-            let f = Interface::Dielectric.fresnel(cos_h, self.specular_eta);
-            fresnel += self.specular_tint * (self.gloss * self.specular_compensation * f);
+            let f = self.specular_fresnel(cos_h);
+            fresnel += self.specular_tint * (self.gloss * self.specular_compensation) * f;
         }
         if self.translucent > 0.0 {
             let f = if self.thin {

@@ -23,6 +23,7 @@ mod eval;
 mod fuzz;
 mod inputs;
 mod model;
+mod thin_film;
 
 pub(crate) use inputs::{OpenPbrInputs, ShadingFrames};
 pub(crate) use model::OpenPbr;

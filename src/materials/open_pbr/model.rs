@@ -22,6 +22,7 @@ use super::albedo::{self, Interface};
 use super::eon::Eon;
 use super::fuzz::Fuzz;
 use super::inputs::{OpenPbrInputs, ShadingFrames};
+use super::thin_film::{with_film, Substrate, ThinFilm};
 use crate::geometry::Frame;
 use crate::materials::fresnel;
 use crate::materials::microfacet::Ggx;
@@ -98,8 +99,15 @@ pub(crate) struct OpenPbr {
     pub(super) specular_eta: f32,
     /// Turquin compensation of the dielectric specular at `wo`.
     pub(super) specular_compensation: f32,
-    /// 1 - E_specular(wo): what the specular layer lets reach the diffuse.
-    pub(super) through_specular: f32,
+    /// 1 - E_specular(wo): what the specular layer lets reach the diffuse
+    /// (per channel: a thin film colours it).
+    pub(super) through_specular: Vec3,
+    /// The thin film on the base, if any (thin_film.rs).
+    pub(super) film: Option<ThinFilm>,
+    /// What the film lies on: the dielectric specular's interface and the
+    /// metal's fitted complex index.
+    pub(super) specular_below: Substrate,
+    pub(super) metal_below: Substrate,
     pub(super) eon: Eon,
     /// thin-walled transmission: reflection with the thin sheet's Fresnel
     /// and a Dirac pass-through.
@@ -220,7 +228,22 @@ impl OpenPbr {
                 * Interface::Dielectric.albedo(mu, &ggx, specular_f0))
             .min(1.0)
         };
-        let e_specular = specular_albedo(mu_o);
+        // Thin film on the base, under the coat (the medium above it is the
+        // coat where coated, blended by coat_weight as the indices are).
+        let film = ThinFilm::new(
+            i.thin_film_weight,
+            i.thin_film_thickness,
+            i.thin_film_ior,
+            1.0 + (coat_ior - 1.0) * coat,
+        );
+        let specular_below = Substrate::dielectric(specular_eta.min(1e4));
+        let metal_below = Substrate::metal(metal_f0, unit_color(i.specular_color));
+        // The film's directional albedo, approximated as the filmless one
+        // scaled by the ratio of the Fresnel factors at wo.
+        let bare_f = Interface::Dielectric.fresnel(mu_o, specular_eta);
+        let film_ratio =
+            with_film(film.as_ref(), Vec3::splat(bare_f), mu_o, &specular_below) / bare_f.max(1e-6);
+        let e_specular = (specular_albedo(mu_o) * film_ratio).min(Vec3::ONE);
 
         // Diffuse: EON, its colour blended with the subsurface fallback.
         let subsurface = unit(i.subsurface_weight);
@@ -287,7 +310,10 @@ impl OpenPbr {
             specular_tint: i.specular_color.max(Vec3::ZERO),
             specular_eta,
             specular_compensation,
-            through_specular: 1.0 - e_specular,
+            through_specular: Vec3::ONE - e_specular,
+            film,
+            specular_below,
+            metal_below,
             eon,
             thin: thin || index_matched,
             transmission_eta,
@@ -305,14 +331,14 @@ impl OpenPbr {
                 * (translucent * (1.0 - thin_albedo))
                 * transmission_tint
                 * f32::from(thin || index_matched);
-        let metal_albedo = model.metal_scale * fresnel::f82_tint(metal_f0, metal_b, mu_o);
+        let metal_albedo = model.metal_scale * model.metal_fresnel(mu_o);
         let thick = translucent * f32::from(!(thin || index_matched));
         let f_t = fresnel::dielectric(mu_o, transmission_eta);
         model.lobe_pdf = normalized([
-            mean(w_o) * gloss * (1.0 - e_specular) * mean(rho),
+            mean(w_o) * gloss * mean((Vec3::ONE - e_specular) * rho),
             mean(w_o)
                 * (metal * mean(metal_albedo)
-                    + gloss * e_specular * mean(model.specular_tint)
+                    + gloss * mean(e_specular * model.specular_tint)
                     + translucent * thin_albedo),
             mean(w_o) * thick * (f_t + (1.0 - f_t) * mean(transmission_tint)),
             below_fuzz * coat * coat_albedo,
@@ -338,6 +364,20 @@ impl OpenPbr {
             (self.coat_log_t * path).exp()
         };
         Vec3::splat(1.0 - self.coat) + self.coated * absorbed
+    }
+
+    /// The metal's F82-tint Fresnel at microfacet cosine `cos`, with the
+    /// film where present.
+    pub(super) fn metal_fresnel(&self, cos: f32) -> Vec3 {
+        let bare = fresnel::f82_tint(self.metal_f0, self.metal_b, cos);
+        with_film(self.film.as_ref(), bare, cos, &self.metal_below)
+    }
+
+    /// The dielectric specular's Fresnel at microfacet cosine `cos`, with
+    /// the film where present.
+    pub(super) fn specular_fresnel(&self, cos: f32) -> Vec3 {
+        let bare = Vec3::splat(Interface::Dielectric.fresnel(cos, self.specular_eta));
+        with_film(self.film.as_ref(), bare, cos, &self.specular_below)
     }
 
     /// Reflectance for the albedo AOV: the EON colour, white where the
