@@ -180,3 +180,29 @@ fn display_color_without_a_material() {
     assert_eq!(shown["diffuse_color"]["primvar"], "displayColor");
     assert_eq!(shown["opacity"], 0.5);
 }
+
+/// A `tiledimage`'s uvtiling and uvoffset become the texture's st transform (uv = st
+/// tiling - offset, realworld sizes 1); an image read through `texcoord` index 1 (a UV set
+/// we do not carry) gives the surface input's default with one warning naming the node.
+#[test]
+fn tiled_images_transform_and_other_uv_sets_are_named() {
+    let (_, scene) = looks();
+    let base = &material(&scene, "/Looks/Tiled")["open_pbr"]["base_color"];
+    let texture = &scene["textures"][base["texture"].as_u64().unwrap() as usize];
+    assert_eq!(
+        texture["st_transform"],
+        serde_json::json!({"translation": [-0.25, -0.5], "rotation_deg": 0.0, "scale": [2.0, 3.0]})
+    );
+    let warned = [
+        "/Looks/Tiled/uv1",
+        "texcoord",
+        "specular_roughness",
+        "default",
+    ];
+    assert_eq!(warnings_with(&scene, &warned).len(), 1);
+    let roughness = &material(&scene, "/Looks/Tiled")["open_pbr"]["specular_roughness"];
+    assert!(
+        (roughness.as_f64().unwrap() - 0.3).abs() < 1e-6,
+        "{roughness}"
+    );
+}
