@@ -45,6 +45,10 @@ def arguments(argv=None):
     p.add_argument("--max-ratio-error", type=float, default=0.02, help="largest |mean ratio - 1| (0.02)")
     p.add_argument("--max-relmse", type=float, default=1e-2, help="relMSE must stay below this (1e-2)")
     p.add_argument("--block", type=int, default=4, help="downsampling block size, pixels (4)")
+    p.add_argument("--bands", type=int, default=0,
+                   help="also compare N equal vertical bands (one object each), printing each mean ratio (0: none)")
+    p.add_argument("--max-band-error", type=float, action="append", default=[],
+                   help="largest |mean ratio - 1| of any channel in a band: once for all bands, or once per band")
     return p.parse_args(argv)
 
 
@@ -76,6 +80,29 @@ def relmse(image, reference):
     return float(np.mean((image - reference) ** 2 / (reference**2 + 0.01)))
 
 
+def mean_ratio(cirrus, peer):
+    """Per-channel mean of Cirrus over the peer's (1 where both are black, inf where
+    only the peer's is)."""
+    c_mean, m_mean = cirrus.mean(axis=(0, 1)), peer.mean(axis=(0, 1))
+    return c_mean, m_mean, np.divide(c_mean, m_mean, out=np.where(c_mean == 0, 1.0, np.inf),
+                                     where=m_mean != 0)
+
+
+def band_failures(cirrus, peer, bands, limits, peer_name):
+    """Prints each vertical band's mean ratio; returns the bands over their limit."""
+    failed = []
+    edges = np.linspace(0, cirrus.shape[1], bands + 1).round().astype(int)
+    for k in range(bands):
+        c, m, ratio = mean_ratio(cirrus[:, edges[k]:edges[k + 1]], peer[:, edges[k]:edges[k + 1]])
+        worst = float(np.max(np.abs(ratio - 1)))
+        limit = limits[k] if len(limits) == bands else (limits[0] if limits else None)
+        print(f"  band {k}: mean RGB cirrus {fmt(c)}, {peer_name} {fmt(m)}, ratio {fmt(ratio)}"
+              + (f" (limit {limit})" if limit is not None else ""))
+        if limit is not None and worst > limit:
+            failed.append(f"band {k}: |mean ratio - 1| = {worst:.4f} > {limit}")
+    return failed
+
+
 def fmt(values):
     """Three channel values for the report."""
     return " ".join(f"{x:.5f}" for x in values)
@@ -100,10 +127,8 @@ def main(argv=None):
         print(f"error: image sizes differ: cirrus {cirrus.shape}, {args.peer} {peer.shape}",
               file=sys.stderr)
         return 2
-    c_mean, m_mean = cirrus.mean(axis=(0, 1)), peer.mean(axis=(0, 1))
     # A channel black in both agrees (ratio 1); black in the peer only does not.
-    ratio = np.divide(c_mean, m_mean, out=np.where(c_mean == 0, 1.0, np.inf),
-                      where=m_mean != 0)
+    c_mean, m_mean, ratio = mean_ratio(cirrus, peer)
     error = relmse(downsample(cirrus, args.block), downsample(peer, args.block))
     print(f"scene {name}: {args.res}, cirrus {args.spp} spp, {args.peer} {peer_spp} spp")
     print(f"  mean RGB cirrus {fmt(c_mean)}")
@@ -111,7 +136,7 @@ def main(argv=None):
     print(f"  ratio cirrus/{args.peer} {fmt(ratio)}")
     print(f"  relMSE ({args.block}x{args.block} blocks) {error:.3e}")
     worst = float(np.max(np.abs(ratio - 1)))
-    failed = []
+    failed = band_failures(cirrus, peer, args.bands, args.max_band_error, args.peer)
     if worst > args.max_ratio_error:
         failed.append(f"|mean ratio - 1| = {worst:.4f} > {args.max_ratio_error}")
     if not error < args.max_relmse:

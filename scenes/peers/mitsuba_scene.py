@@ -94,6 +94,9 @@ class Converter(cirrus_scene.Converter):
         d.update(self.shapes())
         d.update(self.volumes())
         self.place_camera_medium(d)
+        if self.manifest["instances"].get("motion") or self.manifest["camera"].get("motion"):
+            self.warn("motion blur not converted (Mitsuba 3's scalar and LLVM variants have none): "
+                      "objects and camera rendered at the frame's transforms")
         for w in self.manifest.get("warnings", []):
             self.warn(f"exporter: {w}")
         return d
@@ -236,6 +239,9 @@ class Converter(cirrus_scene.Converter):
         """A material (UNBOUND for none) as `twosided` `diffuse`, or an approximating
         `principled` (reported), inside a `normalmap` when it has one."""
         mat = self.material_record(index)
+        if mat.get("model") == "open_pbr":
+            self.warn(f"material {mat['path']}: OpenPBR not converted (rendered as "
+                      "UsdPreviewSurface's default grey plastic; to_cycles.py converts it)")
         base = self.input(mat, "diffuse_color", GREY, "color")
         if self.is_lambert(mat):
             return twosided(self.normal_mapped(mat, {"type": "diffuse", "reflectance": base}))

@@ -207,6 +207,38 @@ pub enum Bench {
         #[arg(long, value_name = "FILE.vdb")]
         volume: Option<PathBuf>,
     },
+    /// Material cost: the shader ball's samples/s and the chess set's
+    /// export, load and build time and memory with its textures.
+    Looks {
+        /// The StandardShaderBall stage (docs/benchmarks.md, "Looks").
+        #[arg(long)]
+        shader_ball: PathBuf,
+        /// The OpenChessSet stage.
+        #[arg(long)]
+        chess_set: PathBuf,
+        /// Shader ball image size WIDTHxHEIGHT.
+        #[arg(long, default_value = "160x120", value_parser = parse_resolution)]
+        res: glam::UVec2,
+        /// Samples per pixel of each shader ball render.
+        #[arg(long, default_value_t = 8)]
+        spp: u32,
+        /// Timed repeats; the tables show medians.
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// Worker threads.
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+    },
+    /// Internal to `bench looks`: loads one exported scene, builds its
+    /// render state and prints the resident bytes added.
+    #[command(hide = true)]
+    LooksMemory {
+        /// The exported scene folder.
+        scene: PathBuf,
+        /// Worker threads.
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+    },
     /// Internal to `bench instances`: loads one exported scene and builds its
     /// BVHs in this fresh process, and prints the resident bytes added.
     #[command(hide = true)]
@@ -328,6 +360,22 @@ pub fn run(bench: Bench) -> Result<()> {
             repeats,
             volume,
         }),
+        Bench::Looks {
+            shader_ball,
+            chess_set,
+            res,
+            spp,
+            repeats,
+            threads,
+        } => lab::bench_looks(&lab::LooksBench {
+            shader_ball,
+            chess_set,
+            resolution: res,
+            spp,
+            repeats,
+            threads,
+        }),
+        Bench::LooksMemory { scene, threads } => lab::looks_memory(&scene, threads),
         Bench::InstancesMemory { scene } => lab::instances_memory(&scene),
     }?;
     Ok(())

@@ -269,7 +269,7 @@ pub fn print_memory(scene_dir: &Path) -> Result<()> {
 }
 
 /// A `/proc/self/status` memory field (`VmRSS`, `VmHWM`), in bytes.
-fn memory(field: &str) -> Result<f64> {
+pub(super) fn memory(field: &str) -> Result<f64> {
     let status = std::fs::read_to_string("/proc/self/status")
         .map_err(|e| LabError::system("/proc/self/status", e))?;
     status

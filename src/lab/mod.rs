@@ -15,6 +15,7 @@
 //! - `volumes`: majorants and volume estimators at equal time.
 //! - `fire`: emitting volumes as lights, light sampling on and off.
 //! - `aovs`: what the AOVs cost to render and write.
+//! - `looks`: the shader ball's sample rate, the chess set's load time and memory.
 //! - `converge`: error against spp and time per method, with peers.
 //!
 //! Shared helpers: `stats` (medians, Student-t intervals, log-log slopes),
@@ -33,6 +34,7 @@ mod equal_time;
 mod files;
 mod fire;
 mod instances;
+mod looks;
 mod machine;
 mod markdown;
 mod metrics;
@@ -62,6 +64,7 @@ pub use converge::{parse_method, run as converge, ConvergeOptions, Method};
 pub use equal_time::EqualTimeBench;
 pub use fire::run as bench_fire;
 pub use instances::{print_memory as instances_memory, run as bench_instances, InstancesBench};
+pub use looks::{print_memory as looks_memory, run as bench_looks, LooksBench};
 pub use motion::{run as bench_motion, MotionBench};
 pub use peers::Peer;
 pub use points_curves::{run as bench_points_curves, PointsCurvesBench};
