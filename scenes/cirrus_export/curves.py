@@ -113,8 +113,8 @@ class CurvesTable(RoundTable):
             if cubic and basis not in BASES:
                 raise BadCurves(f"basis {basis} is not bezier, bspline or catmullRom")
         else:
-            c.report.warn(f"{name}: NURBS curves are drawn as their control polygon (linear), not the "
-                          f"NURBS curve")
+            c.report.approximated("NurbsCurves", f"{name}: NURBS curves are drawn as their control polygon "
+                                  f"(linear), not the NURBS curve")
             cubic, basis, wrap = False, "bezier", "nonperiodic"
         segments = [segment_count(int(n), cubic, basis, wrap) for n in counts]
         widths = geom.GetWidthsAttr().Get(c.time)
