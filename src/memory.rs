@@ -18,6 +18,13 @@
 //! - film: [`Film::bytes_for`] (the sums, once: tiles merge as they finish),
 //!   then `output::write_bytes_for` (the output layers and their copies);
 //! - runtime: code, libraries and thread stacks, measured once.
+//!
+//! Subdivision surfaces are checked before they are refined: [`open`] loads
+//! the cages, counts what refining them would make ([`Scene::refinement_plan`]:
+//! triangles exactly, array bytes bounded), estimates the scene, geometry,
+//! volumes and runtime parts as if refined, and refuses, naming the heaviest
+//! meshes and the highest level that fits, before any refinement work. The
+//! film is checked with the rest once the outputs are planned.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -26,7 +33,9 @@ use glam::UVec2;
 
 use crate::film::{AovSet, Film};
 use crate::geometry::Geometry;
-use crate::scene::{InstanceNames, Scene};
+use crate::scene::{
+    InstanceNames, OpenError, OpenOptions, PlannedMesh, Refinement, Scene, SceneError,
+};
 use crate::volumes::{Media, VdbFile, VolumeError};
 
 /// Bytes in one MiB and one GiB.
@@ -73,9 +82,37 @@ pub enum MemoryError {
         /// True when the limit came from `--memory-limit`, false when measured.
         explicit: bool,
     },
+    /// Refining the scene's subdivision surfaces would exceed the limit
+    /// (checked before refining; the film is not counted yet).
+    #[error(
+        "refining the subdivision surfaces needs about {needed} ({parts}) but only {limit} is \
+         available{source_note}; heaviest: {heaviest}; {fits}",
+        needed = gib(estimate.total()),
+        parts = estimate,
+        limit = gib(*limit),
+        source_note = if *explicit { " (--memory-limit)" } else { "" }
+    )]
+    Refinement {
+        /// The estimate refused, film left out.
+        estimate: MemoryEstimate,
+        /// The limit it exceeds, bytes.
+        limit: u64,
+        /// True when the limit came from `--memory-limit`, false when measured.
+        explicit: bool,
+        /// The meshes that would make the most triangles, with their counts and levels.
+        heaviest: String,
+        /// The level that would fit, and where to set it.
+        fits: String,
+    },
     /// A volume's grid table cannot be read.
     #[error(transparent)]
     Volume(#[from] VolumeError),
+    /// The scene cannot be opened.
+    #[error(transparent)]
+    Open(#[from] OpenError),
+    /// The scene's subdivision surfaces cannot be refined as asked.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
 }
 
 impl MemoryEstimate {
@@ -108,12 +145,8 @@ impl fmt::Display for MemoryEstimate {
 /// or, without one, what [`crate::host::available_bytes`] measures; passes when nothing
 /// can be measured.
 pub fn check(estimate: &MemoryEstimate, limit: Option<u64>) -> Result<(), MemoryError> {
-    let (limit, explicit) = match limit {
-        Some(l) => (l, true),
-        None => match crate::host::available_bytes() {
-            Some(l) => (l, false),
-            None => return Ok(()),
-        },
+    let Some((limit, explicit)) = limit_of(limit) else {
+        return Ok(());
     };
     if estimate.total() > limit {
         return Err(MemoryError::TooLarge {
@@ -125,6 +158,89 @@ pub fn check(estimate: &MemoryEstimate, limit: Option<u64>) -> Result<(), Memory
     Ok(())
 }
 
+/// The limit, bytes, and whether it was given (`--memory-limit`) rather
+/// than measured; `None` when nothing can be measured.
+fn limit_of(limit: Option<u64>) -> Option<(u64, bool)> {
+    match limit {
+        Some(l) => Some((l, true)),
+        None => crate::host::available_bytes().map(|l| (l, false)),
+    }
+}
+
+/// Opens the scene at `path` as `options` say, first checking that its
+/// subdivision surfaces, refined as `options.refinement` asks, fit in
+/// `limit` bytes (`--memory-limit`; without one, what the machine has): the
+/// cages are loaded and counted, and refined only when the estimate fits.
+pub fn open(path: &Path, options: &OpenOptions, limit: Option<u64>) -> Result<Scene, MemoryError> {
+    let cages = OpenOptions {
+        refinement: Refinement::Cages,
+        ..*options
+    };
+    let mut scene = Scene::open(path, &cages)?;
+    let planned = scene.refinement_plan(options.refinement, None)?;
+    if let (false, Some((limit, explicit))) = (planned.is_empty(), limit_of(limit)) {
+        let needs = parts(&scene, &planned)?;
+        if needs.total() > limit {
+            return Err(refusal(
+                &scene,
+                options.refinement,
+                needs,
+                limit,
+                explicit,
+                planned,
+            )?);
+        }
+    }
+    scene.refine(options.refinement)?;
+    Ok(scene)
+}
+
+/// The refusal of refining `planned`: its heaviest meshes, and the highest
+/// level (every mesh capped at it) whose estimate fits `limit`.
+fn refusal(
+    scene: &Scene,
+    refinement: Refinement,
+    estimate: MemoryEstimate,
+    limit: u64,
+    explicit: bool,
+    mut planned: Vec<PlannedMesh>,
+) -> Result<MemoryError, MemoryError> {
+    let deepest = planned.iter().map(|p| p.level).max().unwrap_or(0);
+    let mut fits = "not even the cages fit (level 0)".to_owned();
+    for level in (0..deepest).rev() {
+        let capped = scene.refinement_plan(refinement, Some(level))?;
+        let needs = parts(scene, &capped)?.total();
+        if needs <= limit {
+            let authored: Vec<&str> = (capped.iter())
+                .filter(|p| p.authored && p.level == level)
+                .map(|p| p.path.as_str())
+                .collect();
+            fits = format!("--subdiv-level {level} would fit (about {})", gib(needs));
+            if !authored.is_empty() {
+                fits += &format!(
+                    ", with primvars:cirrus:subdivisionLevel lowered to {level} on {}",
+                    authored.join(", ")
+                );
+            }
+            break;
+        }
+    }
+    planned.sort_by_key(|p| std::cmp::Reverse(p.triangles));
+    let heaviest: Vec<String> = (planned.iter().take(3))
+        .map(|p| {
+            let from = if p.authored { "its own level" } else { "level" };
+            format!("{} {} triangles ({from} {})", p.path, p.triangles, p.level)
+        })
+        .collect();
+    Ok(MemoryError::Refinement {
+        estimate,
+        limit,
+        explicit,
+        heaviest: heaviest.join(", "),
+        fits,
+    })
+}
+
 /// Estimates the peak memory of rendering `scene` at `resolution` (the
 /// render state's, after the stage's settings and `--res`) with `aovs`,
 /// reading only the VDB grid tables.
@@ -133,27 +249,47 @@ pub fn estimate(
     resolution: UVec2,
     aovs: &AovSet,
 ) -> Result<MemoryEstimate, MemoryError> {
-    let arrays = scene.array_bytes();
     Ok(MemoryEstimate {
-        scene: arrays.meshes
+        film: film_bytes(resolution, aovs),
+        ..parts(scene, &[])?
+    })
+}
+
+/// Every part but the film, with the meshes of `planned` as refinement
+/// would make them (their cages' arrays stay in the scene's blob beside
+/// the refined ones, and are counted in both).
+fn parts(scene: &Scene, planned: &[PlannedMesh]) -> Result<MemoryEstimate, MemoryError> {
+    let arrays = scene.array_bytes();
+    let mesh_bytes = planned
+        .iter()
+        .map(|p| p.bytes)
+        .fold(arrays.meshes, u64::saturating_add);
+    Ok(MemoryEstimate {
+        scene: mesh_bytes
             + arrays.instances
             + InstanceNames::bytes_for(scene.manifest.instances.count),
-        geometry: geometry_bytes(scene, arrays.meshes),
+        geometry: geometry_bytes(scene, mesh_bytes, planned),
         volumes: volume_bytes(scene)?,
-        film: film_bytes(resolution, aovs),
+        film: 0,
         runtime: RUNTIME_BYTES,
     })
 }
 
 /// Geometry: the shading copy of every mesh array (as large as the scene's
 /// mesh bytes), resident BVHs, the build temporaries of the largest meshes
-/// built at once (one per worker thread), and the top level.
-fn geometry_bytes(scene: &Scene, mesh_bytes: u64) -> u64 {
+/// built at once (one per worker thread), and the top level; the meshes of
+/// `planned` at their refined triangle counts.
+fn geometry_bytes(scene: &Scene, mesh_bytes: u64, planned: &[PlannedMesh]) -> u64 {
     let m = &scene.manifest;
     let mut triangles: Vec<u64> = m.meshes.iter().map(|x| x.triangles.count).collect();
+    for p in planned {
+        triangles[p.mesh] = p.triangles;
+    }
     triangles.sort_unstable_by(|a, b| b.cmp(a));
-    let total: u64 = triangles.iter().sum();
-    let building: u64 = triangles.iter().take(rayon::current_num_threads()).sum();
+    let total = triangles.iter().copied().fold(0, u64::saturating_add);
+    let building = (triangles.iter().take(rayon::current_num_threads()))
+        .copied()
+        .fold(0, u64::saturating_add);
     let prototypes = scene.view(&m.instances.prototype);
     let placements: u64 = prototypes
         .iter()

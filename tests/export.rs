@@ -431,7 +431,9 @@ fn a_million_point_instances_export_and_check() {
 /// warned about; Points and BasisCurves render now (`tests/points_curves.rs`):
 /// a TetMesh and HermiteCurves are each warned about by path. A SkelRoot is posed by UsdSkel now
 /// (`tests/skinning.rs`): one with nothing bound to a skeleton is not warned
-/// about.
+/// about. `cirrus info` counts what is not rendered (two NurbsPatch, the
+/// TetMesh, the HermiteCurves) and what is approximated (NurbsCurves drawn
+/// as their control polygon) by kind, from the manifest's `unrendered`.
 #[test]
 fn unsupported_geometry_is_warned_about_by_name() {
     let dir = scratch("export_unsupported");
@@ -470,6 +472,20 @@ def Xform "World"
     def SkelRoot "Character"
     {{
     }}
+    def NurbsPatch "Sheet"
+    {{
+    }}
+    def NurbsPatch "Cloth"
+    {{
+    }}
+    def NurbsCurves "Wire"
+    {{
+        int[] curveVertexCounts = [4]
+        point3f[] points = [(0, 0, 0), (1, 1, 0), (2, 0, 0), (3, 1, 0)]
+        int[] order = [4]
+        double[] knots = [0, 0, 0, 0, 1, 1, 1, 1]
+        float[] widths = [0.05] (interpolation = "constant")
+    }}
 }}
 "#
         ),
@@ -488,4 +504,12 @@ def Xform "World"
     }
     assert!(!warnings.contains("/World/Sparks"), "{warnings}");
     assert!(!warnings.contains("/World/Character"), "{warnings}");
+    let info = common::cirrus_ok(&["info".as_ref(), out.as_os_str()]);
+    assert!(
+        info.contains(
+            "unrendered   not rendered: 1 HermiteCurves, 2 NurbsPatch, 1 TetMesh; \
+             approximated: 1 NurbsCurves\n"
+        ),
+        "{info}"
+    );
 }

@@ -170,7 +170,8 @@ fn points_and_curves_through_instances() {
 /// Bad input is named, counted and skipped, never a crash: points whose
 /// width is negative or NaN; curves whose curveVertexCounts do not match
 /// their points; points and curves with no widths drawn at USD's
-/// (Hydra's) default diameter 1.
+/// (Hydra's) default diameter 1; a periodic cubic curve of two vertices
+/// (it crashed the exporter) is a closed loop.
 #[test]
 fn bad_points_and_curves_are_named() {
     let dir = scratch("points_curves_bad");
@@ -197,6 +198,15 @@ def BasisCurves "Thin"
     uniform token basis = "catmullRom"
     int[] curveVertexCounts = [4]
     point3f[] points = [(0, 8, 0), (1, 9, 0), (2, 8, 0), (3, 9, 0)]
+}
+def BasisCurves "Loop"
+{
+    uniform token type = "cubic"
+    uniform token basis = "bspline"
+    uniform token wrap = "periodic"
+    int[] curveVertexCounts = [2]
+    point3f[] points = [(0, 12, 0), (3, 12, 0)]
+    float[] widths = [0.1] (interpolation = "constant")
 }"#,
     );
     let scene = Scene::load(&out).unwrap();
@@ -211,7 +221,12 @@ def BasisCurves "Thin"
     }
     let m = &scene.manifest;
     assert_eq!(m.points.len(), 2);
-    assert_eq!(m.curves.len(), 1);
+    assert_eq!(m.curves.len(), 2);
+    let closed = scene.view(&m.curves[1].points);
+    assert!(
+        closed.len() > 2 && closed.first() == closed.last(),
+        "{closed:?}"
+    );
     assert_eq!(scene.view(&m.points[0].widths), [1.0, 0.5]);
     assert_eq!(scene.view(&m.points[1].widths), [1.0]);
     assert!(scene.view(&m.curves[0].widths).iter().all(|&w| w == 1.0));

@@ -132,6 +132,82 @@ fn level_above_the_bound_is_refused_with_the_estimate() {
     assert!(!dir.join("x.exr").exists());
 }
 
+/// A flat grid of `n` x `n` unit quads, as `Mesh` attributes.
+fn grid(n: u32) -> String {
+    let points: Vec<String> = (0..=n)
+        .flat_map(|y| (0..=n).map(move |x| format!("({x},{y},0)")))
+        .collect();
+    let quads: Vec<String> = (0..n)
+        .flat_map(|y| (0..n).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let v = y * (n + 1) + x;
+            format!("{}, {}, {}, {}", v, v + 1, v + n + 2, v + n + 1)
+        })
+        .collect();
+    format!(
+        "int[] faceVertexCounts = [{}]\n int[] faceVertexIndices = [{}]\n point3f[] points = [{}]",
+        vec!["4"; (n * n) as usize].join(", "),
+        quads.join(", "),
+        points.join(", ")
+    )
+}
+
+/// The memory preflight refuses refinement that would not fit in
+/// `--memory-limit` before refining anything (a 1024-quad grid at
+/// `--subdiv-level 8` would make 134 million triangles and take minutes and tens of
+/// GiB: the refusal comes from the counts, at once), naming the heaviest
+/// meshes with their refined triangle counts and the level that fits.
+#[test]
+fn refinement_over_the_memory_limit_is_refused_before_refining() {
+    let dir = scratch("subdivision_memory");
+    let out = export_stage(
+        &dir,
+        &format!(
+            "def Mesh \"Cube\"\n{{\n {CUBE}\n int primvars:cirrus:subdivisionLevel = 8\n}}\ndef Mesh \"Grid\"\n{{\n {}\n}}",
+            grid(32)
+        ),
+    );
+    let render = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_cirrus"))
+            .args(["render".as_ref(), out.as_os_str(), "-o".as_ref()])
+            .arg(dir.join("x.exr"))
+            .args(["--spp", "1", "--res", "4x4", "--memory-limit", "300M"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let result = render(&["--subdiv-level", "8"]);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(!result.status.success(), "{stderr}");
+    for part in [
+        "refining the subdivision surfaces needs about",
+        "but only 300.0 MiB is available (--memory-limit)",
+        // 8 x 4^7 triangles per quad.
+        "heaviest: /Grid 134217728 triangles (level 8), /Cube 786432 triangles (its own level 8)",
+        "--subdiv-level 3 would fit",
+        "with primvars:cirrus:subdivisionLevel lowered to 3 on /Cube",
+    ] {
+        assert!(stderr.contains(part), "{part:?} not in {stderr}");
+    }
+    assert!(!dir.join("x.exr").exists());
+    // The planned counts are refinement's own, and its array bytes a bound
+    // within 1.5x of what refinement stores.
+    let cages = Scene::load_with(&out, Refinement::Cages).unwrap();
+    let planned = cages.refinement_plan(Refinement::Level(3), None).unwrap();
+    let refined = Scene::load_with(&out, Refinement::Level(3)).unwrap();
+    let mesh_bytes = |scene: &Scene| scene.array_bytes().meshes;
+    let added = mesh_bytes(&refined) - mesh_bytes(&cages);
+    let bound: u64 = planned.iter().map(|p| p.bytes).sum();
+    assert!(
+        bound >= added && bound <= added * 3 / 2,
+        "{bound} for {added}"
+    );
+    for p in &planned {
+        let mesh = &refined.manifest.meshes[p.mesh];
+        assert_eq!(p.triangles, mesh.triangles.count, "{}", p.path);
+    }
+}
+
 /// A cage placed many times (a PointInstancer) is refined once and shared.
 #[test]
 fn instanced_cages_are_refined_once() {

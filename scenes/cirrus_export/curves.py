@@ -67,7 +67,7 @@ class CurvesTable(RoundTable):
         except BadCurves as bad:
             c.report.warn(f"{name} skipped: {bad}")
             return None
-        if not polylines:
+        if polylines is None:
             c.report.warn(f"{name} skipped: no curve with a segment")
             return None
         material = key[1]
@@ -75,13 +75,11 @@ class CurvesTable(RoundTable):
             c.report.warn(f"{name} has no bound material and no displayColor: drawn with the default hair "
                           f"look (dark brown rough dielectric)")
             material = c.materials.hair()
-        points = np.concatenate([p for p, _, _ in polylines])
-        radii = 0.5 * np.concatenate([r for _, r, _ in polylines])
-        sample = [s for _, _, s in polylines]
+        points, radii, vertex_counts, sample = polylines
 
         def expand(values: np.ndarray, interpolation: str) -> np.ndarray | None:
             try:
-                return np.concatenate([s(values, interpolation) for s in sample])
+                return sample(values, interpolation)
             except (IndexError, ValueError):
                 return None
 
@@ -90,14 +88,15 @@ class CurvesTable(RoundTable):
             "path": key[0],
             "points": w.add(points.astype(np.float32), "f32", 3),
             "widths": w.add((2 * radii).astype(np.float32), "f32", 1),
-            "vertex_counts": w.add(np.array([len(p) for p, _, _ in polylines], dtype=np.uint32), "u32", 1),
+            "vertex_counts": w.add(vertex_counts.astype(np.uint32), "u32", 1),
             "material": material,
             "primvars": c.primvars(prim, material, expand),
         }
         return c.add(record, points, radii)
 
-    def _read(self, prim: Usd.Prim, name: str) -> list:
-        """Each curve as (vertices, widths, sampler of per-vertex values)."""
+    def _read(self, prim: Usd.Prim, name: str) -> tuple | None:
+        """The curves with a segment as (vertices, radii, vertex count per curve, sampler of
+        per-vertex values); None when no curve has a segment."""
         c, geom = self._c, UsdGeom.Curves(prim)
         points = np.asarray(geom.GetPointsAttr().Get(c.time) or [], dtype=np.float64).reshape(-1, 3)
         counts = np.asarray(geom.GetCurveVertexCountsAttr().Get(c.time) or [], dtype=np.int64)
@@ -113,8 +112,8 @@ class CurvesTable(RoundTable):
             if cubic and basis not in BASES:
                 raise BadCurves(f"basis {basis} is not bezier, bspline or catmullRom")
         else:
-            c.report.warn(f"{name}: NURBS curves are drawn as their control polygon (linear), not the "
-                          f"NURBS curve")
+            c.report.approximated("NurbsCurves", f"{name}: NURBS curves are drawn as their control polygon "
+                                  f"(linear), not the NURBS curve")
             cubic, basis, wrap = False, "bezier", "nonperiodic"
         segments = [segment_count(int(n), cubic, basis, wrap) for n in counts]
         widths = geom.GetWidthsAttr().Get(c.time)
@@ -129,17 +128,14 @@ class CurvesTable(RoundTable):
         if not shape.fits(len(widths), interpolation):
             raise BadCurves(f"widths has {len(widths)} {interpolation} values, which do not fit "
                             f"curveVertexCounts")
-        out = []
-        first, varying_first = 0, 0
-        for i, (n, segs) in enumerate(zip(counts, segments)):
-            if segs < 1:
-                c.report.warn(f"{name}: curve {i} has {n} vertices, too few for a {'cubic ' + basis if cubic else 'linear'} "
-                              f"{wrap} curve; skipped")
-            else:
-                out.append(shape.polyline(i, points, widths, interpolation, first, varying_first))
-            first += int(n)
-            varying_first += shape.varying_count(segs)
-        return out
+        for i in np.flatnonzero(np.array(segments) < 1):
+            n = counts[i]
+            c.report.warn(f"{name}: curve {i} has {n} vertices, too few for a {'cubic ' + basis if cubic else 'linear'} "
+                          f"{wrap} curve; skipped")
+        if not any(s >= 1 for s in segments):
+            return None
+        vertices, widths, vertex_counts, sample = shape.polylines(points, widths, interpolation)
+        return vertices, 0.5 * widths[:, 0], vertex_counts, sample
 
 
 class Shape:
@@ -156,56 +152,88 @@ class Shape:
                 "varying": sum(self.varying_count(s) for s in self.segments)}
         return want.get(interpolation) == count
 
-    def _controls(self, values: np.ndarray) -> np.ndarray:
-        """A curve's control values with wrap applied: periodic ones repeated past the end,
-        pinned bspline/catmullRom ones with phantom ends."""
-        if self.wrap == "periodic":
-            extra = 3 if self.cubic else 1
-            return np.concatenate([values, values[:extra]])
-        if self.wrap == "pinned" and self.cubic and self.basis != "bezier":
-            return np.concatenate([2 * values[:1] - values[1:2], values, 2 * values[-1:] - values[-2:-1]])
-        return values
+    def polylines(self, points: np.ndarray, widths: np.ndarray, interpolation: str):
+        """The curves with a segment as (vertices, widths, vertex count per curve, sampler):
+        the sampler maps any per-vertex, varying, uniform or constant array to the vertices.
+        Vectorised over every segment of every curve: each batched product is the
+        per-segment one, slice for slice (numpy's stacked matmul runs the same product per
+        slice), so the output is bit for bit that of a loop over segments."""
+        per_curve = np.array(self.segments, dtype=np.int64)
+        first = np.concatenate([[0], np.cumsum(self.counts)[:-1]])
+        varying = np.maximum(per_curve, 0) + (0 if self.wrap == "periodic" else 1)
+        varying_first = np.concatenate([[0], np.cumsum(varying)[:-1]])
+        kept = np.flatnonzero(per_curve >= 1)
+        n_seg = per_curve[kept]
+        kept_of_segment = np.repeat(np.arange(len(kept)), n_seg)
+        curve = kept[kept_of_segment]
+        seg = np.arange(n_seg.sum()) - np.repeat(np.cumsum(n_seg) - n_seg, n_seg)
+        n = self.counts[kept]
+        extra = (3 if self.cubic else 1) if self.wrap == "periodic" else 0
+        pinned = self.wrap == "pinned" and self.cubic and self.basis != "bezier"
+        lengths = n + extra + (2 if pinned else 0)
+        starts = np.cumsum(lengths) - lengths
+        local = np.arange(lengths.sum()) - np.repeat(starts, lengths)
+        n_of = np.repeat(n, lengths)
+        local = np.clip(local - 1, 0, n_of - 1) if pinned else local % n_of
+        rows_of_controls = np.repeat(first[kept], lengths) + local
 
-    def polyline(self, i: int, points, widths, interpolation: str, first: int, varying_first: int):
-        """Curve i as (vertices, widths, sampler): the sampler maps any per-vertex, varying,
-        uniform or constant array to the polyline's vertices."""
-        n, segs = int(self.counts[i]), self.segments[i]
-        controls = self._controls(points[first:first + n])
+        def controls(values: np.ndarray) -> np.ndarray:
+            """Every kept curve's control values from `starts`: periodic ones repeated past the end,
+            pinned bspline/catmullRom ones with phantom ends (2 P0 - P1, 2 Pn - Pn-1)."""
+            out = values[rows_of_controls]
+            if pinned:
+                f, last = first[kept], first[kept] + n - 1
+                out[starts] = 2 * values[f] - values[f + 1]
+                out[starts + lengths - 1] = 2 * values[last] - values[last - 1]
+            return out
+
+        def at(values: np.ndarray, interp: str, which: np.ndarray, t: np.ndarray) -> np.ndarray:
+            """(len(which), len(t), width): segments `which` at parameters t."""
+            shape = (len(which), len(t), values.shape[1])
+            if interp == "constant":
+                return np.broadcast_to(values[:1], shape)
+            if interp == "uniform":
+                return np.broadcast_to(values[curve[which]][:, None], shape)
+            if interp == "varying":
+                base, count = varying_first[curve[which]], varying[curve[which]]
+                a, b = values[base + seg[which]][:, None], values[base + (seg[which] + 1) % count][:, None]
+                return a + t[:, None] * (b - a)
+            table, start = controls(values), starts[kept_of_segment[which]]
+            if not self.cubic:
+                a, b = table[start + seg[which]][:, None], table[start + seg[which] + 1][:, None]
+                return a + t[:, None] * (b - a)
+            matrix, step = BASES[self.basis]
+            return _weights(matrix, t) @ table[(start + seg[which] * step)[:, None] + np.arange(4)]
+
+        everything = np.arange(len(seg))
         if not self.cubic:
-            pieces = [(s, np.array([0.0, 1.0])) for s in range(segs)]
+            pieces = np.ones(len(seg), dtype=np.int64)
         else:
             matrix, step = BASES[self.basis]
-            raw_w = widths if interpolation == "constant" else None
-            pieces = []
-            for s in range(segs):
-                p = controls[s * step:s * step + 4]
-                curvature = max(np.linalg.norm(_second_derivative(matrix, t) @ p) for t in (0.0, 1.0))
-                r = 0.5 * (raw_w[0, 0] if raw_w is not None else self._sample(widths, interpolation, i, first,
-                                                                             varying_first, s, np.array([0.0, 1.0])).min())
-                tolerance = max(RELATIVE_TOLERANCE * r, 1e-7 * np.abs(p).max(initial=1.0))
-                count = int(np.clip(np.ceil(np.sqrt(curvature / (8 * tolerance))), 1, MAX_PIECES))
-                pieces.append((s, np.linspace(0.0, 1.0, count + 1)))
+            windows = controls(points)[(starts[kept_of_segment] + seg * step)[:, None] + np.arange(4)]
+            curvature = np.maximum(*(np.sqrt(np.einsum("sk,sk->s", v, v)) for v in
+                                     (_second_derivative(matrix, t) @ windows for t in (0.0, 1.0))))
+            if interpolation == "constant":
+                r = np.full(len(seg), 0.5 * widths[0, 0])
+            else:
+                r = 0.5 * at(widths, interpolation, everything, np.array([0.0, 1.0])).min(axis=1)[:, 0]
+            tolerance = np.maximum(RELATIVE_TOLERANCE * r, 1e-7 * np.abs(windows).max(axis=(1, 2), initial=1.0))
+            pieces = np.clip(np.ceil(np.sqrt(curvature / (8 * tolerance))), 1, MAX_PIECES).astype(np.int64)
+        # A curve's first segment keeps its first vertex; the others start at their second.
+        opens = seg == 0
+        rows = pieces + opens
+        offsets = np.cumsum(rows) - rows
+        groups = []
+        for count, whole in set(zip(pieces.tolist(), opens.tolist())):
+            t = np.linspace(0.0, 1.0, count + 1)
+            groups.append((np.flatnonzero((pieces == count) & (opens == whole)), t if whole else t[1:]))
 
         def sample(values: np.ndarray, interp: str) -> np.ndarray:
-            rows = [self._sample(values, interp, i, first, varying_first, s, t if k == 0 else t[1:])
-                    for k, (s, t) in enumerate(pieces)]
-            return np.concatenate(rows)
+            out = np.empty((int(rows.sum()), values.shape[1]), dtype=np.result_type(values, np.float64))
+            for which, t in groups:
+                part = at(values, interp, which, t)
+                out[(offsets[which][:, None] + np.arange(len(t))).reshape(-1)] = part.reshape(-1, values.shape[1])
+            return out
 
-        return sample(points, "vertex"), sample(widths, interpolation)[:, 0], sample
-
-    def _sample(self, values, interp: str, i: int, first: int, varying_first: int, s: int, t: np.ndarray):
-        """Values of segment s of curve i at parameters t, by interpolation."""
-        if interp == "constant":
-            return np.repeat(values[:1], len(t), axis=0)
-        if interp == "uniform":
-            return np.repeat(values[i:i + 1], len(t), axis=0)
-        if interp == "varying":
-            ends = values[varying_first:varying_first + self.varying_count(self.segments[i])]
-            a, b = ends[s], ends[(s + 1) % len(ends)]
-            return a + t[:, None] * (b - a)
-        controls = self._controls(values[first:first + int(self.counts[i])])
-        if not self.cubic:
-            a, b = controls[s], controls[s + 1]
-            return a + t[:, None] * (b - a)
-        matrix, step = BASES[self.basis]
-        return _weights(matrix, t) @ controls[s * step:s * step + 4]
+        vertex_counts = np.add.reduceat(rows, np.cumsum(n_seg) - n_seg)
+        return sample(points, "vertex"), sample(widths, interpolation), vertex_counts, sample

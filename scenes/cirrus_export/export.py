@@ -107,6 +107,7 @@ def export(path: Path, out_dir: Path, frame: float | None, camera: str | None = 
     with report.usd_diagnostics():
         manifest, writer = collect(path, out_dir, frame, report, (camera, settings), shutter)
     manifest["warnings"] = report.warnings
+    manifest["unrendered"] = report.counts
     bad = first_non_finite(manifest)
     if bad is not None:
         field, prim, value = bad

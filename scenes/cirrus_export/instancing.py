@@ -199,8 +199,8 @@ class Walker:
         if prim.GetTypeName() in PART_TYPES:
             sink.part(prim, self._skinning.placed(prim, sink.holder, matrix))
         elif prim.GetTypeName() in UNRENDERED_TYPES:
-            self._report.warn(f"{prim.GetTypeName()} {prim.GetPath()} is not rendered: "
-                              f"{prim.GetTypeName()} prims are not supported yet")
+            self._report.not_rendered(prim.GetTypeName(), f"{prim.GetTypeName()} {prim.GetPath()} is not rendered: "
+                                      f"{prim.GetTypeName()} prims are not supported yet")
         for child in prim.GetFilteredChildren(PREDICATE):
             self._walk(child, matrix, sink)
 

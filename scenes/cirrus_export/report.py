@@ -3,7 +3,9 @@
 Warnings go to stderr as `warning: ...` lines and into the manifest's "warnings" list,
 each text once; USD's own diagnostics (printed by its C++ core straight to file
 descriptor 2) are captured and turned into such warnings too. An ExportError is unusable
-input and ends the run with exit code 2 and one `error: ...` line.
+input and ends the run with exit code 2 and one `error: ...` line. The warnings about what
+is not rendered, or rendered approximately, are also counted by kind (`counts`, the
+manifest's "unrendered" record, for `cirrus info`).
 """
 
 import contextlib
@@ -31,6 +33,8 @@ class Report:
         self.warnings: list[str] = []
         self._seen: set[str] = set()
         self._stream: TextIO = sys.stderr
+        # "not_rendered" / "approximated" -> kind -> warnings of that kind.
+        self.counts: dict[str, dict[str, int]] = {"not_rendered": {}, "approximated": {}}
 
     def warn(self, message: str) -> None:
         """Records a fallback or skipped input, printing it the first time only."""
@@ -39,6 +43,20 @@ class Report:
         self._seen.add(message)
         self.warnings.append(message)
         print(f"warning: {message}", file=self._stream, flush=True)
+
+    def not_rendered(self, kind: str, message: str) -> None:
+        """Warns about a prim left out of the render, counted under `kind` (its type)."""
+        self._counted("not_rendered", kind, message)
+
+    def approximated(self, kind: str, message: str) -> None:
+        """Warns about a prim or attribute rendered, but not as authored, counted under `kind`."""
+        self._counted("approximated", kind, message)
+
+    def _counted(self, status: str, kind: str, message: str) -> None:
+        if message not in self._seen:
+            table = self.counts[status]
+            table[kind] = table.get(kind, 0) + 1
+        self.warn(message)
 
     @contextlib.contextmanager
     def usd_diagnostics(self) -> Iterator[None]:

@@ -30,6 +30,8 @@ from .xforms import as_array
 RIGID = UsdGeom.Tokens.constant
 # Normal interpolations that follow a deformation: one normal per point or per face corner.
 SKINNED_NORMALS = ("vertex", "varying", "faceVarying")
+# The kind `cirrus info` counts skins left in their bind pose under.
+BIND_POSE = "bind-pose skins"
 
 
 @dataclass
@@ -87,7 +89,7 @@ class Skinning:
         elif skeleton.GetPath().HasPrefix(holder.GetPath()):
             holder_from_skel = as_array(self._xforms.ComputeRelativeTransform(skeleton, holder)[0])
         else:
-            self._report.warn(f"{prim.GetPath()}: skel:skeleton {skeleton.GetPath()} lies outside "
+            self._report.approximated(BIND_POSE, f"{prim.GetPath()}: skel:skeleton {skeleton.GetPath()} lies outside "
                               f"{holder.GetPath()}, the instanced prototype holding the mesh: rendered in its "
                               "bind pose")
             self._poses[str(prim.GetPath())] = None
@@ -179,7 +181,7 @@ class Skinning:
         """Warns about a fault the first time it is seen (instances of one prototype share it)."""
         if key not in self._warned:
             self._warned.add(key)
-            self._report.warn(message)
+            self._report.approximated(BIND_POSE, message)
 
     def _skeleton_problem(self, skel: UsdSkel.SkeletonQuery, prim: Usd.Prim) -> str | None:
         """Why the skeleton cannot be posed (naming the attribute), or None."""
@@ -259,7 +261,7 @@ class Skinning:
             messages, pose = [_usd_text(error)], None
         if messages or pose is None:
             reason = "; ".join(messages) or "no reason given"
-            self._report.warn(f"{prim.GetPath()}: UsdSkel cannot pose it ({reason}); rendered in its bind pose")
+            self._report.approximated(BIND_POSE, f"{prim.GetPath()}: UsdSkel cannot pose it ({reason}); rendered in its bind pose")
             return None
         return pose
 

@@ -48,7 +48,7 @@ class CageWriter:
         self._w, self._report, self._time, self._source = writer, report, time, source
 
     def _warn(self, prim: Usd.Prim, message: str) -> None:
-        self._report.warn(f"{self._source}: mesh {prim.GetPath()}: {message}")
+        self._report.approximated("subdivision tags", f"{self._source}: mesh {prim.GetPath()}: {message}")
 
     def record(self, prim: Usd.Prim, geometry: MeshGeometry, face_materials: np.ndarray) -> dict:
         """The `subdivision` record of a cage whose triangulation is `geometry`."""

@@ -14,7 +14,7 @@ pub fn run(file: &Path) -> Result<()> {
     if is_scene || scene::is_usd(file) {
         print!(
             "{}",
-            scene::summary(&scene::Scene::open(file, &Default::default())?)
+            scene::summary(&cirrus::memory::open(file, &Default::default(), None)?)
         );
     } else {
         let vdb = VdbFile::open(file)?;

@@ -18,7 +18,6 @@ use clap::builder::TypedValueParser as _;
 use clap::{Parser, Subcommand};
 
 use cirrus::choice::Choice;
-use cirrus::scene::Scene;
 
 /// Cirrus: a production path tracer for USD scenes and OpenVDB volumes.
 #[derive(Parser, Debug)]
@@ -135,7 +134,7 @@ fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Val
 /// the renderer would refuse is reported now rather than at render time.
 fn export(input: &Path, output: &Path, options: &cirrus::scene::ExportOptions) -> Result<()> {
     cirrus::scene::export(input, output, options)?;
-    let scene = Scene::load(output)?;
+    let scene = cirrus::memory::open(output, &Default::default(), None)?;
     let m = &scene.manifest;
     println!(
         "{}: {} prototype(s), {} instance(s), {} warning(s)",

@@ -293,7 +293,7 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
         },
         refinement: cirrus::scene::Refinement::Level(args.subdiv_level),
     };
-    let scene = cirrus::scene::Scene::open(&args.scene, &options)?;
+    let scene = memory::open(&args.scene, &options, args.memory_limit)?;
     let flags = OutputFlags {
         output: args.output.as_deref(),
         aovs: args.aovs.as_ref(),

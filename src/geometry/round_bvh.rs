@@ -29,8 +29,11 @@ use crate::scene::{affine, Scene, Transform};
 /// of piece start (curves) and CWBVH nodes (about 20).
 const BYTES_PER_ELEMENT: u64 = 16 + 4 + 4 + 20;
 /// Per element while its prim's BVH is built: its box (32) and PLOC's and
-/// the CWBVH conversion's temporaries (512, as for a triangle).
-const BUILD_BYTES_PER_ELEMENT: u64 = 32 + 288 + 224;
+/// the CWBVH conversion's temporaries, measured (`cirrus bench
+/// points-curves`, docs/benchmarks.md): the build peaks at 201 bytes per
+/// sphere and 205 per curve piece above what stays resident (the triangle
+/// rate, 544, overcharged them 2.2x); 256 bounds both, within 1.2x.
+const BUILD_BYTES_PER_ELEMENT: u64 = 256;
 
 /// The points and curves prims of a scene, under their own top level.
 pub(super) struct RoundShapes {

@@ -77,6 +77,21 @@ pub struct Manifest {
     pub render: Render,
     /// Everything that fell back during export, once each.
     pub warnings: Vec<String>,
+    /// Of those warnings, the prims and attributes not rendered or
+    /// approximated, counted by kind (optional: none counted when absent).
+    #[serde(default)]
+    pub unrendered: Unrendered,
+}
+
+/// Counts by kind (`NurbsPatch`, `NurbsCurves`, ...) of what the exporter
+/// warned it does not render, or renders approximately.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(default)]
+pub struct Unrendered {
+    /// Left out of the render.
+    pub not_rendered: BTreeMap<String, u64>,
+    /// Rendered, but not as authored.
+    pub approximated: BTreeMap<String, u64>,
 }
 
 /// Where the scene came from.

@@ -45,7 +45,7 @@ pub use material::{
     PrimvarInput, Rgb, StTransform, Texture, TextureInput, Wrap,
 };
 pub use names::InstanceNames;
-pub use subdivide::{Refinement, SubdivisionSummary};
+pub use subdivide::{PlannedMesh, Refinement, SubdivisionSummary};
 pub use summary::summary;
 
 /// A loaded, validated scene: the manifest records and the bulk data they reference.
@@ -221,15 +221,44 @@ impl Scene {
     /// once per mesh, so every instance shares the refined surface.
     pub fn load_with(path: &Path, refinement: Refinement) -> Result<Self, SceneError> {
         let dir = load::scene_dir(path);
-        let (mut manifest, mut blob) = load::load(&dir)?;
-        let manifest_path = dir.join(MANIFEST_FILE);
-        let subdivision = subdivide::refine(&manifest_path, &mut manifest, &mut blob, refinement)?;
-        Ok(Self {
+        let (manifest, blob) = load::load(&dir)?;
+        let subdivision = subdivide::cages(&manifest, Refinement::Cages);
+        let mut scene = Self {
             dir,
             manifest,
             subdivision,
             blob,
-        })
+        };
+        scene.refine(refinement)?;
+        Ok(scene)
+    }
+
+    /// What refining this scene's cages as `refinement` asks would make,
+    /// mesh by mesh, every level capped at `cap` when given: counted from
+    /// the cages, nothing refined (the memory preflight). Refuses a level
+    /// above [`crate::subdivision::MAX_LEVEL`]. Empty once refined.
+    pub fn refinement_plan(
+        &self,
+        refinement: Refinement,
+        cap: Option<u32>,
+    ) -> Result<Vec<PlannedMesh>, SceneError> {
+        if self.subdivision.refinement != Refinement::Cages {
+            return Ok(Vec::new());
+        }
+        let path = self.dir.join(MANIFEST_FILE);
+        subdivide::plan(&path, &self.manifest, &self.blob, refinement, cap)
+    }
+
+    /// Refines the cages of a scene loaded with [`Refinement::Cages`] as
+    /// `refinement` says: once per mesh, so every instance shares the
+    /// refined surface. A scene already refined is left as it is.
+    pub fn refine(&mut self, refinement: Refinement) -> Result<(), SceneError> {
+        if self.subdivision.refinement == Refinement::Cages {
+            let path = self.dir.join(MANIFEST_FILE);
+            self.subdivision =
+                subdivide::refine(&path, &mut self.manifest, &mut self.blob, refinement)?;
+        }
+        Ok(())
     }
 
     /// The elements of one of this scene's arrays, viewed in place in `scene.bin`.

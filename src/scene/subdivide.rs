@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use super::format::{Manifest, Mesh, Subdivision, NO_MATERIAL};
 use super::load::{Blob, SceneError};
-use crate::subdivision::{self, Cage, Channel, RefinedMesh, Surface, MAX_LEVEL};
+use crate::subdivision::{self, Cage, Channel, RefinedMesh, Scheme, Surface, MAX_LEVEL};
 
 /// How meshes with a subdivision record are loaded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -34,6 +34,8 @@ impl Default for Refinement {
 /// What refinement did to a scene, for `cirrus info` and the benchmarks.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SubdivisionSummary {
+    /// How the cages were loaded: [`Refinement::Cages`] until they are refined.
+    pub refinement: Refinement,
     /// Meshes with a subdivision record.
     pub cages: usize,
     /// Of those, meshes refined.
@@ -58,71 +60,120 @@ impl std::fmt::Display for SubdivisionSummary {
     }
 }
 
+/// One subdivision mesh as refinement would make it, counted from its cage
+/// before anything is refined (the memory preflight's input).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PlannedMesh {
+    /// Index into the manifest's meshes.
+    pub mesh: usize,
+    /// The mesh's prim path.
+    pub path: String,
+    /// The level it would be refined to.
+    pub level: u32,
+    /// True when that level is the mesh's own (`primvars:cirrus:subdivisionLevel`).
+    pub authored: bool,
+    /// Triangles it would make: exact, [`subdivision::triangles_at`].
+    pub triangles: u64,
+    /// Bytes of its refined arrays, an upper bound: 16 per triangle (indices,
+    /// material) and, per point, 12 (position), 12 (limit normal, not for
+    /// bilinear), 8 (UV) and 4 per primvar float. Points: half the
+    /// triangles (a closed quad or Loop mesh has about that many), plus
+    /// `2^level` per cage face corner for face-varying seams.
+    pub bytes: u64,
+}
+
+/// What refining `manifest`'s subdivision meshes as `refinement` asks
+/// would make, mesh by mesh, every level capped at `cap` when given;
+/// refuses a level above [`MAX_LEVEL`] (with the triangle count it would
+/// make). Refines nothing: [`Refinement::Cages`] plans nothing.
+pub(super) fn plan(
+    path: &Path,
+    manifest: &Manifest,
+    blob: &Blob,
+    refinement: Refinement,
+    cap: Option<u32>,
+) -> Result<Vec<PlannedMesh>, SceneError> {
+    let Refinement::Level(default) = refinement else {
+        return Ok(Vec::new());
+    };
+    let planned: Vec<PlannedMesh> = (manifest.meshes.iter().enumerate())
+        .filter_map(|(i, mesh)| Some((i, mesh, mesh.subdivision.as_ref()?)))
+        .map(|(i, mesh, cage)| {
+            let level = cage.level.unwrap_or(default).min(cap.unwrap_or(u32::MAX));
+            let face_counts = blob.view(&cage.face_counts);
+            let triangles = subdivision::triangles_at(cage.scheme, face_counts, level);
+            let seams = (cage.face_indices.count).saturating_mul(1 << level.min(MAX_LEVEL + 1));
+            let points = (triangles / 2).saturating_add(seams);
+            let normals = if cage.scheme == Scheme::Bilinear {
+                0
+            } else {
+                12
+            };
+            let uvs = if mesh.uvs.is_some() { 8 } else { 0 };
+            let floats: u64 = mesh.primvars.values().map(|p| u64::from(p.width)).sum();
+            let per_point = 12 + normals + uvs + 4 * floats;
+            PlannedMesh {
+                mesh: i,
+                path: mesh.path.clone(),
+                level,
+                authored: cage.level.is_some(),
+                triangles,
+                bytes: triangles
+                    .saturating_mul(16)
+                    .saturating_add(points.saturating_mul(per_point)),
+            }
+        })
+        .collect();
+    if let Some(too_deep) = planned.iter().find(|p| p.level > MAX_LEVEL) {
+        return Err(SceneError::SubdivisionLevel {
+            path: path.to_owned(),
+            level: too_deep.level,
+            from: if too_deep.authored {
+                format!("primvars:cirrus:subdivisionLevel of {}", too_deep.path)
+            } else {
+                "--subdiv-level".to_owned()
+            },
+            triangles: planned
+                .iter()
+                .map(|p| p.triangles)
+                .fold(0, u64::saturating_add),
+        });
+    }
+    Ok(planned)
+}
+
+/// The summary of `manifest`'s cages loaded as `refinement` asks, before
+/// any is refined.
+pub(super) fn cages(manifest: &Manifest, refinement: Refinement) -> SubdivisionSummary {
+    let cages = manifest.meshes.iter().filter(|m| m.subdivision.is_some());
+    let cage_triangles = cages.clone().map(|m| m.triangles.count).sum();
+    SubdivisionSummary {
+        refinement,
+        cages: cages.count(),
+        cage_triangles,
+        triangles: cage_triangles,
+        ..SubdivisionSummary::default()
+    }
+}
+
 /// Refines the subdivision meshes of `manifest` as `refinement` asks,
 /// appending their arrays to `blob`; refuses a level above [`MAX_LEVEL`]
-/// (with the triangle count it would make) before refining anything.
+/// before refining anything (see [`plan`]).
 pub(super) fn refine(
     path: &Path,
     manifest: &mut Manifest,
     blob: &mut Blob,
     refinement: Refinement,
 ) -> Result<SubdivisionSummary, SceneError> {
-    let cages: Vec<usize> = (0..manifest.meshes.len())
-        .filter(|&i| manifest.meshes[i].subdivision.is_some())
-        .collect();
-    let mut summary = SubdivisionSummary {
-        cages: cages.len(),
-        cage_triangles: cages
-            .iter()
-            .map(|&i| manifest.meshes[i].triangles.count)
-            .sum(),
-        ..SubdivisionSummary::default()
-    };
-    summary.triangles = summary.cage_triangles;
-    let Refinement::Level(default) = refinement else {
-        return Ok(summary);
-    };
-    let level_of = |mesh: &Mesh| {
-        mesh.subdivision
-            .as_ref()
-            .and_then(|s| s.level)
-            .unwrap_or(default)
-    };
-    let estimate: u64 = cages
-        .iter()
-        .map(|&i| {
-            let mesh = &manifest.meshes[i];
-            let cage = mesh.subdivision.as_ref().expect("a cage");
-            subdivision::triangles_at(cage.scheme, blob.view(&cage.face_counts), level_of(mesh))
-        })
-        .fold(0, u64::saturating_add);
-    if let Some(&i) = cages
-        .iter()
-        .find(|&&i| level_of(&manifest.meshes[i]) > MAX_LEVEL)
-    {
-        let mesh = &manifest.meshes[i];
-        let authored = mesh.subdivision.as_ref().and_then(|s| s.level).is_some();
-        return Err(SceneError::SubdivisionLevel {
-            path: path.to_owned(),
-            level: level_of(mesh),
-            from: if authored {
-                format!("primvars:cirrus:subdivisionLevel of {}", mesh.path)
-            } else {
-                "--subdiv-level".to_owned()
-            },
-            triangles: estimate,
-        });
-    }
+    let planned = plan(path, manifest, blob, refinement, None)?;
+    let mut summary = cages(manifest, refinement);
     let start = Instant::now();
-    let refined: Vec<_> = cages
+    let refined: Vec<_> = planned
         .par_iter()
-        .map(|&i| {
-            let mesh = &manifest.meshes[i];
-            refine_mesh(blob, mesh, level_of(mesh))
-        })
+        .map(|p| refine_mesh(blob, &manifest.meshes[p.mesh], p.level))
         .collect();
-    for (&i, result) in cages.iter().zip(refined) {
-        let mesh = &mut manifest.meshes[i];
+    for (p, result) in planned.iter().zip(refined) {
+        let mesh = &mut manifest.meshes[p.mesh];
         match result {
             Ok(refined) => {
                 summary.refined += 1;

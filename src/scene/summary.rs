@@ -133,6 +133,21 @@ pub fn summary(scene: &Scene) -> String {
         ),
     );
     line("warnings", m.warnings.len().to_string());
+    let kinds = |counts: &BTreeMap<String, u64>| match counts.is_empty() {
+        true => "none".to_owned(),
+        false => (counts.iter().map(|(kind, n)| format!("{n} {kind}")))
+            .collect::<Vec<_>>()
+            .join(", "),
+    };
+    let u = &m.unrendered;
+    line(
+        "unrendered",
+        format!(
+            "not rendered: {}; approximated: {}",
+            kinds(&u.not_rendered),
+            kinds(&u.approximated)
+        ),
+    );
     out
 }
 
