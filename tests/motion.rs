@@ -268,6 +268,47 @@ fn a_skinned_mesh_is_posed_at_every_key_and_blurs() {
     );
 }
 
+/// An emissive deforming mesh is not light-sampled while the shutter blurs
+/// (a warning names it: its light is found by rays that hit it, with MIS
+/// weight 1), and is light-sampled, unwarned, with the shutter closed.
+#[test]
+fn a_deforming_emitter_is_not_light_sampled_and_is_warned_about() {
+    let dir = common::scratch("motion_deforming_emitter");
+    let text = std::fs::read_to_string(stage("motion_deform")).unwrap();
+    let grey = "color3f inputs:diffuseColor = (0.5, 0.5, 0.5)";
+    assert!(text.contains(grey), "the test stage changed");
+    let usda = dir.join("emitter.usda");
+    std::fs::write(
+        &usda,
+        text.replace(grey, "color3f inputs:emissiveColor = (1, 1, 1)"),
+    )
+    .unwrap();
+    let out = dir.join("emitter");
+    cirrus_ok(&[
+        "export",
+        usda.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let said = "emissive mesh /World/Sheet moves or deforms over the shutter";
+    for (shutter, warned) in [("0,1", true), ("0,0", false)] {
+        let exr = dir.join(format!("emitter_{shutter}.exr"));
+        let log = cirrus_ok(&[
+            "render",
+            out.to_str().unwrap(),
+            "-o",
+            exr.to_str().unwrap(),
+            "--res",
+            "16x8",
+            "--spp",
+            "1",
+            "--shutter",
+            shutter,
+        ]);
+        assert_eq!(log.contains(said), warned, "--shutter {shutter}:\n{log}");
+    }
+}
+
 /// Exports `scenes/tests/motion_velocities.usda` with its `velocities`
 /// line replaced by `velocities`: the warnings and the manifest's text.
 fn export_velocities(dir: &Path, name: &str, velocities: &str) -> (String, String) {
