@@ -1,7 +1,8 @@
 //! Motion blur end to end: a render whose shutter is open equals the
 //! average of still renders at stratified times over the shutter (a
 //! translating sphere, a rotating instance, PointInstancer velocities, a
-//! moving camera), within 4 sigma
+//! moving camera, a deforming mesh; mesh velocities against their
+//! time-sampled equivalent; a skinned mesh posed per key), within 4 sigma
 //! per band of columns; a shutter closed at the frame renders the still
 //! frame bit for bit; farm parts and resumed renders of a blurred frame stay
 //! bit-identical; bad shutters and non-finite transform samples are refused
@@ -307,6 +308,32 @@ fn a_deforming_emitter_is_not_light_sampled_and_is_warned_about() {
         ]);
         assert_eq!(log.contains(said), warned, "--shutter {shutter}:\n{log}");
     }
+}
+
+/// A mesh whose topology changes over the shutter (a point more at frame
+/// 1) is exported as it is at the frame, with a warning naming it.
+#[test]
+fn a_mesh_changing_topology_is_warned_about_and_left_still() {
+    let dir = common::scratch("motion_topology");
+    let text = std::fs::read_to_string(stage("motion_deform")).unwrap();
+    let last = "1: [(-1, -1, 0), (3, -1, 0), (3, 1, 0), (-1, 1, 0)],";
+    assert!(text.contains(last), "the test stage changed");
+    let usda = dir.join("topology.usda");
+    let more = "1: [(-1, -1, 0), (3, -1, 0), (3, 1, 0), (-1, 1, 0), (0, 0, 0)],";
+    std::fs::write(&usda, text.replace(last, more)).unwrap();
+    let out = dir.join("topology");
+    let log = cirrus_ok(&[
+        "export",
+        usda.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        log.contains("/World/Sheet: its topology changes over the shutter"),
+        "{log}"
+    );
+    let manifest = std::fs::read_to_string(out.join("scene.json")).unwrap();
+    assert!(!manifest.contains("\"motion\""), "it still deforms");
 }
 
 /// Exports `scenes/tests/motion_velocities.usda` with its `velocities`
