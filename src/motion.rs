@@ -117,6 +117,52 @@ impl fmt::Display for Shutter {
     }
 }
 
+/// Where a time falls among strictly increasing key times: the two keys
+/// around it and the fraction of the way from the first to the second
+/// (linear interpolation weight); outside the keys, the end key held
+/// (both keys the same, `s` 0). Shared by transform tracks and deforming
+/// meshes' per-vertex keys.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bracket {
+    /// The key at or before the time (the first key before all keys).
+    pub before: usize,
+    /// The key after it (equal to `before` outside the keys).
+    pub after: usize,
+    /// Weight of `after`, in [0, 1).
+    pub s: f32,
+}
+
+impl Bracket {
+    /// The bracket of `time` (frames) among `times` (non-empty, strictly
+    /// increasing).
+    pub fn at(times: &[f32], time: f32) -> Self {
+        let last = times.len() - 1;
+        let after = times.partition_point(|&t| t <= time);
+        if after == 0 || after > last {
+            let key = if after == 0 { 0 } else { last };
+            return Self {
+                before: key,
+                after: key,
+                s: 0.0,
+            };
+        }
+        let (t0, t1) = (times[after - 1], times[after]);
+        Self {
+            before: after - 1,
+            after,
+            s: (time - t0) / (t1 - t0),
+        }
+    }
+
+    /// `a` and `b` (values at `before` and `after`) mixed by `s`.
+    pub fn lerp<T>(&self, a: T, b: T) -> T
+    where
+        T: std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+    {
+        a * (1.0 - self.s) + b * self.s
+    }
+}
+
 /// A transform keyed at increasing times and interpolated by matrix lerp
 /// (see the module doc); never empty.
 #[derive(Clone, Debug)]
@@ -139,17 +185,11 @@ impl TransformTrack {
     /// The transform at `time` (frames): the lerp of the two keys around
     /// it, the first or last key outside them.
     pub fn at(&self, time: f32) -> Affine3A {
-        let last = self.times.len() - 1;
-        let after = self.times.partition_point(|&t| t <= time);
-        if after == 0 {
-            return self.keys[0];
+        let Bracket { before, after, s } = Bracket::at(&self.times, time);
+        if s == 0.0 {
+            return self.keys[before];
         }
-        if after > last {
-            return self.keys[last];
-        }
-        let (t0, t1) = (self.times[after - 1], self.times[after]);
-        let s = (time - t0) / (t1 - t0);
-        let (a, b) = (&self.keys[after - 1], &self.keys[after]);
+        let (a, b) = (&self.keys[before], &self.keys[after]);
         Affine3A {
             matrix3: a.matrix3 * (1.0 - s) + b.matrix3 * s,
             translation: a.translation * (1.0 - s) + b.translation * s,

@@ -13,7 +13,9 @@ scene with a closed shutter, exports byte-identical to one exported without this
 import math
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom, UsdLux, UsdSkel
+from pxr import Gf, Usd, UsdGeom, UsdLux
+
+from .deforming import mesh_motion
 
 from .report import Report
 from .xforms import as_array, to_3x4, to_3x4_list
@@ -70,28 +72,15 @@ def shutter(camera_prim: Usd.Prim | None, time: Usd.TimeCode, override: tuple | 
     return float(camera.GetShutterOpenAttr().Get(time)), float(camera.GetShutterCloseAttr().Get(time))
 
 
-def key_times(stage: Usd.Stage, start: float, end: float) -> list[float]:
-    """The interval's ends and every authored transform time sample strictly inside it."""
+def scan(stage: Usd.Stage, frame_time: float, start: float, end: float, report: Report) -> list[float]:
+    """One walk over the stage for the shutter [start, end] (absolute time codes): the
+    transform key times (the interval's ends and every authored transform time sample
+    strictly inside it, xformOps and PointInstancer positions/orientations/scales), and
+    one warning per prim whose motion the export does not carry, so it renders as it is
+    at the frame: lights whose transform changes, and points or curves (point-based prims
+    other than meshes, which deforming.py keys) whose points are time-sampled inside the
+    shutter or that author non-zero velocities or accelerations."""
     times = {start, end}
-    interval = Gf.Interval(start, end)
-    for prim in Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()):
-        xformable = UsdGeom.Xformable(prim)
-        if xformable:
-            times.update(xformable.GetTimeSamplesInInterval(interval))
-        if prim.IsA(UsdGeom.PointInstancer):
-            instancer = UsdGeom.PointInstancer(prim)
-            for attr in (instancer.GetPositionsAttr(), instancer.GetOrientationsAttr(),
-                         instancer.GetScalesAttr()):
-                times.update(attr.GetTimeSamplesInInterval(interval))
-    return sorted(t for t in times if start <= t <= end)
-
-
-def warn_unblurred(stage: Usd.Stage, frame_time: float, start: float, end: float,
-                   report: Report) -> None:
-    """One warning per prim whose motion over the shutter [start, end] (absolute time codes)
-    the export does not carry, so it renders as it is at the frame: lights whose transform
-    changes, point-based prims whose points are time-sampled inside the shutter or that
-    author non-zero velocities or accelerations, and skeletal animations animated inside it."""
     interval = Gf.Interval(start, end)
     frame = Usd.TimeCode(frame_time)
     caches = [UsdGeom.XformCache(Usd.TimeCode(t)) for t in (frame_time, start, end)]
@@ -105,6 +94,14 @@ def warn_unblurred(stage: Usd.Stage, frame_time: float, start: float, end: float
 
     for prim in Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()):
         path = prim.GetPath()
+        xformable = UsdGeom.Xformable(prim)
+        if xformable:
+            times.update(xformable.GetTimeSamplesInInterval(interval))
+        if prim.IsA(UsdGeom.PointInstancer):
+            instancer = UsdGeom.PointInstancer(prim)
+            for attr in (instancer.GetPositionsAttr(), instancer.GetOrientationsAttr(),
+                         instancer.GetScalesAttr()):
+                times.update(attr.GetTimeSamplesInInterval(interval))
         if prim.HasAPI(UsdLux.LightAPI):
             at_frame = caches[0].GetLocalToWorldTransform(prim)
             if any(c.GetLocalToWorldTransform(prim) != at_frame for c in caches[1:]) or \
@@ -112,21 +109,14 @@ def warn_unblurred(stage: Usd.Stage, frame_time: float, start: float, end: float
                 report.warn(f"{path}: the light's transform changes over the shutter; rendered "
                             f"where it is at the frame (moving lights are not blurred yet)")
         points = UsdGeom.PointBased(prim)
-        if points:
+        if points and not prim.IsA(UsdGeom.Mesh):
             moved = [a.GetName() for a in (points.GetPointsAttr(),) if samples_inside(a)]
             moved += [a.GetName() for a in (points.GetVelocitiesAttr(),
                                             points.GetAccelerationsAttr()) if non_zero(a)]
             if moved:
                 report.warn(f"{path}: {', '.join(moved)} deform it over the shutter; rendered "
-                            f"as it is at the frame (deforming motion blur is not supported yet)")
-        animation = UsdSkel.Animation(prim)
-        if animation:
-            attrs = (animation.GetTranslationsAttr(), animation.GetRotationsAttr(),
-                     animation.GetScalesAttr(), animation.GetBlendShapeWeightsAttr())
-            if any(samples_inside(a) for a in attrs):
-                report.warn(f"{path}: the skeletal animation changes over the shutter; the "
-                            f"meshes it drives are posed at the frame (skinned motion blur is not "
-                            f"supported yet)")
+                            f"as it is at the frame (deforming points and curves are not blurred yet)")
+    return sorted(t for t in times if start <= t <= end)
 
 
 def samples_inside_xform(prim: Usd.Prim, interval: Gf.Interval) -> bool:
@@ -241,12 +231,14 @@ class _Silent(Report):
 
 def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, walker_at,
                records: tuple[dict, dict], frame: tuple[np.ndarray, np.ndarray],
-               writer, report: Report) -> None:
-    """Adds `shutter` and `motion` to the camera record and `motion` to the instances record
-    (`records`) where the shutter is open and something moves.
+               writer, report: Report, deforming: tuple | None = None) -> None:
+    """Adds `shutter` and `motion` to the camera record, `motion` to the instances record
+    (`records`) and to each deforming mesh record where the shutter is open and something
+    moves.
 
     `walker_at(time_code)` walks the stage at another time and returns its TopSink;
-    `frame` holds the instances' world matrices and source indices at the frame."""
+    `frame` holds the instances' world matrices and source indices at the frame;
+    `deforming` the export's (MeshTable, Skinning), whose meshes may deform."""
     camera, instances = records
     prim = stage.GetPrimAtPath(camera["path"]) if camera["path"] else None
     open_, close = shutter(prim, time, override)
@@ -262,7 +254,9 @@ def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, wal
                     f"blur around; exported without motion (pass --frame or author startTimeCode)")
         return
     t0 = time.GetValue()
-    warn_unblurred(stage, t0, t0 + open_, t0 + close, report)
+    transform_keys = scan(stage, t0, t0 + open_, t0 + close, report)
+    if deforming is not None:
+        mesh_motion(*deforming, stage, t0, (t0 + open_, t0 + close), writer, (report, _Silent()))
     matrices, source = frame
     reference = walker_at(time)
 
@@ -276,7 +270,7 @@ def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, wal
     camera_frame = as_array(UsdGeom.XformCache(time).GetLocalToWorldTransform(prim)) if prim else None
     sampler = MotionSampler(walk, prim, matrices, camera_frame)
     try:
-        times = sampler.refine(key_times(stage, t0 + open_, t0 + close))
+        times = sampler.refine(transform_keys)
     except StructureChanged:
         report.warn(f"{where}: prims appear, disappear or change prototype over the shutter "
                     f"{open_},{close}; exported without motion")

@@ -74,6 +74,8 @@ class MeshTable:
                  time: Usd.TimeCode, source: str) -> None:
         self.records: list[dict] = []
         self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
+        # Per record, what read it: (prim, uv primvar, material primvars), for deforming.py.
+        self.sources: list[tuple[Usd.Prim, str, tuple[str, ...]]] = []
         self._cages = CageWriter(writer, report, time, source)
         self._by_path: dict[tuple, int | None] = {}
         self._writer, self._materials, self._skinning, self._report = writer, materials, skinning, report
@@ -127,6 +129,7 @@ class MeshTable:
             self._report.warn(f"{self._source}: mesh {prim.GetPath()} has no primvar {name} (read by material "
                               f"{self._materials.materials[primvars[name]]['path']}); its fallback is used")
         self.records.append(self._record(prim, key, geometry, materials))
+        self.sources.append((prim, uv_name, tuple(sorted(primvars))))
         self.boxes.append((geometry.points.min(axis=0), geometry.points.max(axis=0)))
         return len(self.records) - 1
 

@@ -104,6 +104,18 @@ class Skinning:
             self._poses[path] = None if binding is None else self._compute(prim, binding)
         return self._poses[path]
 
+    def animation(self, prim: Usd.Prim) -> tuple[list[float], bool] | None:
+        """For a posed mesh: every time sample of its SkelAnimation's joint transforms and
+        blend shape weights (empty when it does not move), and whether UsdSkel deforms it
+        rigidly (one transform, not posed per point); None when the prim is not posed."""
+        if self.pose(prim) is None:
+            return None
+        binding = self._bindings[str(prim.GetPath())]
+        anim = binding.skel.GetAnimQuery()
+        times = set(anim.GetJointTransformTimeSamples()) | set(anim.GetBlendShapeWeightTimeSamples()) \
+            if anim else set()
+        return sorted(times), binding.query.IsRigidlyDeformed()
+
     def signature(self, root: Usd.Prim) -> tuple:
         """What the poses under `root` depend on beyond its prototype: each skinned prim's
         skeleton and animation. Copies of a prototype with equal signatures pose alike

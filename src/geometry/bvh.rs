@@ -30,7 +30,7 @@ use super::round_bvh::{RoundShapes, ShapeHit};
 use super::round_intersect::RoundHit;
 use super::surface::{MeshShading, SurfacePoint};
 use super::top_level::{build_cwbvh, TopLevel};
-use crate::motion::TransformTrack;
+use crate::motion::{Bracket, TransformTrack};
 use crate::scene::{affine, Scene};
 
 /// Acceleration structures over a scene's meshes, ready for closest-hit and
@@ -69,10 +69,23 @@ enum MeshRole {
 }
 
 /// One mesh's BVH with its triangles in BVH primitive order.
+///
+/// A deforming mesh's BVH bounds each triangle by the union of its boxes
+/// at the keys, which holds it at every time in between (each vertex moves
+/// linearly between keys, so the triangle stays in the hull of its key
+/// positions), and a ray lerps the triangle's vertices to its own time.
+/// obvhs builds static trees, so the alternative, refitting per time step,
+/// would mean one tree per step (memory times the steps, and a ray's time
+/// still between steps) or a refit per ray; the union costs one build and
+/// looser boxes where triangles travel far relative to their size
+/// (`cirrus bench motion`, the deforming rows, measures what it costs).
 struct MeshBvh {
     bvh: CwBvh,
-    /// `triangles[i]` is input triangle `bvh.primitive_indices[i]`.
+    /// `triangles[i]` is input triangle `bvh.primitive_indices[i]`; for a
+    /// deforming mesh, every key's triangles so ordered, key-major.
     triangles: Vec<Triangle>,
+    /// A deforming mesh's key times, frames; empty for a still one.
+    times: Vec<f32>,
 }
 
 /// The world-space triangles of every mesh placed once, under one BVH.
@@ -175,13 +188,24 @@ impl Geometry {
     pub fn build(scene: &Scene, motion: bool) -> Self {
         let m = &scene.manifest;
         let moving = MovingInstances::new(scene, motion);
-        let roles = mesh_roles(scene, &moving);
+        let roles = mesh_roles(scene, &moving, motion);
         let meshes: Vec<Option<MeshBvh>> = m
             .meshes
             .par_iter()
             .zip(&roles)
-            .map(|(mesh, role)| match role {
-                MeshRole::Instanced => MeshBvh::build(
+            .map(|(mesh, role)| match (role, mesh.motion.as_ref()) {
+                (MeshRole::Instanced, Some(keys)) if motion => MeshBvh::build_keyed(
+                    keys.times.clone(),
+                    scene
+                        .view(&keys.points)
+                        .chunks_exact(mesh.points.count as usize)
+                        .map(|points| {
+                            let triangles = scene.view(&mesh.triangles);
+                            mesh_triangles(points, triangles, Affine3A::IDENTITY).collect()
+                        })
+                        .collect(),
+                ),
+                (MeshRole::Instanced, _) => MeshBvh::build(
                     mesh_triangles(
                         scene.view(&mesh.points),
                         scene.view(&mesh.triangles),
@@ -195,7 +219,7 @@ impl Geometry {
         let shading = m
             .meshes
             .iter()
-            .map(|mesh| MeshShading::new(scene, mesh))
+            .map(|mesh| MeshShading::new(scene, mesh, motion))
             .collect();
         // Boxes first, leaves after the top level is built: the two are
         // never held together (32 MB and 64 MB at a million instances).
@@ -255,7 +279,7 @@ impl Geometry {
     pub fn intersect(&self, ray: &Ray, time: f32) -> Option<Hit> {
         let mut ray = traversal_ray(ray.origin, ray.direction, ray.tmin, ray.tmax);
         let mut closest = self.world.as_ref().and_then(|world| {
-            let (index, hit) = world.mesh.intersect(&ray)?;
+            let (index, hit) = world.mesh.intersect(&ray, time)?;
             let source = world.sources[index as usize];
             Some(self.hit(source.leaf, source.triangle, hit, time))
         });
@@ -267,7 +291,7 @@ impl Geometry {
                 let leaf = &self.leaves[index];
                 let found = self
                     .local_ray(leaf, ray, time)
-                    .and_then(|local| self.mesh(leaf).intersect(&local));
+                    .and_then(|local| self.mesh(leaf).intersect(&local, time));
                 match found {
                     Some((triangle, hit)) => {
                         closest = Some(self.hit(index as u32, triangle, hit, time));
@@ -291,12 +315,12 @@ impl Geometry {
         let ray = traversal_ray(ray.origin, ray.direction, ray.tmin, ray.tmax);
         self.world
             .as_ref()
-            .is_some_and(|world| world.mesh.occluded(&ray))
+            .is_some_and(|world| world.mesh.occluded(&ray, time))
             || self.top.as_ref().is_some_and(|top| {
                 top.any(ray, |ray, index| {
                     let leaf = &self.leaves[index];
                     self.local_ray(leaf, ray, time)
-                        .is_some_and(|local| self.mesh(leaf).occluded(&local))
+                        .is_some_and(|local| self.mesh(leaf).occluded(&local, time))
                 })
             })
             || self.round.as_ref().is_some_and(|r| r.occluded(ray, time))
@@ -324,6 +348,7 @@ impl Geometry {
             hit.triangle,
             hit.barycentrics,
             [hit.instance, hit.prototype_mesh, leaf.mesh],
+            hit.time,
         )
     }
 
@@ -442,16 +467,70 @@ impl MeshBvh {
             .iter()
             .map(|&i| triangles[i as usize])
             .collect();
-        Some(Self { bvh, triangles })
+        Some(Self {
+            bvh,
+            triangles,
+            times: Vec::new(),
+        })
     }
 
-    /// The closest triangle hit along a ray in the triangles' space, as
-    /// (input triangle index, hit).
-    fn intersect(&self, ray: &Ray) -> Option<(u32, TriangleHit)> {
+    /// The BVH of a deforming mesh with triangles `keys[k]` at key time
+    /// `times[k]` (frames): over each triangle's union of key boxes (see
+    /// [`MeshBvh`]); `None` when there are no triangles.
+    fn build_keyed(times: Vec<f32>, keys: Vec<Vec<Triangle>>) -> Option<Self> {
+        let first = keys.first().filter(|k| !k.is_empty())?;
+        let boxes: Vec<Aabb> = (0..first.len())
+            .map(|i| {
+                let union = keys
+                    .iter()
+                    .fold(Aabb::INVALID, |b, key| b.union(&key[i].aabb()));
+                padded(union, i)
+            })
+            .collect();
+        let bvh = build_cwbvh(boxes);
+        let triangles = keys
+            .iter()
+            .flat_map(|key| bvh.primitive_indices.iter().map(|&i| key[i as usize]))
+            .collect();
+        Some(Self {
+            bvh,
+            triangles,
+            times,
+        })
+    }
+
+    /// BVH triangle `id` at `time` (frames): a deforming mesh's lerped
+    /// between the keys around it, per vertex.
+    #[inline]
+    fn triangle(&self, id: usize, at: Option<&Bracket>) -> Triangle {
+        let Some(at) = at else {
+            return self.triangles[id];
+        };
+        let n = self.bvh.primitive_indices.len();
+        let (a, b) = (
+            &self.triangles[at.before * n + id],
+            &self.triangles[at.after * n + id],
+        );
+        Triangle {
+            v0: at.lerp(a.v0, b.v0),
+            v1: at.lerp(a.v1, b.v1),
+            v2: at.lerp(a.v2, b.v2),
+        }
+    }
+
+    /// Where `time` (frames) falls among a deforming mesh's keys.
+    fn bracket(&self, time: f32) -> Option<Bracket> {
+        (!self.times.is_empty()).then(|| Bracket::at(&self.times, time))
+    }
+
+    /// The closest triangle hit along a ray in the triangles' space at
+    /// `time` (frames), as (input triangle index, hit).
+    fn intersect(&self, ray: &Ray, time: f32) -> Option<(u32, TriangleHit)> {
         let watertight = WatertightRay::new(ray.origin, ray.direction);
+        let at = self.bracket(time);
         let mut closest = None;
         self.bvh.ray_traverse(*ray, &mut RayHit::none(), |ray, id| {
-            let tri = &self.triangles[id];
+            let tri = &self.triangle(id, at.as_ref());
             match watertight.intersect(tri.v0, tri.v1, tri.v2, ray.tmin, ray.tmax) {
                 Some(hit) => {
                     closest = Some((self.bvh.primitive_indices[id], hit));
@@ -463,11 +542,13 @@ impl MeshBvh {
         closest
     }
 
-    /// Whether any triangle is hit along a ray in the triangles' space.
-    fn occluded(&self, ray: &Ray) -> bool {
+    /// Whether any triangle is hit along a ray in the triangles' space at
+    /// `time` (frames).
+    fn occluded(&self, ray: &Ray, time: f32) -> bool {
         let watertight = WatertightRay::new(ray.origin, ray.direction);
+        let at = self.bracket(time);
         !self.bvh.ray_traverse_miss(*ray, |ray, id| {
-            let tri = &self.triangles[id];
+            let tri = &self.triangle(id, at.as_ref());
             watertight
                 .intersect(tri.v0, tri.v1, tri.v2, ray.tmin, ray.tmax)
                 .map_or(f32::INFINITY, |hit| hit.t)
@@ -478,8 +559,10 @@ impl MeshBvh {
 /// Each scene mesh's [`MeshRole`]: how many times the instances place it,
 /// counted per prototype (a placement whose transform turns out singular
 /// still counts; a moving instance's counts twice, as its mesh cannot be
-/// carried to world space once), and whether it has triangles.
-fn mesh_roles(scene: &Scene, moving: &MovingInstances) -> Vec<MeshRole> {
+/// carried to world space once), and whether it has triangles. With
+/// `motion`, a deforming mesh placed at all is instanced: its triangles
+/// move, so they cannot be carried to world space once either.
+fn mesh_roles(scene: &Scene, moving: &MovingInstances, motion: bool) -> Vec<MeshRole> {
     let m = &scene.manifest;
     let mut instances_of = vec![0u64; m.prototypes.len()];
     for (instance, &prototype) in scene.view(&m.instances.prototype).iter().enumerate() {
@@ -497,7 +580,7 @@ fn mesh_roles(scene: &Scene, moving: &MovingInstances) -> Vec<MeshRole> {
         .map(|(mesh, placed)| match placed {
             _ if scene.view(&mesh.triangles).is_empty() => MeshRole::Unused,
             0 => MeshRole::Unused,
-            1 => MeshRole::Flattened,
+            1 if !(motion && mesh.motion.is_some()) => MeshRole::Flattened,
             _ => MeshRole::Instanced,
         })
         .collect()

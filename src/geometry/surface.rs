@@ -5,6 +5,7 @@ use glam::{Affine3A, Vec2, Vec3, Vec3A};
 use obvhs::ray::Ray;
 
 use super::frame::Frame;
+use super::motion::VertexKeys;
 use crate::scene::{self, Scene};
 
 /// A ray's hit on a mesh, in world space: the input to materials and lights.
@@ -155,11 +156,14 @@ pub(super) struct MeshShading {
     uvs: Option<Vec<Vec2>>,
     materials: Vec<u32>,
     double_sided: bool,
+    /// A deforming mesh's points and normals at its keys (with `motion`).
+    keys: Option<VertexKeys>,
 }
 
 impl MeshShading {
-    /// Copies `mesh`'s arrays out of the scene.
-    pub(super) fn new(scene: &Scene, mesh: &scene::Mesh) -> Self {
+    /// Copies `mesh`'s arrays out of the scene, with its motion keys when
+    /// it deforms and `motion` is on.
+    pub(super) fn new(scene: &Scene, mesh: &scene::Mesh, motion: bool) -> Self {
         let vec3s = |a: &scene::Array<[f32; 3]>| scene.view(a).iter().map(|&v| v.into()).collect();
         Self {
             points: vec3s(&mesh.points),
@@ -171,18 +175,21 @@ impl MeshShading {
                 .map(|a| scene.view(a).iter().map(|&v| v.into()).collect()),
             materials: scene.view(&mesh.triangle_materials).to_vec(),
             double_sided: mesh.double_sided,
+            keys: VertexKeys::new(scene, mesh, motion),
         }
     }
 
     /// The surface point at `barycentrics` on `triangle`, placed by the
     /// inverse of `mesh_from_world`; `ids` = (instance, prototype mesh,
-    /// scene mesh).
+    /// scene mesh). A deforming mesh's triangle is the one at `time`
+    /// (frames): vertices and normals lerped between the keys around it.
     pub(super) fn surface_point(
         &self,
         mesh_from_world: &Affine3A,
         triangle: u32,
         barycentrics: Vec2,
         [instance, prototype_mesh, mesh]: [u32; 3],
+        time: f32,
     ) -> SurfacePoint {
         let [a, b, c] = self.triangles[triangle as usize].map(|i| i as usize);
         let w = Vec3::new(
@@ -191,7 +198,15 @@ impl MeshShading {
             barycentrics.y,
         );
         let mix3 = |v: [Vec3; 3]| v[0] * w.x + v[1] * w.y + v[2] * w.z;
-        let [p0, p1, p2] = [self.points[a], self.points[b], self.points[c]];
+        let keyed = self.keys.as_ref().map(|k| (k, k.bracket(time)));
+        let [p0, p1, p2] = match &keyed {
+            Some((keys, at)) => keys.points(at, [a, b, c]),
+            None => [self.points[a], self.points[b], self.points[c]],
+        };
+        let vertex_normals = match &keyed {
+            Some((keys, at)) => keys.normals(at, [a, b, c]),
+            None => self.normals.as_ref().map(|n| [n[a], n[b], n[c]]),
+        };
         let world_from_mesh = mesh_from_world.inverse();
         // Normals go through the inverse transpose of world-from-mesh.
         let normal_to_world =
@@ -201,10 +216,8 @@ impl MeshShading {
         let ng = normal_to_world(e1.cross(e2)).normalize();
         let [w1, w2] = [e1, e2].map(vector_to_world);
         let longest_edge = w1.length().max(w2.length()).max((w2 - w1).length());
-        let ns = self
-            .normals
-            .as_ref()
-            .map(|n| normal_to_world(mix3([n[a], n[b], n[c]])).normalize_or_zero())
+        let ns = vertex_normals
+            .map(|n| normal_to_world(mix3(n)).normalize_or_zero())
             .filter(|n| *n != Vec3::ZERO)
             .map_or(ng, |n| if n.dot(ng) < 0.0 { -n } else { n });
         let (uv, dpdu) = match &self.uvs {

@@ -9,6 +9,10 @@
 //! `vel` grid (docs/volumes.md, "Motion blur"): media build time (the
 //! velocity grid read and the majorants dilated) and samples per second
 //! with the shutter closed (velocity not read) and open over half a frame.
+//! A third table: one deforming mesh (a 100 x 100 grid of quads whose
+//! time-sampled points ripple and slide 0.5 units, 2.5 cells, over the
+//! shutter), its BVH built over each triangle's union of key boxes:
+//! build time and samples per second with the shutter closed and open.
 
 use std::fmt::Write as _;
 use std::hint::black_box;
@@ -75,47 +79,127 @@ pub fn run(bench: &MotionBench) -> Result<()> {
     println!("|---|---:|---:|---:|---:|");
     for (name, shutter, tracks) in [
         ("0,0 (still)", Shutter::CLOSED, 0),
-        (
-            "0,1 (blurred)",
-            Shutter::new(0.0, 1.0).expect("valid"),
-            moving * keys,
-        ),
+        ("0,1 (blurred)", OPEN, moving * keys),
     ] {
-        let build = median(
-            (0..bench.repeats.max(1))
-                .map(|_| {
-                    let start = Instant::now();
-                    black_box(Geometry::build(&scene, shutter.blurs()));
-                    start.elapsed().as_secs_f64()
-                })
-                .collect(),
-        );
-        let options = StateOptions {
-            shutter: Some(shutter),
-            ..StateOptions::default()
-        };
-        let state = RenderState::build(&scene, Some(bench.resolution), options)?;
-        let seconds = median(
-            (0..bench.repeats.max(1))
-                .map(|seed| {
-                    let settings = base_settings(Budget::Samples(bench.spp), seed as u64);
-                    render(&state, &settings).1.elapsed.as_secs_f64()
-                })
-                .collect(),
-        );
-        let samples = f64::from(bench.resolution.x * bench.resolution.y * bench.spp);
+        let (build, rate, seconds) = timed(bench, &scene, shutter)?;
         println!(
-            "| {name} | {:.1} | {:.3} | {:.3} | {seconds:.2} |",
+            "| {name} | {:.1} | {:.3} | {rate:.3} | {seconds:.2} |",
             build * 1e3,
             (tracks * TRACK_BYTES_PER_KEY) as f64 / 1e6,
-            samples / seconds / 1e6
         );
     }
+    deforming_mesh(bench, &dir)?;
     if let Some(vdb) = &bench.volume {
         advected_volume(bench, vdb, &dir)?;
     }
     std::fs::remove_dir_all(&dir).map_err(system)?;
     Ok(())
+}
+
+/// The shutter open over the frame.
+const OPEN: Shutter = Shutter {
+    open: 0.0,
+    close: 1.0,
+};
+
+/// Median seconds of [`Geometry::build`] under `shutter`, then samples per
+/// second (millions) and median seconds of the render at `bench.spp`.
+fn timed(bench: &MotionBench, scene: &Scene, shutter: Shutter) -> Result<(f64, f64, f64)> {
+    let repeats = 0..bench.repeats.max(1);
+    let build = median(
+        repeats
+            .clone()
+            .map(|_| {
+                let start = Instant::now();
+                black_box(Geometry::build(scene, shutter.blurs()));
+                start.elapsed().as_secs_f64()
+            })
+            .collect(),
+    );
+    let options = StateOptions {
+        shutter: Some(shutter),
+        ..StateOptions::default()
+    };
+    let state = RenderState::build(scene, Some(bench.resolution), options)?;
+    let seconds = median(
+        repeats
+            .map(|seed| {
+                let settings = base_settings(Budget::Samples(bench.spp), seed as u64);
+                render(&state, &settings).1.elapsed.as_secs_f64()
+            })
+            .collect(),
+    );
+    let samples = f64::from(bench.resolution.x * bench.resolution.y * bench.spp);
+    Ok((build, samples / seconds / 1e6, seconds))
+}
+
+/// Quads per side of the deforming grid.
+const GRID: usize = 100;
+
+/// The third table: the deforming grid, shutter closed and open.
+fn deforming_mesh(bench: &MotionBench, dir: &std::path::Path) -> Result<()> {
+    let usda = dir.join("deforming.usda");
+    let system = |e| LabError::system(usda.display().to_string(), e);
+    std::fs::write(&usda, grid_stage()).map_err(system)?;
+    crate::scene::export(&usda, &dir.join("deforming"), &Default::default())?;
+    let scene = Scene::load(&dir.join("deforming"))?;
+    let keys = scene.manifest.meshes[0]
+        .motion
+        .as_ref()
+        .map_or(0, |m| m.times.len());
+    println!(
+        "\nOne deforming mesh: {GRID}x{GRID} quads ({} triangles, {keys} keys); {}x{} pixels, {} spp.\n",
+        2 * GRID * GRID,
+        bench.resolution.x,
+        bench.resolution.y,
+        bench.spp
+    );
+    println!("| shutter | BVH build (ms) | samples/s (M) | render (s) |");
+    println!("|---|---:|---:|---:|");
+    for (name, shutter) in [("0,0 (still)", Shutter::CLOSED), ("0,1 (deforming)", OPEN)] {
+        let (build, rate, seconds) = timed(bench, &scene, shutter)?;
+        println!("| {name} | {:.1} | {rate:.3} | {seconds:.2} |", build * 1e3);
+    }
+    Ok(())
+}
+
+/// A [`GRID`]-square grid mesh 20 units wide in the y = 0 plane at frame 0;
+/// at frame 1 its points have slid 0.5 along +X and rippled up to 0.5 in
+/// y; seen from above at 45 degrees with the shutter open, under a dome.
+fn grid_stage() -> String {
+    let n = GRID + 1;
+    let cell = 20.0 / GRID as f64;
+    let point = |i: usize, frame: f64| {
+        let (x, z) = (cell * (i % n) as f64 - 10.0, cell * (i / n) as f64 - 10.0);
+        let y = frame * 0.5 * (x * 0.7).sin() * (z * 0.5).cos();
+        format!("({}, {y}, {z})", x + 0.5 * frame)
+    };
+    let points = |frame: f64| {
+        (0..n * n)
+            .map(|i| point(i, frame))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let quads: Vec<String> = (0..GRID * GRID)
+        .map(|q| {
+            let i = q / GRID * n + q % GRID;
+            format!("{}, {}, {}, {}", i, i + n, i + n + 1, i + 1)
+        })
+        .collect();
+    format!(
+        "#usda 1.0\n(\n    defaultPrim = \"World\"\n    metersPerUnit = 1\n    upAxis = \"Y\"\n    \
+         startTimeCode = 0\n    endTimeCode = 1\n)\n\ndef Xform \"World\"\n{{\n    def Mesh \"Grid\"\n    {{\n        \
+         uniform token subdivisionScheme = \"none\"\n        int[] faceVertexCounts = [{}]\n        \
+         int[] faceVertexIndices = [{}]\n        point3f[] points.timeSamples = {{ 0: [{}], 1: [{}] }}\n    }}\n\n    \
+         def DomeLight \"Dome\"\n    {{\n    }}\n\n    def Camera \"Camera\"\n    {{\n        \
+         double3 xformOp:translate = (0, 14, 14)\n        float xformOp:rotateX = -45\n        \
+         uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateX\"]\n        \
+         float focalLength = 18\n        double shutter:open = 0\n        double shutter:close = 1\n    }}\n}}\n",
+        vec!["4"; GRID * GRID].join(", "),
+        quads.join(", "),
+        points(0.0),
+        points(1.0),
+    )
 }
 
 /// The second table: the fireball of `vdb` (density, temperature, `vel`)

@@ -200,8 +200,8 @@ impl Lights {
     /// triangles, then the power-based selection over them. Lights of zero
     /// power (black, zero size without `normalize`) are left out with a
     /// warning; unusable values are a [`LightError`]. When `shutter` blurs,
-    /// emissive meshes of moving instances are left out too, with a warning
-    /// naming the mesh: a light sample would sit where the mesh is at the
+    /// emissive meshes of moving instances, and deforming emissive meshes,
+    /// are left out too, with a warning naming the mesh: a light sample would sit where the mesh is at the
     /// frame while rays meet it at their own time, so only rays that hit it
     /// find its light (BSDF sampling alone, unbiased: their MIS weight is
     /// then 1, as [`Lights::mesh_pdf`] is 0 for them).
@@ -226,7 +226,9 @@ impl Lights {
         let mut meshes = HashMap::new();
         let mut unsampled = BTreeSet::new();
         for (key, mesh) in MeshLight::build_all(scene, materials) {
-            if moving.contains(&key.0) {
+            let deforms =
+                shutter.blurs() && scene.manifest.meshes[mesh.mesh() as usize].motion.is_some();
+            if moving.contains(&key.0) || deforms {
                 unsampled.insert(mesh.mesh());
             } else if mesh.power() > 0.0 {
                 meshes.insert(key, lights.len());
@@ -237,7 +239,7 @@ impl Lights {
         for mesh in unsampled {
             log::warn!(
                 target: LOG_TARGET,
-                "emissive mesh {} moves over the shutter: its light is found only by rays that \
+                "emissive mesh {} moves or deforms over the shutter: its light is found only by rays that \
                  hit it, not light-sampled (unbiased, noisier)",
                 scene.manifest.meshes[mesh as usize].path
             );

@@ -234,6 +234,30 @@ pub struct Mesh {
     /// OpenSubdiv refuses the cage).
     #[serde(default)]
     pub subdivision: Option<Subdivision>,
+    /// The mesh's points (and normals) at key times over the shutter, when
+    /// it deforms (time-sampled points, `velocities`, UsdSkel animation);
+    /// absent for meshes that do not (and in files written before
+    /// deforming motion blur). The arrays above hold the mesh at the frame.
+    #[serde(default)]
+    pub motion: Option<MeshMotion>,
+}
+
+/// A deforming mesh's vertices at key times (docs/rendering.md, "Motion
+/// blur"): each vertex moves linearly between neighbouring keys, the end
+/// keys held outside them; the triangles, UVs, primvars and materials stay
+/// those of the [`Mesh`]. A subdivision mesh's keys are its cage's points,
+/// refined at load like the frame's.
+#[derive(Clone, Debug, Deserialize)]
+pub struct MeshMotion {
+    /// Key times, frames relative to `source.time_code`, strictly increasing.
+    pub times: Vec<f32>,
+    /// Every point of the mesh at every key, key-major: point i at key k is
+    /// element `k * points.count + i`.
+    pub points: Array<[f32; 3]>,
+    /// The normals at every key, laid out like `points`; present exactly
+    /// when the mesh has `normals` (they are interpolated between keys and
+    /// renormalized).
+    pub normals: Option<Array<[f32; 3]>>,
 }
 
 /// A subdivision surface's control cage and tags (`UsdGeomMesh`), refined by

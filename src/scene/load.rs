@@ -12,7 +12,8 @@ use std::path::{Path, PathBuf};
 use bytemuck::{Pod, Zeroable};
 
 use super::format::{
-    Array, Element, LightShape, Manifest, Subdivision, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+    Array, Element, LightShape, Manifest, MeshMotion, Subdivision, FORMAT_NAME, FORMAT_VERSION,
+    NO_MATERIAL,
 };
 use super::material::{Input, Material};
 
@@ -475,9 +476,50 @@ impl Checker<'_> {
             "materials",
             Some(NO_MATERIAL),
         )?;
+        if let Some(motion) = &mesh.motion {
+            self.mesh_motion(
+                &field("motion"),
+                motion,
+                points.len(),
+                mesh.normals.is_some(),
+            )?;
+        }
         match &mesh.subdivision {
             Some(cage) => self.cage(&field("subdivision"), cage, points.len()),
             None => Ok(()),
+        }
+    }
+
+    /// A deforming mesh's keys (`field` is `meshes[i].motion`): key times,
+    /// finite points (and normals, exactly when the mesh has them) for
+    /// every point at every key.
+    fn mesh_motion(
+        &self,
+        field: &str,
+        motion: &MeshMotion,
+        points: usize,
+        normals: bool,
+    ) -> Result<(), SceneError> {
+        let f = |name: &str| format!("{field}.{name}");
+        self.key_times(&f("times"), &motion.times)?;
+        let want = points * motion.times.len();
+        let keyed = self.array(&f("points"), &motion.points)?;
+        self.count(&f("points"), keyed.len(), want, "point and key time")?;
+        self.finite(&f("points"), bytemuck::cast_slice(keyed))?;
+        match (&motion.normals, normals) {
+            (Some(keyed), true) => {
+                let keyed = self.array(&f("normals"), keyed)?;
+                self.count(&f("normals"), keyed.len(), want, "point and key time")?;
+                self.finite(&f("normals"), bytemuck::cast_slice(keyed))
+            }
+            (None, false) => Ok(()),
+            (_, has) => Err(self.invalid(
+                &f("normals"),
+                format!(
+                    "must be present exactly when the mesh has normals ({})",
+                    if has { "it has" } else { "it has none" }
+                ),
+            )),
         }
     }
 

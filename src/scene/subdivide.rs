@@ -170,16 +170,22 @@ pub(super) fn refine(
     let start = Instant::now();
     let refined: Vec<_> = planned
         .par_iter()
-        .map(|p| refine_mesh(blob, &manifest.meshes[p.mesh], p.level))
+        .map(|p| {
+            let mesh = &manifest.meshes[p.mesh];
+            let frame = refine_mesh(blob, mesh, blob.view(&mesh.points), p.level)?;
+            let keys = refine_keys(blob, mesh, p.level)?;
+            Ok::<_, subdivision::SubdivisionError>((frame, keys))
+        })
         .collect();
     for (p, result) in planned.iter().zip(refined) {
         let mesh = &mut manifest.meshes[p.mesh];
         match result {
-            Ok(refined) => {
+            Ok((refined, keys)) => {
                 summary.refined += 1;
                 summary.triangles += refined.triangles.len() as u64;
                 summary.triangles -= mesh.triangles.count;
                 store(blob, mesh, refined);
+                store_keys(blob, mesh, keys);
             }
             Err(error) => {
                 let warning = format!(
@@ -195,14 +201,52 @@ pub(super) fn refine(
     Ok(summary)
 }
 
-/// One mesh's cage (from its record and its per-point arrays) refined.
-fn refine_mesh(
+/// A deforming cage's keys (`motion.points`, key-major), each refined like
+/// the frame: the same topology with that key's points, so the refined
+/// vertices correspond key to key and lerp between keys as the cage's do
+/// (up to the limit surface's own non-linearity, which key spacing bounds).
+/// Empty for a mesh that does not deform.
+fn refine_keys(
     blob: &Blob,
     mesh: &Mesh,
     level: u32,
+) -> Result<Vec<RefinedMesh>, subdivision::SubdivisionError> {
+    let Some(motion) = &mesh.motion else {
+        return Ok(Vec::new());
+    };
+    let n = mesh.points.count as usize;
+    blob.view(&motion.points)
+        .chunks_exact(n)
+        .map(|key| refine_mesh(blob, mesh, key, level))
+        .collect()
+}
+
+/// Replaces a deforming mesh's keys by its refined `keys`' points and
+/// normals, appended to `blob` (nothing for a mesh that does not deform).
+fn store_keys(blob: &mut Blob, mesh: &mut Mesh, keys: Vec<RefinedMesh>) {
+    let Some(motion) = &mut mesh.motion else {
+        return;
+    };
+    let points: Vec<[f32; 3]> = keys.iter().flat_map(|k| k.points.iter().copied()).collect();
+    motion.points = blob.push(&points);
+    motion.normals = mesh.normals.is_some().then(|| {
+        let normals: Vec<[f32; 3]> = keys
+            .iter()
+            .flat_map(|k| k.normals.iter().flatten().copied())
+            .collect();
+        blob.push(&normals)
+    });
+}
+
+/// One mesh's cage (from its record and its per-point arrays) refined with
+/// the mesh's `points` (its own, or one key's).
+fn refine_mesh(
+    blob: &Blob,
+    mesh: &Mesh,
+    points: &[[f32; 3]],
+    level: u32,
 ) -> Result<RefinedMesh, subdivision::SubdivisionError> {
     let cage = mesh.subdivision.as_ref().expect("a cage");
-    let points = blob.view(&mesh.points);
     let face_indices = blob.view(&cage.face_indices);
     let corner_points = blob.view(&cage.corner_points);
     // Welded: the mesh's points are the cage's vertices, per-point data is per vertex.
