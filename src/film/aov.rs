@@ -61,7 +61,20 @@ pub enum Aov {
     /// Cryptomatte of the assets the camera rays hit: the nearest
     /// `component` or `assembly` model above each object.
     CryptoAsset,
+    /// A primvar of the camera ray's surface hit, averaged (a `primvars:*`
+    /// RenderVar; 0 where the hit surface lacks it or nothing is hit):
+    /// `name` is the MurmurHash3 (seed 0) of the primvar's name, `width` the
+    /// channels written (1 to 3). Never in `all` or `default`.
+    Primvar {
+        /// MurmurHash3 of the primvar name (`displayColor`, no `primvars:`).
+        name: u32,
+        /// Channels: 1 (the primvar's first component), 2 or 3.
+        width: u8,
+    },
 }
+
+/// Most primvar AOVs one render accumulates ([`AovSample::primvars`]).
+pub const MAX_PRIMVARS: usize = 8;
 
 /// Every AOV, in file order.
 pub const ALL: [Aov; 17] = [
@@ -99,6 +112,9 @@ pub struct AovSample {
     pub hit: Option<CameraHit>,
     /// The camera ray hit a surface or collided in a volume (beauty alpha).
     pub opaque: bool,
+    /// The hit surface's value of each primvar AOV, in the set's order
+    /// ([`AovSet::primvars`]); 0 without a hit or without that primvar.
+    pub primvars: [Vec3; MAX_PRIMVARS],
 }
 
 /// Where a camera ray met the first surface.
@@ -115,7 +131,9 @@ pub struct CameraHit {
 }
 
 /// The Cryptomatte ids of a surface hit: the MurmurHash3 (seed 0) of the
-/// names it has in each Cryptomatte (before `uint32_to_float32`).
+/// names it has in each Cryptomatte (before `uint32_to_float32`); 0 (and
+/// `None` for the material) in a Cryptomatte the render does not write,
+/// which is never hashed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CryptoIds {
     /// Of its object name (CryptoObject).
@@ -146,6 +164,7 @@ impl Default for AovSample {
             albedo: Vec3::ZERO,
             hit: None,
             opaque: false,
+            primvars: [Vec3::ZERO; MAX_PRIMVARS],
         }
     }
 }
@@ -210,6 +229,7 @@ impl Aov {
             Aov::CryptoObject => "CryptoObject",
             Aov::CryptoMaterial => "CryptoMaterial",
             Aov::CryptoAsset => "CryptoAsset",
+            Aov::Primvar { .. } => "primvar",
         }
     }
 
@@ -223,10 +243,16 @@ impl Aov {
         };
         match self {
             Aov::N | Aov::P => with(["X", "Y", "Z"]),
-            Aov::Z | Aov::SampleCount => vec![self.name().to_string()],
+            Aov::Z | Aov::SampleCount | Aov::Primvar { width: 1, .. } => {
+                vec![self.name().to_string()]
+            }
             Aov::CryptoObject | Aov::CryptoMaterial | Aov::CryptoAsset => {
                 super::cryptomatte::channel_names(self.name())
             }
+            Aov::Primvar { width, .. } => with(["R", "G", "B"])
+                .into_iter()
+                .take(usize::from(width))
+                .collect(),
             _ => with(["R", "G", "B"]),
         }
     }
@@ -247,9 +273,41 @@ impl Aov {
             | Aov::Variance
             | Aov::CryptoObject
             | Aov::CryptoMaterial
-            | Aov::CryptoAsset => PixelType::Float,
+            | Aov::CryptoAsset
+            | Aov::Primvar { .. } => PixelType::Float,
             _ => PixelType::Half,
         }
+    }
+
+    /// The name in a set's text (`--aovs`, film-state files): [`Self::name`],
+    /// and for a primvar `primvar_<hash in hex>_<width>`.
+    fn set_name(self) -> String {
+        match self {
+            Aov::Primvar { name, width } => format!("primvar_{name:08x}_{width}"),
+            _ => self.name().to_string(),
+        }
+    }
+
+    /// The AOV a set's text names ([`Self::set_name`]).
+    fn from_set_name(text: &str) -> Option<Self> {
+        if let Some(rest) = text.strip_prefix("primvar_") {
+            let (name, width) = rest.split_once('_')?;
+            let width: u8 = width.parse().ok().filter(|w| (1..=3).contains(w))?;
+            let name = u32::from_str_radix(name, 16).ok()?;
+            return Some(Aov::Primvar { name, width });
+        }
+        ALL.into_iter().find(|a| a.name() == text)
+    }
+}
+
+/// The primvar a `RenderVar` reads, as husk and Karma take them: its
+/// `sourceName` without `primvars:` when `sourceType` is `primvar` or the
+/// name starts with `primvars:`; `None` for other vars.
+pub fn primvar_of<'a>(source_name: &'a str, source_type: &str) -> Option<&'a str> {
+    let name = source_name.trim();
+    match name.strip_prefix("primvars:") {
+        Some(primvar) => Some(primvar),
+        None => (source_type == "primvar").then_some(name),
     }
 }
 
@@ -272,6 +330,26 @@ impl AovSet {
     /// Whether `aov` is chosen.
     pub fn contains(&self, aov: Aov) -> bool {
         self.0.contains(&aov)
+    }
+
+    /// The chosen primvar AOVs' name hashes, in set order: the order of
+    /// [`AovSample::primvars`].
+    pub fn primvars(&self) -> impl Iterator<Item = u32> + '_ {
+        self.0.iter().filter_map(|a| match a {
+            Aov::Primvar { name, .. } => Some(*name),
+            _ => None,
+        })
+    }
+
+    /// The index of primvar AOV `aov` in [`AovSample::primvars`]; `None`
+    /// for other AOVs and beyond [`MAX_PRIMVARS`].
+    pub fn primvar_slot(&self, aov: Aov) -> Option<usize> {
+        let Aov::Primvar { name, .. } = aov else {
+            return None;
+        };
+        self.primvars()
+            .position(|n| n == name)
+            .filter(|&i| i < MAX_PRIMVARS)
     }
 }
 
@@ -303,7 +381,7 @@ impl FromStr for AovSet {
                 .split(',')
                 .map(|name| {
                     let name = name.trim();
-                    ALL.into_iter().find(|a| a.name() == name).ok_or_else(|| {
+                    Aov::from_set_name(name).ok_or_else(|| {
                         let known: Vec<_> = ALL.iter().map(|a| a.name()).collect();
                         format!(
                             "unknown AOV '{name}'; use default, all, beauty or a list of: {}",
@@ -321,7 +399,7 @@ impl FromStr for AovSet {
 
 impl fmt::Display for AovSet {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let names: Vec<_> = self.0.iter().map(|a| a.name()).collect();
+        let names: Vec<_> = self.0.iter().map(|a| a.set_name()).collect();
         if names.is_empty() {
             write!(f, "beauty")
         } else {
