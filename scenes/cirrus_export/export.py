@@ -153,11 +153,11 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     mtlx.warn_unreadable()
     materials = MaterialTable(resolver, mtlx, report, time)
     skinning = Skinning(report, time)
-    meshes = MeshTable(writer, materials, skinning, report, time, str(path),
-                       requested_primvars(settings, time, report))
+    aov_primvars = requested_primvars(settings, time, report)
+    meshes = MeshTable(writer, materials, skinning, report, time, str(path), aov_primvars)
     volumes = VolumeTable(resolver, report, time, frame_label)
-    points = PointsTable(RoundContext(writer, materials, report, time, str(path)))
-    curves = CurvesTable(RoundContext(writer, materials, report, time, str(path)))
+    points = PointsTable(RoundContext(writer, materials, report, time, str(path), aov_primvars=aov_primvars))
+    curves = CurvesTable(RoundContext(writer, materials, report, time, str(path), aov_primvars=aov_primvars))
     round_shapes = {"Points": (points, ("points", "points")),
                     **{kind: (curves, ("curves", "curves")) for kind in ("BasisCurves", "NurbsCurves")}}
     prototypes = Prototypes(meshes, volumes, round_shapes)
