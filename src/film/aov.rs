@@ -424,6 +424,24 @@ mod tests {
     }
 
     #[test]
+    fn primvar_aovs_round_trip_through_set_text_and_take_slots_in_order() {
+        let primvar = |name, width| Aov::Primvar { name, width };
+        let set: AovSet = [primvar(0xbeef, 1), Aov::Z, primvar(0x12, 3)]
+            .into_iter()
+            .collect();
+        assert_eq!(set.to_string(), "Z,primvar_00000012_3,primvar_0000beef_1");
+        assert_eq!(set.to_string().parse::<AovSet>().unwrap(), set);
+        assert_eq!(set.primvar_slot(primvar(0x12, 3)), Some(0));
+        assert_eq!(set.primvar_slot(primvar(0xbeef, 1)), Some(1));
+        assert_eq!(set.primvar_slot(Aov::Z), None);
+        assert_eq!(primvar(0xbeef, 1).channels(), ["primvar"]);
+        assert!("primvar_12_4".parse::<AovSet>().is_err());
+        assert_eq!(primvar_of("primvars:Cd", "raw"), Some("Cd"));
+        assert_eq!(primvar_of("Cd", "primvar"), Some("Cd"));
+        assert_eq!(primvar_of("Cd", "raw"), None);
+    }
+
+    #[test]
     fn channel_names_follow_the_compositing_conventions() {
         assert_eq!(Aov::N.channels(), ["N.X", "N.Y", "N.Z"]);
         assert_eq!(Aov::Z.channels(), ["Z"]);
