@@ -13,6 +13,7 @@
 //! Every contribution goes to exactly one of them, so they sum to the
 //! beauty.
 
+use std::borrow::Cow;
 use std::fmt;
 use std::str::FromStr;
 
@@ -208,10 +209,11 @@ impl AovSample {
 }
 
 impl Aov {
-    /// The layer name: channels are `<name>.R` etc. (`Z` and
-    /// `sample_count` are single channels of that name).
-    pub fn name(self) -> &'static str {
-        match self {
+    /// The layer name: channels are `<name>.R` etc. (`Z`, `sample_count`
+    /// and a one-channel primvar are single channels of that name). A
+    /// primvar's is `primvar_<name hash in hex>_<width>`, unique in a film.
+    pub fn name(self) -> Cow<'static, str> {
+        Cow::Borrowed(match self {
             Aov::Emission => "emission",
             Aov::DiffuseDirect => "diffuse_direct",
             Aov::DiffuseIndirect => "diffuse_indirect",
@@ -229,8 +231,10 @@ impl Aov {
             Aov::CryptoObject => "CryptoObject",
             Aov::CryptoMaterial => "CryptoMaterial",
             Aov::CryptoAsset => "CryptoAsset",
-            Aov::Primvar { .. } => "primvar",
-        }
+            Aov::Primvar { name, width } => {
+                return Cow::Owned(format!("primvar_{name:08x}_{width}"))
+            }
+        })
     }
 
     /// Channel names in file order.
@@ -244,10 +248,10 @@ impl Aov {
         match self {
             Aov::N | Aov::P => with(["X", "Y", "Z"]),
             Aov::Z | Aov::SampleCount | Aov::Primvar { width: 1, .. } => {
-                vec![self.name().to_string()]
+                vec![self.name().into_owned()]
             }
             Aov::CryptoObject | Aov::CryptoMaterial | Aov::CryptoAsset => {
-                super::cryptomatte::channel_names(self.name())
+                super::cryptomatte::channel_names(&self.name())
             }
             Aov::Primvar { width, .. } => with(["R", "G", "B"])
                 .into_iter()
@@ -279,16 +283,7 @@ impl Aov {
         }
     }
 
-    /// The name in a set's text (`--aovs`, film-state files): [`Self::name`],
-    /// and for a primvar `primvar_<hash in hex>_<width>`.
-    fn set_name(self) -> String {
-        match self {
-            Aov::Primvar { name, width } => format!("primvar_{name:08x}_{width}"),
-            _ => self.name().to_string(),
-        }
-    }
-
-    /// The AOV a set's text names ([`Self::set_name`]).
+    /// The AOV `text` names ([`Self::name`]).
     fn from_set_name(text: &str) -> Option<Self> {
         if let Some(rest) = text.strip_prefix("primvar_") {
             let (name, width) = rest.split_once('_')?;
@@ -399,7 +394,7 @@ impl FromStr for AovSet {
 
 impl fmt::Display for AovSet {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let names: Vec<_> = self.0.iter().map(|a| a.set_name()).collect();
+        let names: Vec<_> = self.0.iter().map(|a| a.name()).collect();
         if names.is_empty() {
             write!(f, "beauty")
         } else {
@@ -434,7 +429,11 @@ mod tests {
         assert_eq!(set.primvar_slot(primvar(0x12, 3)), Some(0));
         assert_eq!(set.primvar_slot(primvar(0xbeef, 1)), Some(1));
         assert_eq!(set.primvar_slot(Aov::Z), None);
-        assert_eq!(primvar(0xbeef, 1).channels(), ["primvar"]);
+        assert_eq!(primvar(0xbeef, 1).channels(), ["primvar_0000beef_1"]);
+        assert_eq!(
+            primvar(0x12, 2).channels(),
+            ["primvar_00000012_2.R", "primvar_00000012_2.G"]
+        );
         assert!("primvar_12_4".parse::<AovSet>().is_err());
         assert_eq!(primvar_of("primvars:Cd", "raw"), Some("Cd"));
         assert_eq!(primvar_of("Cd", "primvar"), Some("Cd"));

@@ -308,6 +308,7 @@ mod tests {
                 width: 3
             }])
         );
-        assert_eq!(st.channels(), ["primvar.R", "primvar.G"]);
+        let name = format!("primvar_{:08x}_2", murmur3_32(b"st", 0));
+        assert_eq!(st.channels(), [format!("{name}.R"), format!("{name}.G")]);
     }
 }
