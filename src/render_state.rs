@@ -8,7 +8,8 @@ use glam::UVec2;
 use thiserror::Error;
 
 use crate::camera::{Camera, CameraError};
-use crate::film::{Aov, CryptoIds, CryptoNames, Murmur3};
+use crate::film::{murmur3_32, primvar_of, Aov, AovSet, CryptoIds, CryptoNames, Murmur3};
+use crate::film::{CRYPTOMATTES, MAX_PRIMVARS};
 use crate::geometry::{Geometry, Hit};
 use crate::lights::{Emitters, LightError, Lights};
 use crate::materials::{MaterialError, Materials};
@@ -73,6 +74,9 @@ pub struct RenderState {
     pub options: StateOptions,
     /// The prim paths of the ids the film stores.
     pub id_names: IdNames,
+    /// The primvars the render settings' RenderVars read that some prim
+    /// carries: (MurmurHash3 of the name, `Materials::primvar` id).
+    aov_primvars: Vec<(u32, u32)>,
 }
 
 /// What the film's Cryptomatte ids stand for: the names of every placed
@@ -112,19 +116,23 @@ impl IdNames {
     }
 
     /// The Cryptomatte ids of `hit`, on a surface bound to `material` (an
-    /// index into the materials) or to none.
-    pub fn ids(&self, hit: &Hit, material: Option<u32>) -> CryptoIds {
+    /// index into the materials) or to none, in the Cryptomattes `wanted`
+    /// (by [`CRYPTOMATTES`] slot): the others are 0 and cost nothing.
+    pub fn ids(&self, hit: &Hit, material: Option<u32>, wanted: [bool; 3]) -> CryptoIds {
         let (instance, part) = (hit.instance, hit.prototype_mesh);
         let names = &self.instances;
-        let object = hash_of(|out| names.object(instance, part, out));
+        let [want_object, want_material, want_asset] = wanted;
+        let object = || hash_of(|out| names.object(instance, part, out));
         let asset = match names.asset_is_object(instance, part) {
-            true => object,
-            false => hash_of(|out| names.asset(instance, part, out)),
+            true => want_asset.then(object),
+            false => want_asset.then(|| hash_of(|out| names.asset(instance, part, out))),
         };
         CryptoIds {
-            object,
-            material: material.map(|m| self.materials[m as usize].0),
-            asset,
+            object: if want_object { object() } else { 0 },
+            material: material
+                .filter(|_| want_material)
+                .map(|m| self.materials[m as usize].0),
+            asset: asset.unwrap_or(0),
         }
     }
 
@@ -154,6 +162,19 @@ impl IdNames {
         }
         found
     }
+}
+
+/// What a render's AOVs read at the camera ray's first surface hit, beyond
+/// its position and normal: which Cryptomatte ids to hash and which
+/// primvars to look up. Built once per render from its AOV set, so a hit
+/// costs only what is written.
+#[derive(Clone, Debug, Default)]
+pub struct HitAovs {
+    /// Per [`CRYPTOMATTES`] slot, whether it is written.
+    pub crypto: [bool; 3],
+    /// Per slot of `AovSample::primvars`, the primvar's id for
+    /// `Materials::primvar`; `None` when no prim carries it.
+    pub primvars: Vec<Option<u32>>,
 }
 
 /// Why a scene cannot be rendered.
@@ -207,6 +228,7 @@ impl RenderState {
         }
         let geometry = Geometry::build(scene, shutter.blurs());
         let id_names = IdNames::new(scene);
+        let aov_primvars = aov_primvars(scene, &materials);
         Ok(Self {
             geometry,
             materials,
@@ -216,11 +238,60 @@ impl RenderState {
             resolution,
             options,
             id_names,
+            aov_primvars,
         })
     }
 }
 
+/// The primvars `scene`'s RenderVars read, each as (MurmurHash3 of its
+/// name, its id in `materials`); one warning names each var whose primvar
+/// no prim carries (its layer is 0). More than [`MAX_PRIMVARS`] distinct
+/// primvars: one warning, and the layers beyond are 0.
+fn aov_primvars(scene: &Scene, materials: &Materials) -> Vec<(u32, u32)> {
+    let vars = scene.manifest.render.products.iter().flat_map(|p| &p.vars);
+    let mut found: Vec<(u32, u32)> = Vec::new();
+    let mut names = BTreeSet::new();
+    for var in vars {
+        let Some(name) = primvar_of(&var.source_name, &var.source_type) else {
+            continue;
+        };
+        names.insert(name);
+        match materials.primvar_id(name) {
+            Some(id) => found.push((murmur3_32(name.as_bytes(), 0), id)),
+            None => log::warn!(
+                "render var {}: no mesh, points or curves prim has primvar {name}; its layer is 0",
+                var.path
+            ),
+        }
+    }
+    if names.len() > MAX_PRIMVARS {
+        log::warn!(
+            "the RenderVars read {} primvars ({}); only {MAX_PRIMVARS} are rendered, the layers of the others (last in hash order) are 0",
+            names.len(),
+            names.into_iter().collect::<Vec<_>>().join(", ")
+        );
+    }
+    found.sort_unstable();
+    found.dedup();
+    found
+}
+
 impl RenderState {
+    /// What the AOVs of `aovs` read at camera hits.
+    pub fn hit_aovs(&self, aovs: &AovSet) -> HitAovs {
+        HitAovs {
+            crypto: CRYPTOMATTES.map(|a| aovs.contains(a)),
+            primvars: aovs
+                .primvars()
+                .take(MAX_PRIMVARS)
+                .map(|hash| {
+                    let found = self.aov_primvars.iter().find(|(h, _)| *h == hash);
+                    found.map(|(_, id)| *id)
+                })
+                .collect(),
+        }
+    }
+
     /// What light samples read emission from, at `time` (frames).
     pub fn emitters(&self, time: f32) -> Emitters<'_> {
         Emitters {

@@ -215,3 +215,37 @@ fn merged_and_resumed_frames_carry_the_whole_renders_manifests() {
     assert_eq!(crypto_attributes(&resumed), crypto_attributes(&whole));
     assert_eq!(crypto_channels(&resumed), crypto_channels(&whole));
 }
+
+#[test]
+fn copies_of_nested_point_instancers_are_named_by_both_indices() {
+    let dir = common::scratch("cryptomatte_nested");
+    let usda = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/tests/cryptomatte_nested.usda");
+    let exr = dir.join("nested.exr");
+    let mut render = Command::new(env!("CARGO_BIN_EXE_cirrus"));
+    render.arg("render").arg(&usda).arg("-o").arg(&exr);
+    render.args([
+        "--res",
+        "48x24",
+        "--aovs",
+        "CryptoObject",
+        "--filter",
+        "box",
+        "--spp",
+        "2",
+    ]);
+    common::succeeds(render);
+    let objects = decode_cryptomatte(&Exr::read(&exr), "CryptoObject");
+    // (outer id, x) by (inner id, y): one pixel is 0.25 scene units.
+    let copies = [(3, -3.0), (8, 3.0)]
+        .into_iter()
+        .flat_map(|outer| [(5, -2.0), (6, 0.0), (7, 2.0)].map(|inner| (outer, inner)));
+    let mut expected = Vec::new();
+    for ((outer, x), (inner, y)) in copies {
+        let name = format!("/World/outer[{outer}]/inner[{inner}]/Geom");
+        let (column, row) = (((x + 6.0) * 4.0) as usize, ((3.0 - y) * 4.0) as usize);
+        assert_eq!(objects.coverage[&name][row * 48 + column], 1.0, "{name}");
+        expected.push(name);
+    }
+    expected.sort();
+    assert_eq!(names_of(&objects, "CryptoObject"), expected);
+}

@@ -20,7 +20,7 @@ from .motion import Recorder, add_motion, replaying_walker
 from .curves import CurvesTable
 from .points import PointsTable
 from .prototypes import MeshTable, Prototypes
-from .render_settings import chosen_settings
+from .render_settings import chosen_settings, requested_primvars
 from .round_shapes import RoundContext
 from .report import ExportError, Report
 from .skinning import Skinning
@@ -154,10 +154,11 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     mtlx.warn_unreadable()
     materials = MaterialTable(resolver, mtlx, report, time)
     skinning = Skinning(report, time)
-    meshes = MeshTable(writer, materials, skinning, report, time, str(path))
+    aov_primvars = requested_primvars(settings, time, report)
+    meshes = MeshTable(writer, materials, skinning, report, time, str(path), aov_primvars)
     volumes = VolumeTable(resolver, report, time, frame_label)
-    points = PointsTable(RoundContext(writer, materials, report, time, str(path)))
-    curves = CurvesTable(RoundContext(writer, materials, report, time, str(path)))
+    points = PointsTable(RoundContext(writer, materials, report, time, str(path), aov_primvars=aov_primvars))
+    curves = CurvesTable(RoundContext(writer, materials, report, time, str(path), aov_primvars=aov_primvars))
     round_shapes = {"Points": (points, ("points", "points")),
                     **{kind: (curves, ("curves", "curves")) for kind in ("BasisCurves", "NurbsCurves")}}
     prototypes = Prototypes(meshes, volumes, round_shapes)

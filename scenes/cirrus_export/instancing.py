@@ -35,25 +35,37 @@ UNRENDERED_TYPES = {"HermiteCurves", "NurbsPatch", "TetMesh"}
 
 @dataclass(frozen=True)
 class Name:
-    """A prim path that may hold a copy's PointInstancer index: `head`, then `[index]` when
-    `indexed`, then `tail` (the manifest's NamePattern)."""
+    """A prim path that may hold a copy's PointInstancer indices: `head`, then `[index]` when
+    `indexed`, then `tail`, then for a PointInstancer nested in another's prototype
+    `[inner[k % len(inner)]]` and `inner_tail`, k being the copy's position in its run (the
+    manifest's NamePattern). `inner` is stored once per run, never per copy."""
 
     head: str = ""
     indexed: bool = False
     tail: str = ""
+    inner: tuple[int, ...] | None = None
+    inner_tail: str = ""
 
     def under(self, path: str) -> "Name":
         """This name, relative to a prim, under that prim's `path` (relative or absolute)."""
-        return Name(path + self.head, self.indexed, self.tail)
+        return Name(path + self.head, self.indexed, self.tail, self.inner, self.inner_tail)
 
-    def instanced(self) -> "Name":
-        """This name, relative to a PointInstancer prototype root, for the instancer's copies:
-        `[index]` then the name. An inner instancer's index is dropped (only the outermost
-        instancer's index is kept per instance, within the 60-byte budget)."""
-        return Name("", True, self.head + self.tail)
+    def instanced(self, index: np.ndarray) -> "Name":
+        """This name, relative to a PointInstancer prototype root, of the copies whose indices
+        in that prototype are `index`, for the instancer's copies (outer-major): `[index]`
+        then the name, whose own index becomes the inner one. Deeper nesting keeps the two
+        outermost indices (the innermost instancer's path is kept, its index dropped)."""
+        if not self.indexed:
+            return Name("", True, self.head + self.tail)
+        if self.inner is None:
+            return Name("", True, self.head, tuple(int(i) for i in index), self.tail)
+        return Name("", True, self.head, tuple(int(i) for i in index), self.tail + self.inner_tail)
 
     def record(self) -> dict:
-        return {"head": self.head, "indexed": self.indexed, "tail": self.tail}
+        record = {"head": self.head, "indexed": self.indexed, "tail": self.tail}
+        if self.inner is not None:
+            record["inner"] = {"indices": list(self.inner), "tail": self.inner_tail}
+        return record
 
 
 @dataclass
@@ -61,7 +73,8 @@ class Leaf:
     """Copies of one Cirrus prototype: row-vector matrices into the holder's space.
 
     `index` is each copy's index in the outermost PointInstancer that made it (its
-    `ids` when authored), 0 when no PointInstancer is involved. `root` names the copies'
+    `ids` when authored), 0 when no PointInstancer is involved; a nested one's index is in
+    `root.inner`. `root` names the copies'
     prototype root and `asset` the nearest model above it, both relative to the holder
     (None: no model between them).
     """
@@ -260,7 +273,8 @@ class Walker:
             for leaf in self._group(key, str(target), root, [root], False):
                 inner = compose(leaf.matrices, matrices[chosen])
                 leaves.append(Leaf(leaf.prototype, inner, np.repeat(ids[chosen], len(leaf.index)),
-                                   leaf.root.instanced(), leaf.asset.instanced() if leaf.asset else None))
+                                   leaf.root.instanced(leaf.index),
+                                   leaf.asset.instanced(leaf.index) if leaf.asset else None))
         return leaves
 
 

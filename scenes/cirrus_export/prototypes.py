@@ -71,8 +71,10 @@ class MeshTable:
     """Meshes of the manifest, each stored once, with their object-space bounds."""
 
     def __init__(self, writer: BinWriter, materials: MaterialTable, skinning: "Skinning", report: Report,
-                 time: Usd.TimeCode, source: str) -> None:
+                 time: Usd.TimeCode, source: str, aov_primvars: tuple[str, ...] = ()) -> None:
         self.records: list[dict] = []
+        # What primvar RenderVars read: carried by every mesh that has them, beside its materials'.
+        self._aov_primvars = aov_primvars
         self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
         # Per record, what read it: (prim, uv primvar, material primvars), for deforming.py.
         self.sources: list[tuple[Usd.Prim, str, tuple[str, ...]]] = []
@@ -116,9 +118,10 @@ class MeshTable:
         bound = [m for m in materials if m != NO_MATERIAL]
         uv_name = self._materials.uv_primvar(bound[0]) if bound else "st"
         primvars = {name: m for m in bound for name in self._materials.primvars(m)}
+        wanted = tuple(sorted(set(primvars) | set(self._aov_primvars)))
         try:
             geometry = read_mesh(prim, self._time, self._report, uv_name, self._skinning.pose(prim),
-                                 tuple(sorted(primvars))) if prim.IsA(UsdGeom.Mesh) else tessellate(prim, self._time)
+                                 wanted) if prim.IsA(UsdGeom.Mesh) else tessellate(prim, self._time)
         except BadMesh as bad:
             self._report.warn(f"{self._source}: mesh {prim.GetPath()} skipped: {bad}")
             return None

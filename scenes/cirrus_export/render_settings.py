@@ -68,6 +68,29 @@ def _render_var(prim: Usd.Prim, time: Usd.TimeCode) -> dict:
     }
 
 
+def primvar_of(source_name: str, source_type: str) -> str | None:
+    """The primvar a RenderVar reads, as husk and Karma take them (src/film/aov.rs,
+    primvar_of): its sourceName without `primvars:` when sourceType is `primvar` or the name
+    starts with `primvars:`; None for other vars."""
+    name = source_name.strip()
+    if name.startswith("primvars:"):
+        return name[len("primvars:"):]
+    return name if source_type == "primvar" else None
+
+
+def requested_primvars(settings: UsdRender.Settings | None, time: Usd.TimeCode,
+                       report: Report) -> tuple[str, ...]:
+    """The primvars the settings' RenderVars read (sorted): every mesh carrying one exports it,
+    whatever its interpolation. (The report prints each warning once, so reading the
+    products here and again for the manifest warns once.)"""
+    if settings is None:
+        return ()
+    found = {primvar_of(var["source_name"], var["source_type"])
+             for product in render_products(settings, time, report)
+             for var in product["vars"]}
+    return tuple(sorted(name for name in found if name))
+
+
 def render_products(settings: UsdRender.Settings, time: Usd.TimeCode, report: Report) -> list[dict]:
     """The settings' raster products in order, each with its RenderVars; other product types,
     products without a productName and targets that are not products or vars are warned about

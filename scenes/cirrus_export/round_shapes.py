@@ -21,6 +21,8 @@ class RoundContext:
     source: str
     records: list[dict] = field(default_factory=list)
     boxes: list = field(default_factory=list)
+    # What primvar RenderVars read: carried by every prim that has them, beside its material's.
+    aov_primvars: tuple[str, ...] = ()
 
     def material(self, prim: Usd.Prim) -> int:
         """The bound material, else the displayColor one, else NO_MATERIAL."""
@@ -31,14 +33,16 @@ class RoundContext:
         """Shared by prototype path and material, as meshes are."""
         return prototype_path(prim), self.material(prim)
 
-    def primvar(self, prim: Usd.Prim, name: str, expand) -> np.ndarray | None:
+    def primvar(self, prim: Usd.Prim, name: str, expand, read: bool = True) -> np.ndarray | None:
         """Primvar `name` as (n, width) f32, `expand` turning (values, interpolation) into one
-        row per point or vertex; None (with a warning) when it is missing or does not fit."""
+        row per point or vertex; None (with a warning) when it does not fit, or when it is
+        missing and `read` by the material."""
         primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(name)
         values = primvar.ComputeFlattened(self.time) if primvar and primvar.HasValue() else None
         if values is None or len(values) == 0:
-            self.report.warn(f"{self.source}: {prim.GetTypeName()} {prim.GetPath()} has no primvar {name} "
-                             f"(read by its material); its fallback is used")
+            if read:
+                self.report.warn(f"{self.source}: {prim.GetTypeName()} {prim.GetPath()} has no primvar "
+                                 f"{name} (read by its material); its fallback is used")
             return None
         array = np.asarray(values, dtype=np.float64)
         array = array.reshape(len(array), -1)
@@ -50,10 +54,12 @@ class RoundContext:
         return expanded.astype(np.float32)
 
     def primvars(self, prim: Usd.Prim, material: int, expand) -> dict:
-        """The manifest primvars record: every primvar the material reads that fits."""
+        """The manifest primvars record: every primvar the material reads or a RenderVar asks
+        for that fits."""
         out = {}
-        for name in sorted(self.materials.primvars(material)) if material != NO_MATERIAL else []:
-            values = self.primvar(prim, name, expand)
+        read = self.materials.primvars(material) if material != NO_MATERIAL else set()
+        for name in sorted(read | set(self.aov_primvars)):
+            values = self.primvar(prim, name, expand, name in read)
             if values is not None:
                 out[name] = self.writer.add(values, "f32", values.shape[1])
         return out

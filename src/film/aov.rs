@@ -13,6 +13,7 @@
 //! Every contribution goes to exactly one of them, so they sum to the
 //! beauty.
 
+use std::borrow::Cow;
 use std::fmt;
 use std::str::FromStr;
 
@@ -61,7 +62,20 @@ pub enum Aov {
     /// Cryptomatte of the assets the camera rays hit: the nearest
     /// `component` or `assembly` model above each object.
     CryptoAsset,
+    /// A primvar of the camera ray's surface hit, averaged (a `primvars:*`
+    /// RenderVar; 0 where the hit surface lacks it or nothing is hit):
+    /// `name` is the MurmurHash3 (seed 0) of the primvar's name, `width` the
+    /// channels written (1 to 3). Never in `all` or `default`.
+    Primvar {
+        /// MurmurHash3 of the primvar name (`displayColor`, no `primvars:`).
+        name: u32,
+        /// Channels: 1 (the primvar's first component), 2 or 3.
+        width: u8,
+    },
 }
+
+/// Most primvar AOVs one render accumulates ([`AovSample::primvars`]).
+pub const MAX_PRIMVARS: usize = 8;
 
 /// Every AOV, in file order.
 pub const ALL: [Aov; 17] = [
@@ -99,6 +113,9 @@ pub struct AovSample {
     pub hit: Option<CameraHit>,
     /// The camera ray hit a surface or collided in a volume (beauty alpha).
     pub opaque: bool,
+    /// The hit surface's value of each primvar AOV, in the set's order
+    /// ([`AovSet::primvars`]); 0 without a hit or without that primvar.
+    pub primvars: [Vec3; MAX_PRIMVARS],
 }
 
 /// Where a camera ray met the first surface.
@@ -115,7 +132,9 @@ pub struct CameraHit {
 }
 
 /// The Cryptomatte ids of a surface hit: the MurmurHash3 (seed 0) of the
-/// names it has in each Cryptomatte (before `uint32_to_float32`).
+/// names it has in each Cryptomatte (before `uint32_to_float32`); 0 (and
+/// `None` for the material) in a Cryptomatte the render does not write,
+/// which is never hashed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CryptoIds {
     /// Of its object name (CryptoObject).
@@ -146,6 +165,7 @@ impl Default for AovSample {
             albedo: Vec3::ZERO,
             hit: None,
             opaque: false,
+            primvars: [Vec3::ZERO; MAX_PRIMVARS],
         }
     }
 }
@@ -189,10 +209,11 @@ impl AovSample {
 }
 
 impl Aov {
-    /// The layer name: channels are `<name>.R` etc. (`Z` and
-    /// `sample_count` are single channels of that name).
-    pub fn name(self) -> &'static str {
-        match self {
+    /// The layer name: channels are `<name>.R` etc. (`Z`, `sample_count`
+    /// and a one-channel primvar are single channels of that name). A
+    /// primvar's is `primvar_<name hash in hex>_<width>`, unique in a film.
+    pub fn name(self) -> Cow<'static, str> {
+        Cow::Borrowed(match self {
             Aov::Emission => "emission",
             Aov::DiffuseDirect => "diffuse_direct",
             Aov::DiffuseIndirect => "diffuse_indirect",
@@ -210,7 +231,10 @@ impl Aov {
             Aov::CryptoObject => "CryptoObject",
             Aov::CryptoMaterial => "CryptoMaterial",
             Aov::CryptoAsset => "CryptoAsset",
-        }
+            Aov::Primvar { name, width } => {
+                return Cow::Owned(format!("primvar_{name:08x}_{width}"))
+            }
+        })
     }
 
     /// Channel names in file order.
@@ -223,10 +247,16 @@ impl Aov {
         };
         match self {
             Aov::N | Aov::P => with(["X", "Y", "Z"]),
-            Aov::Z | Aov::SampleCount => vec![self.name().to_string()],
-            Aov::CryptoObject | Aov::CryptoMaterial | Aov::CryptoAsset => {
-                super::cryptomatte::channel_names(self.name())
+            Aov::Z | Aov::SampleCount | Aov::Primvar { width: 1, .. } => {
+                vec![self.name().into_owned()]
             }
+            Aov::CryptoObject | Aov::CryptoMaterial | Aov::CryptoAsset => {
+                super::cryptomatte::channel_names(&self.name())
+            }
+            Aov::Primvar { width, .. } => with(["R", "G", "B"])
+                .into_iter()
+                .take(usize::from(width))
+                .collect(),
             _ => with(["R", "G", "B"]),
         }
     }
@@ -247,9 +277,32 @@ impl Aov {
             | Aov::Variance
             | Aov::CryptoObject
             | Aov::CryptoMaterial
-            | Aov::CryptoAsset => PixelType::Float,
+            | Aov::CryptoAsset
+            | Aov::Primvar { .. } => PixelType::Float,
             _ => PixelType::Half,
         }
+    }
+
+    /// The AOV `text` names ([`Self::name`]).
+    fn from_set_name(text: &str) -> Option<Self> {
+        if let Some(rest) = text.strip_prefix("primvar_") {
+            let (name, width) = rest.split_once('_')?;
+            let width: u8 = width.parse().ok().filter(|w| (1..=3).contains(w))?;
+            let name = u32::from_str_radix(name, 16).ok()?;
+            return Some(Aov::Primvar { name, width });
+        }
+        ALL.into_iter().find(|a| a.name() == text)
+    }
+}
+
+/// The primvar a `RenderVar` reads, as husk and Karma take them: its
+/// `sourceName` without `primvars:` when `sourceType` is `primvar` or the
+/// name starts with `primvars:`; `None` for other vars.
+pub fn primvar_of<'a>(source_name: &'a str, source_type: &str) -> Option<&'a str> {
+    let name = source_name.trim();
+    match name.strip_prefix("primvars:") {
+        Some(primvar) => Some(primvar),
+        None => (source_type == "primvar").then_some(name),
     }
 }
 
@@ -272,6 +325,26 @@ impl AovSet {
     /// Whether `aov` is chosen.
     pub fn contains(&self, aov: Aov) -> bool {
         self.0.contains(&aov)
+    }
+
+    /// The chosen primvar AOVs' name hashes, in set order: the order of
+    /// [`AovSample::primvars`].
+    pub fn primvars(&self) -> impl Iterator<Item = u32> + '_ {
+        self.0.iter().filter_map(|a| match a {
+            Aov::Primvar { name, .. } => Some(*name),
+            _ => None,
+        })
+    }
+
+    /// The index of primvar AOV `aov` in [`AovSample::primvars`]; `None`
+    /// for other AOVs and beyond [`MAX_PRIMVARS`].
+    pub fn primvar_slot(&self, aov: Aov) -> Option<usize> {
+        let Aov::Primvar { name, .. } = aov else {
+            return None;
+        };
+        self.primvars()
+            .position(|n| n == name)
+            .filter(|&i| i < MAX_PRIMVARS)
     }
 }
 
@@ -303,7 +376,7 @@ impl FromStr for AovSet {
                 .split(',')
                 .map(|name| {
                     let name = name.trim();
-                    ALL.into_iter().find(|a| a.name() == name).ok_or_else(|| {
+                    Aov::from_set_name(name).ok_or_else(|| {
                         let known: Vec<_> = ALL.iter().map(|a| a.name()).collect();
                         format!(
                             "unknown AOV '{name}'; use default, all, beauty or a list of: {}",
@@ -343,6 +416,28 @@ mod tests {
         assert_eq!("all".parse::<AovSet>().unwrap().aovs(), ALL);
         let err = "diffuse,Z".parse::<AovSet>().unwrap_err();
         assert!(err.contains("unknown AOV 'diffuse'") && err.contains("diffuse_direct"));
+    }
+
+    #[test]
+    fn primvar_aovs_round_trip_through_set_text_and_take_slots_in_order() {
+        let primvar = |name, width| Aov::Primvar { name, width };
+        let set: AovSet = [primvar(0xbeef, 1), Aov::Z, primvar(0x12, 3)]
+            .into_iter()
+            .collect();
+        assert_eq!(set.to_string(), "Z,primvar_00000012_3,primvar_0000beef_1");
+        assert_eq!(set.to_string().parse::<AovSet>().unwrap(), set);
+        assert_eq!(set.primvar_slot(primvar(0x12, 3)), Some(0));
+        assert_eq!(set.primvar_slot(primvar(0xbeef, 1)), Some(1));
+        assert_eq!(set.primvar_slot(Aov::Z), None);
+        assert_eq!(primvar(0xbeef, 1).channels(), ["primvar_0000beef_1"]);
+        assert_eq!(
+            primvar(0x12, 2).channels(),
+            ["primvar_00000012_2.R", "primvar_00000012_2.G"]
+        );
+        assert!("primvar_12_4".parse::<AovSet>().is_err());
+        assert_eq!(primvar_of("primvars:Cd", "raw"), Some("Cd"));
+        assert_eq!(primvar_of("Cd", "primvar"), Some("Cd"));
+        assert_eq!(primvar_of("Cd", "raw"), None);
     }
 
     #[test]

@@ -15,7 +15,10 @@ mod state;
 mod sums;
 
 pub use adaptive::{ActivePixels, AdaptiveSampling};
-pub use aov::{Aov, AovSample, AovSet, CameraHit, CryptoIds, ALL as ALL_AOVS, CRYPTOMATTES};
+pub use aov::{
+    primvar_of, Aov, AovSample, AovSet, CameraHit, CryptoIds, ALL as ALL_AOVS, CRYPTOMATTES,
+    MAX_PRIMVARS,
+};
 pub use cryptomatte::{
     layer_key, murmur3_32, name_to_id, CryptoCoverage, CryptoLayer, CryptoNames, Murmur3,
 };

@@ -42,8 +42,9 @@ impl PixelSum {
 /// nothing.
 #[derive(Clone, Debug)]
 pub(super) struct AovBuffers {
-    /// (AOV, offset of its 3 floats within a pixel's `sums`).
-    summed: Vec<(Aov, usize)>,
+    /// (AOV, offset of its 3 floats within a pixel's `sums`, its slot in
+    /// [`AovSample::primvars`] for a primvar).
+    summed: Vec<(Aov, usize, Option<usize>)>,
     stride: usize,
     /// `stride` floats per pixel.
     pub(super) sums: Vec<f32>,
@@ -55,12 +56,13 @@ pub(super) struct AovBuffers {
 
 impl AovBuffers {
     fn new(set: &AovSet, pixels: usize) -> Self {
-        let summed: Vec<(Aov, usize)> = set
+        let summed: Vec<(Aov, usize, Option<usize>)> = set
             .aovs()
             .iter()
-            .filter(|a| summed_value(**a, &AovSample::default()).is_some())
+            .map(|a| (*a, set.primvar_slot(*a)))
+            .filter(|(a, slot)| summed_value(*a, *slot, &AovSample::default()).is_some())
             .enumerate()
-            .map(|(i, a)| (*a, 3 * i))
+            .map(|(i, (a, slot))| (a, 3 * i, slot))
             .collect();
         let stride = 3 * summed.len();
         let crypto = |aov| {
@@ -78,8 +80,8 @@ impl AovBuffers {
 
     fn add(&mut self, i: usize, sample: &AovSample) {
         let sums = &mut self.sums[i * self.stride..(i + 1) * self.stride];
-        for (aov, offset) in &self.summed {
-            if let Some(v) = summed_value(*aov, sample) {
+        for (aov, offset, slot) in &self.summed {
+            if let Some(v) = summed_value(*aov, *slot, sample) {
                 for (s, x) in sums[*offset..*offset + 3].iter_mut().zip(v.to_array()) {
                     *s += x;
                 }
@@ -132,9 +134,11 @@ impl AovBuffers {
     }
 }
 
-/// The per-sample value an averaged AOV sums; `None` for the AOVs that are
-/// not sums of samples (depth, counts, variance, Cryptomatte).
-fn summed_value(aov: Aov, sample: &AovSample) -> Option<Vec3> {
+/// The per-sample value an averaged AOV sums (a primvar's from its `slot`
+/// in [`AovSample::primvars`]); `None` for the AOVs that are not sums of
+/// samples (depth, counts, variance, Cryptomatte) and for a primvar beyond
+/// the slots.
+fn summed_value(aov: Aov, slot: Option<usize>, sample: &AovSample) -> Option<Vec3> {
     let hit =
         |f: fn(&super::aov::CameraHit) -> Vec3| Some(sample.hit.as_ref().map_or(Vec3::ZERO, f));
     match aov {
@@ -155,6 +159,7 @@ fn summed_value(aov: Aov, sample: &AovSample) -> Option<Vec3> {
         | Aov::CryptoObject
         | Aov::CryptoMaterial
         | Aov::CryptoAsset => None,
+        Aov::Primvar { .. } => slot.map(|s| sample.primvars[s]),
     }
 }
 
@@ -495,7 +500,7 @@ impl Film {
             .collect();
         let width = channels.len();
         let mut pixels = vec![0.0f32; width * self.pixels.len()];
-        let summed = self.aovs.summed.iter().find(|(a, _)| *a == aov);
+        let summed = self.aovs.summed.iter().find(|(a, ..)| *a == aov);
         let slot = CRYPTOMATTES.iter().position(|&a| a == aov);
         let coverage = slot.and_then(|s| self.aovs.crypto[s].as_ref());
         for (i, (p, out)) in self.pixels.iter().zip(pixels.chunks_mut(width)).enumerate() {
@@ -518,7 +523,7 @@ impl Film {
                     }
                 }
                 _ => {
-                    if let Some((_, offset)) = summed {
+                    if let Some((_, offset, _)) = summed {
                         let sums = &self.aovs.sums[i * self.aovs.stride + offset..][..3];
                         for (v, s) in out.iter_mut().zip(sums) {
                             *v = s / n as f32;

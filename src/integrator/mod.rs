@@ -365,6 +365,7 @@ fn render_tile(
     (rays, tracking): (&mut RayCounts, &mut TrackingStats),
 ) {
     let mut sampler = Sampler::new(settings.sampler, settings.seed);
+    let hit_aovs = state.hit_aovs(&settings.aovs);
     let tile = out.tile;
     for y in tile.origin.y..tile.origin.y + tile.size.y {
         for x in tile.origin.x..tile.origin.x + tile.size.x {
@@ -402,8 +403,9 @@ fn render_tile(
                     rays: &mut *rays,
                     tracking: &mut *tracking,
                 };
+                let path_settings = (&settings.path, &hit_aovs);
                 let (radiance, aovs) =
-                    path::radiance(state, (ray, time), random, &settings.path, counts);
+                    path::radiance(state, (ray, time), random, path_settings, counts);
                 out.add(pixel, index, radiance, &aovs);
             }
         }

@@ -31,7 +31,7 @@ use crate::film::{AovSample, CameraHit};
 use crate::geometry::{shadow_ray, Hit, SurfacePoint};
 use crate::lights::{LightHit, LightSample};
 use crate::materials::Bsdf;
-use crate::render_state::RenderState;
+use crate::render_state::{HitAovs, RenderState};
 use crate::sampling::warp::power_heuristic;
 use crate::sampling::{Pcg32, Sampler};
 use crate::scene::NO_MATERIAL;
@@ -66,7 +66,8 @@ pub struct PathRandom<'a> {
 
 /// Radiance arriving at the camera along a camera ray at its time (frames,
 /// shared by the whole path), W/(m^2 sr): one sample of the path-integral
-/// estimator, with what it gives every AOV. The
+/// estimator, with what it gives every AOV (the first hit's Cryptomatte
+/// ids and primvars only where `hit_aovs` asks for them). The
 /// sampler must be positioned at the first path dimension; each bounce
 /// consumes the same number of dimensions whether or not it uses them, so
 /// dimensions stay aligned between pixel samples.
@@ -74,12 +75,13 @@ pub fn radiance(
     state: &RenderState,
     (ray, time): (Ray, f32),
     random: PathRandom,
-    settings: &PathSettings,
+    (settings, hit_aovs): (&PathSettings, &HitAovs),
     counts: PathCounts,
 ) -> (Vec3, AovSample) {
     let mut path = Path {
         state,
         settings,
+        hit_aovs,
         time,
         sampler: random.sampler,
         rng: random.tracking,
@@ -122,6 +124,7 @@ pub fn radiance(
 struct Path<'a, 'r> {
     state: &'a RenderState,
     settings: &'a PathSettings,
+    hit_aovs: &'a HitAovs,
     /// The camera sample's time, frames: every ray of the path is at it.
     time: f32,
     sampler: &'r mut Sampler,
@@ -242,17 +245,26 @@ impl Path<'_, '_> {
         let mut camera_hit = None;
         if depth == 0 {
             camera_hit = hit.map(|h| geometry.surface_point(&h));
+            let (state, wanted) = (self.state, self.hit_aovs);
             let aovs = &mut self.gathered.aovs;
             aovs.opaque = hit.is_some() || light_hit.is_some();
             aovs.hit = hit.zip(camera_hit).map(|(h, sp)| CameraHit {
                 normal: sp.ns,
                 position: sp.p,
-                depth: self.state.camera.depth(sp.p),
-                ids: self
-                    .state
-                    .id_names
-                    .ids(&h, (sp.material != NO_MATERIAL).then_some(sp.material)),
+                depth: state.camera.depth(sp.p),
+                ids: state.id_names.ids(
+                    &h,
+                    (sp.material != NO_MATERIAL).then_some(sp.material),
+                    wanted.crypto,
+                ),
             });
+            if let Some(sp) = &camera_hit {
+                let site = sp.site();
+                for (value, id) in aovs.primvars.iter_mut().zip(&wanted.primvars) {
+                    let found = id.and_then(|id| state.materials.primvar(id, &site));
+                    *value = found.map_or(Vec3::ZERO, |v| v.truncate());
+                }
+            }
         }
         let end = RayEnd {
             origin,

@@ -39,7 +39,7 @@ pub use bsdf::Bsdf;
 pub use lobes::LobeValues;
 pub use scatter::BsdfSample;
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use thiserror::Error;
 
 use crate::geometry::{MeshSite, SurfacePoint};
@@ -56,8 +56,10 @@ pub struct Materials {
     /// What a surface with [`NO_MATERIAL`] looks like.
     unbound: Surface,
     textures: Vec<Texture>,
-    /// By scene mesh: the primvars material inputs read.
+    /// By scene mesh: the primvars material inputs and AOVs read.
     primvars: Vec<MeshPrimvars>,
+    /// Their names' ids.
+    primvar_names: PrimvarNames,
 }
 
 /// A material's surface model.
@@ -110,12 +112,27 @@ impl Materials {
                 }
             })
             .collect();
+        names.add_carried(scene);
         Ok(Self {
             surfaces,
             unbound: Surface::Preview(PreviewSurface::default_surface()),
             textures: Texture::load_all(&m.textures),
             primvars: MeshPrimvars::build_all(scene, &names),
+            primvar_names: names,
         })
+    }
+
+    /// The id of the primvar `name` when some mesh, points or curves prim
+    /// carries it, for [`Self::primvar`].
+    pub fn primvar_id(&self, name: &str) -> Option<u32> {
+        self.primvar_names.find(name)
+    }
+
+    /// Primvar `id` at `site` as rgba (width 1 is grey, missing components
+    /// 0, alpha 1; see `MeshPrimvars::eval`); `None` where its mesh lacks it.
+    pub fn primvar(&self, id: u32, site: &MeshSite) -> Option<Vec4> {
+        let mesh = self.primvars.get(site.mesh as usize)?;
+        mesh.eval(id, site.triangle, site.barycentrics)
     }
 
     /// The BSDF of `sp`'s material at `sp`, for the outgoing direction `wo`
@@ -190,6 +207,7 @@ mod tests {
             unbound: Surface::Preview(PreviewSurface::default_surface()),
             textures: Vec::new(),
             primvars: Vec::new(),
+            primvar_names: PrimvarNames::default(),
         }
     }
 

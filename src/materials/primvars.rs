@@ -1,7 +1,8 @@
-//! Mesh primvars as material inputs read them: the names material inputs
-//! name, each given a small id once at build time, and per mesh the arrays
-//! of those it has (one element of 1 to 4 floats per point), interpolated
-//! barycentrically at a hit like `uvs`.
+//! Mesh primvars as material inputs and primvar AOVs read them: the names
+//! material inputs name and every other name a mesh carries (the exporter
+//! writes those primvar RenderVars ask for), each given a small id once at
+//! build time, and per mesh the arrays of those it has (one element of 1 to
+//! 4 floats per point), interpolated barycentrically at a hit like `uvs`.
 
 use std::collections::BTreeMap;
 
@@ -27,6 +28,28 @@ impl PrimvarNames {
             }
         };
         at as u32
+    }
+
+    /// The id of `name`, if it has one.
+    pub(crate) fn find(&self, name: &str) -> Option<u32> {
+        self.names
+            .iter()
+            .position(|n| n == name)
+            .map(|at| at as u32)
+    }
+
+    /// Gives an id to every primvar a mesh, points or curves prim of
+    /// `scene` carries: those no material reads are there for AOVs.
+    pub(crate) fn add_carried(&mut self, scene: &Scene) {
+        let m = &scene.manifest;
+        let meshes = m.meshes.iter().map(|x| &x.primvars);
+        let points = m.points.iter().map(|x| &x.primvars);
+        let curves = m.curves.iter().map(|x| &x.primvars);
+        for primvars in meshes.chain(points).chain(curves) {
+            for name in primvars.keys() {
+                self.id(name);
+            }
+        }
     }
 }
 

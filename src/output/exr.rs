@@ -188,7 +188,7 @@ pub fn write_film(
         Layers::Film => std::iter::once(beauty())
             .chain(film.aov_set().aovs().iter().map(|&aov| {
                 let layer = film.aov_layer(aov);
-                let crypto = header.crypto_layer(aov, aov.name(), &layer);
+                let crypto = header.crypto_layer(aov, &aov.name(), &layer);
                 FileLayer {
                     name: Some(aov.name().to_string()),
                     layer,
@@ -259,7 +259,7 @@ fn named_layer(film: &Film, header: &ExrHeader, named: &NamedLayer) -> FileLayer
                     .for_each(|(v, m)| *v += m);
             }
             for channel in &mut layer.channels {
-                let suffix = channel.name.strip_prefix(aov.name()).unwrap_or_default();
+                let suffix = channel.name.strip_prefix(&*aov.name()).unwrap_or_default();
                 channel.name = format!("{}{suffix}", named.name);
             }
             let metadata = crypto.as_ref().map(CryptoLayer::metadata);

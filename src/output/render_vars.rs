@@ -3,6 +3,11 @@
 //! prim name as husk names them (`diffuse.R`, `depth`, `crypto_object00.R`;
 //! a beauty var stays the unprefixed `R, G, B, A`).
 //!
+//! A primvar (`sourceType` `primvar`, or `sourceName` `primvars:NAME`) is
+//! the primvar's value on the camera ray's first surface hit, averaged like
+//! `N`: `dataType` `float` writes one channel (`<name>`), `float2` two
+//! (`.R, .G`), `float3`/`color3f` (and wider) three (`.R, .G, .B`).
+//!
 //! Light path expressions (`sourceType` `lpe`, or a `lpe:` prefix) name a
 //! light-path AOV by its first event after the camera (see `film/aov.rs`):
 //! `<RD>` diffuse reflection, `<RS>`/`<RG>`/`<R[GS]>` glossy or specular
@@ -12,7 +17,7 @@
 //! `[LO]`: our lights include emissive surfaces. `CL` is the emission AOV and
 //! `C.*L` the beauty. The table is in `docs/rendering.md`.
 
-use crate::film::Aov;
+use crate::film::{murmur3_32, primvar_of, Aov};
 use crate::image::PixelType;
 
 /// The layers of an EXR.
@@ -74,30 +79,29 @@ pub struct VarAttributes<'a> {
 /// the value at fault, for one warning that names the var).
 pub fn layer_of(var: &VarAttributes) -> Result<NamedLayer, String> {
     let name: String = var.source_name.split_whitespace().collect();
+    let (components, half) = components(var.data_type)
+        .ok_or_else(|| format!("dataType {:?} is not a float type", var.data_type))?;
     let source = match (var.source_type, name.strip_prefix("lpe:")) {
         (_, Some(lpe)) => light_path(lpe),
         ("lpe", None) => light_path(&name),
-        ("primvar", _) => None,
-        _ if name.starts_with("primvars:") => None,
-        _ => named_source(&name),
+        _ => match primvar_of(&name, var.source_type) {
+            Some(primvar) => Some(LayerSource::Aovs(vec![Aov::Primvar {
+                name: murmur3_32(primvar.as_bytes(), 0),
+                width: components.min(3) as u8,
+            }])),
+            None => named_source(&name),
+        },
     }
     .ok_or_else(|| {
-        let what = if var.source_type == "primvar" || name.starts_with("primvars:") {
-            "a primvar; primvars of the hit surface are not rendered"
-        } else {
-            "not one Cirrus produces (see docs/rendering.md, USD render settings)"
-        };
         format!(
-            "sourceName {:?} ({}) is {what}",
+            "sourceName {:?} ({}) is not one Cirrus produces (see docs/rendering.md, USD render settings)",
             var.source_name, var.source_type
         )
     })?;
-    let (components, half) = components(var.data_type)
-        .ok_or_else(|| format!("dataType {:?} is not a float type", var.data_type))?;
     let needed = match &source {
         LayerSource::Beauty => 3,
         LayerSource::Aovs(aovs) => match aovs[0] {
-            Aov::Z | Aov::SampleCount => 1,
+            Aov::Z | Aov::SampleCount | Aov::Primvar { .. } => 1,
             aov if is_crypto(aov) => 1,
             _ => 3,
         },
@@ -284,8 +288,27 @@ mod tests {
         assert!(layer("nonsense", "color3f")
             .unwrap_err()
             .contains("\"nonsense\""));
-        assert!(layer_of(&var("st", "primvar", "float2"))
-            .unwrap_err()
-            .contains("primvar"));
+        let st = Aov::Primvar {
+            name: murmur3_32(b"st", 0),
+            width: 2,
+        };
+        let primvar = |n, t, d| layer_of(&var(n, t, d)).unwrap().source;
+        assert_eq!(
+            primvar("st", "primvar", "float2"),
+            LayerSource::Aovs(vec![st])
+        );
+        assert_eq!(
+            primvar("primvars:st", "raw", "float2"),
+            LayerSource::Aovs(vec![st])
+        );
+        assert_eq!(
+            primvar("primvars:st", "raw", "color4f"),
+            LayerSource::Aovs(vec![Aov::Primvar {
+                name: murmur3_32(b"st", 0),
+                width: 3
+            }])
+        );
+        let name = format!("primvar_{:08x}_2", murmur3_32(b"st", 0));
+        assert_eq!(st.channels(), [format!("{name}.R"), format!("{name}.G")]);
     }
 }

@@ -1,12 +1,14 @@
 //! The names artists gave what the renderer draws, for Cryptomatte
 //! (docs/conventions.md, "Cryptomatte names"): an object is an instance's
 //! mesh named by the instance's own prim path (`/World/teapot_3/Geom`,
-//! `/World/scatter[12]`), never by USD's `/__Prototype_N`; its asset is
-//! the nearest `component` or `assembly` model above it, else the object.
+//! `/World/scatter[12]`, and inside a PointInstancer nested in another's
+//! prototype `/World/outer[3]/inner[5]/Geom`), never by USD's
+//! `/__Prototype_N`; its asset is the nearest `component` or `assembly`
+//! model above it, else the object.
 //!
 //! Kept compact: per instance only its prototype and `source_index` (8
-//! bytes); strings only per run of instances (`Instances::names`) and per
-//! prototype part. Names are spelled in pieces, so hashing one allocates
+//! bytes); strings only per run of instances (`Instances::names`; a nested
+//! instancer's indices once per run, not per copy) and per prototype part. Names are spelled in pieces, so hashing one allocates
 //! nothing.
 
 use super::format::NameRun;
@@ -112,8 +114,8 @@ impl InstanceNames {
     /// Spells the object name of mesh `part` of `instance` into `out`.
     pub fn object(&self, instance: u32, part: u32, out: &mut dyn FnMut(&[u8])) {
         let name = self.part(instance, part);
-        if let Some((run, index)) = self.run(instance) {
-            run.root.spell(index, out);
+        if let Some((run, index, position)) = self.run(instance) {
+            run.root.spell(index, position, out);
         }
         out(name.name.as_bytes());
     }
@@ -124,12 +126,12 @@ impl InstanceNames {
     pub fn asset(&self, instance: u32, part: u32, out: &mut dyn FnMut(&[u8])) {
         let name = self.part(instance, part);
         match (self.run(instance), &name.asset) {
-            (Some((run, index)), Some(below_root)) => {
-                run.root.spell(index, out);
+            (Some((run, index, position)), Some(below_root)) => {
+                run.root.spell(index, position, out);
                 out(below_root.as_bytes());
             }
-            (Some((run, index)), None) => match &run.asset {
-                Some(asset) => asset.spell(index, out),
+            (Some((run, index, position)), None) => match &run.asset {
+                Some(asset) => asset.spell(index, position, out),
                 None => self.object(instance, part, out),
             },
             (None, _) => self.object(instance, part, out),
@@ -140,17 +142,19 @@ impl InstanceNames {
     pub fn asset_is_object(&self, instance: u32, part: u32) -> bool {
         let asset_inside = self.part(instance, part).asset.is_some();
         self.run(instance)
-            .is_none_or(|(run, _)| !asset_inside && run.asset.is_none())
+            .is_none_or(|(run, ..)| !asset_inside && run.asset.is_none())
     }
 
     fn part(&self, instance: u32, part: u32) -> &PartName {
         &self.parts[self.prototype[instance as usize] as usize][part as usize]
     }
 
-    /// `instance`'s run and `source_index`; `None` without runs.
-    fn run(&self, instance: u32) -> Option<(&NameRun, u32)> {
+    /// `instance`'s run, `source_index` and position in the run; `None`
+    /// without runs.
+    fn run(&self, instance: u32) -> Option<(&NameRun, u32, u64)> {
         let (starts, runs) = self.runs.as_ref()?;
         let run = starts.partition_point(|&s| s <= u64::from(instance)) - 1;
-        Some((&runs[run], self.source_index[instance as usize]))
+        let position = u64::from(instance) - starts[run];
+        Some((&runs[run], self.source_index[instance as usize], position))
     }
 }
