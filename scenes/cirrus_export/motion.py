@@ -15,6 +15,7 @@ import math
 import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdLux, UsdSkel
 
+from .lights import MOVING_LIGHT_TYPES, add_light_motion
 from .report import Report
 from .xforms import as_array, to_3x4, to_3x4_list
 
@@ -105,12 +106,13 @@ def warn_unblurred(stage: Usd.Stage, frame_time: float, start: float, end: float
 
     for prim in Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()):
         path = prim.GetPath()
-        if prim.HasAPI(UsdLux.LightAPI):
+        if prim.HasAPI(UsdLux.LightAPI) and prim.GetTypeName() not in MOVING_LIGHT_TYPES:
             at_frame = caches[0].GetLocalToWorldTransform(prim)
             if any(c.GetLocalToWorldTransform(prim) != at_frame for c in caches[1:]) or \
                     samples_inside_xform(prim, interval):
                 report.warn(f"{path}: the light's transform changes over the shutter; rendered "
-                            f"where it is at the frame (moving lights are not blurred yet)")
+                            f"where it is at the frame (moving distant and dome lights are not "
+                            f"blurred yet)")
         points = UsdGeom.PointBased(prim)
         if points:
             moved = [a.GetName() for a in (points.GetPointsAttr(),) if samples_inside(a)]
@@ -241,9 +243,9 @@ class _Silent(Report):
 
 def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, walker_at,
                records: tuple[dict, dict], frame: tuple[np.ndarray, np.ndarray],
-               writer, report: Report) -> None:
+               writer, report: Report, lights: list[dict] = ()) -> None:
     """Adds `shutter` and `motion` to the camera record and `motion` to the instances record
-    (`records`) where the shutter is open and something moves.
+    (`records`) and to the moving `lights` where the shutter is open and something moves.
 
     `walker_at(time_code)` walks the stage at another time and returns its TopSink;
     `frame` holds the instances' world matrices and source indices at the frame."""
@@ -284,6 +286,7 @@ def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, wal
     moving = instance_motion(sampler, times, t0, reference.sources, source, writer, report)
     if moving is not None:
         instances["motion"] = moving
+    add_light_motion(stage, lights, times, t0, report)
     camera_keys = camera_motion(sampler, times, t0)
     if camera_keys is not None:
         camera["motion"] = camera_keys
