@@ -281,7 +281,7 @@ impl Lights {
         }
         // Fire counts as a light here whether or not it is light-sampled,
         // so `--volume-light-sampling off` renders the same image.
-        let emits = !scene.manifest.lights.is_empty() || any_mesh_emits || !emitters.is_empty();
+        let emits = !scene.manifest.lights.is_empty() || any_mesh_emits || media.emits();
         if lights.len() == volumes.len() && !emits {
             log::warn!(
                 target: LOG_TARGET,

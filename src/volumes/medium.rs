@@ -280,7 +280,9 @@ pub struct Emitter {
 }
 
 impl Media {
-    /// The media that emit, with what the light selection needs of them.
+    /// The media that emit and do not move by their transforms (those are
+    /// not light-sampled: a light sample would sit where they are at the
+    /// frame), with what the light selection needs of them.
     pub fn emitters(&self) -> impl Iterator<Item = Emitter> + '_ {
         let still = self.media.iter().map(|m| m.motion.is_none());
         self.media
@@ -342,6 +344,12 @@ impl Media {
                 m.majorant.max_at(p_index) * m.density_scale.max_element()
             })
             .sum()
+    }
+
+    /// True when some medium emits, light-sampled or not (one moving by its
+    /// transform is found by tracking alone, see [`Self::emitters`]).
+    pub fn emits(&self) -> bool {
+        self.media.iter().any(|m| m.emitter.is_some())
     }
 
     /// True when the scene has no volume: the integrator skips all media work.
