@@ -15,7 +15,10 @@ script, not its output, is committed):
     `../shared/assets/arnold-usd/test_0030`) and the SYNTHETIC explosion of
     `scenes/make_explosion.py` (density + temperature: blackbody emission);
   - a lat-long dusk sky on a DomeLight, a low warm sun (DistantLight) and a
-    camera with depth of field focused on the hero teapot.
+    camera with depth of field focused on the hero teapot;
+  - motion blur: the camera's shutter is open from -0.25 to 0.25 frames around
+    frame 0 (startTimeCode), a rock tumbles through the air past the hero teapot
+    and the smoke plume drifts in the wind (time-sampled transforms).
 
 usage: .venv/bin/python scenes/make_demo.py OUT_DIR --explosion EXPLOSION.vdb
            [--shared ../shared/assets] [--instances N] [--res WxH]
@@ -46,6 +49,11 @@ HOODOOS = [(-13.0, -28.0, 1.0, 0.0), (-20.0, -44.0, 1.4, 70.0), (12.0, -60.0, 1.
            (-15.5, -66.0, 1.2, 200.0), (15.0, -18.0, 0.8, 300.0), (4.0, -80.0, 2.0, 30.0)]
 EXPLOSION = (-2.2, -20.0, 3.0)  # (x, z, scale) of the fireball: in the open, a big boulder behind it
 EYE = (-1.2, 2.1, 4.0)  # the camera, metres
+SHUTTER = (-0.25, 0.25)  # the camera's shutter, frames around frame 0
+# The flying rock's (x, y, z) at frames -1 and 1 (against the sky, 7 m from the camera), and
+# its spin (degrees about z) then.
+FLYING_ROCK = ((-0.3, 3.2, -3.0), (1.3, 3.4, -3.2), (40.0, -40.0))
+SMOKE_DRIFT = 3.0  # metres per frame along +x: the plume drifts in the wind
 # No rocks under a teapot or around the camera.
 CLEARINGS = [(x, z, 0.32 * s) for x, z, s, _ in PROPS] + [(EYE[0], EYE[2], 3.0)]
 
@@ -360,7 +368,7 @@ def quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def volume(stage: Usd.Stage, path: str, vdb: str, fields: list[str], primvars: dict,
-           translate, scale: float) -> None:
+           translate, scale: float) -> UsdVol.Volume:
     """A Volume prim with one OpenVDBAsset per field of `vdb` and constant shading primvars."""
     prim = UsdVol.Volume.Define(stage, path)
     for field in fields:
@@ -374,6 +382,7 @@ def volume(stage: Usd.Stage, path: str, vdb: str, fields: list[str], primvars: d
         api.CreatePrimvar(name, kind).Set(Gf.Vec3f(*value) if isinstance(value, tuple) else value)
     prim.AddTranslateOp().Set(Gf.Vec3d(*translate))
     prim.AddScaleOp().Set(Gf.Vec3f(scale))
+    return prim
 
 
 def main() -> None:
@@ -404,6 +413,9 @@ def main() -> None:
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     world = UsdGeom.Xform.Define(stage, "/World")
     stage.SetDefaultPrim(world.GetPrim())
+    # Frame 0 is the frame rendered; the moving prims are keyed at frames -1 and 1.
+    stage.SetStartTimeCode(0.0)
+    stage.SetEndTimeCode(0.0)
 
     looks = {name: preview_material(stage, f"/World/Looks/{name}", colour=colour, roughness=rough)
              for name, colour, rough in [("Sandstone", (0.50, 0.30, 0.19), 0.85),
@@ -444,8 +456,12 @@ def main() -> None:
 
     smoke = os.path.join(args.shared, SMOKE)
     if os.path.exists(smoke):
-        volume(stage, "/World/Smoke", relative(smoke), ["density"],
-               {"densityScale": 8.0, "albedo": (0.8, 0.8, 0.8), "anisotropy": 0.4}, (7.0, 2.0, -78.0), 0.2)
+        plume = volume(stage, "/World/Smoke", relative(smoke), ["density"],
+                       {"densityScale": 8.0, "albedo": (0.8, 0.8, 0.8), "anisotropy": 0.4},
+                       (7.0, 2.0, -78.0), 0.2)
+        drift = plume.GetOrderedXformOps()[0]
+        for frame in (-1.0, 1.0):
+            drift.Set(Gf.Vec3d(7.0 + SMOKE_DRIFT * frame, 2.0, -78.0), frame)
     else:
         print(f"make_demo: warning: {smoke} is missing; the scene has no smoke plume")
     # The fireball's grid spans [-1, 1] with the stem's foot at y = -0.97: stand it on the
@@ -455,6 +471,15 @@ def main() -> None:
     volume(stage, "/World/Explosion", relative(args.explosion), ["density", "temperature"],
            {"densityScale": 4.0, "albedo": (0.25, 0.24, 0.23), "anisotropy": 0.3, "heatScale": 0.03,
             "temperatureOffset": 0.0, "temperatureScale": 1.0}, (ex, centre_y, ez), escale)
+
+    # A rock flying past the hero teapot, tumbling: blurred by the camera's shutter.
+    (x0, y0, z0), (x1, y1, z1), (spin0, spin1) = FLYING_ROCK
+    flying = UsdGeom.Xform.Define(stage, "/World/FlyingRock")
+    move, spin = flying.AddTranslateOp(), flying.AddRotateZOp()
+    for frame, position, angle in ((-1.0, (x0, y0, z0), spin0), (1.0, (x1, y1, z1), spin1)):
+        move.Set(Gf.Vec3d(*position), frame)
+        spin.Set(angle, frame)
+    define_mesh(stage, "/World/FlyingRock/Rock", rock(41, (0.35, 0.28, 0.32), 0.25), looks["Basalt"])
 
     sky = UsdLux.DomeLight.Define(stage, "/World/Lights/Sky")
     sky.CreateTextureFileAttr("./textures/dusk_sky.png")
@@ -479,6 +504,8 @@ def main() -> None:
     camera.CreateFocusDistanceAttr(float((focus - eye).GetLength()))
     camera.CreateFStopAttr(2.0)
     camera.CreateClippingRangeAttr(Gf.Vec2f(0.05, 10000.0))
+    camera.CreateShutterOpenAttr(SHUTTER[0])
+    camera.CreateShutterCloseAttr(SHUTTER[1])
     look = Gf.Matrix4d().SetLookAt(eye, Gf.Vec3d(0.5, 1.6, -30.0), Gf.Vec3d(0, 1, 0)).GetInverse()
     UsdGeom.Xformable(camera).AddTransformOp().Set(look)
 

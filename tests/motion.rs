@@ -675,10 +675,10 @@ fn blurred_farm_parts_and_resumed_renders_are_bit_identical() {
     );
 }
 
-/// Motion the export does not carry yet (a moving light, time-sampled
-/// curves, points with velocities) is warned about by prim when the
-/// shutter is open, and not at all when it is closed; deforming meshes
-/// (time-sampled points, velocities, an animated skeleton) are carried.
+/// Motion the export does not carry yet (a turning distant light,
+/// time-sampled curves, points with velocities) is warned about by prim
+/// when the shutter is open, and not at all when it is closed; deforming
+/// meshes and moving sphere/rect/disk/cylinder lights are carried.
 #[test]
 fn motion_not_blurred_yet_is_warned_about_by_prim() {
     let dir = common::scratch("motion_unblurred");
@@ -713,4 +713,12 @@ fn motion_not_blurred_yet_is_warned_about_by_prim() {
     assert_eq!(open.len(), 3, "unexpected warnings: {open:#?}");
     let closed = export("closed", "0,0");
     assert!(closed.is_empty(), "a closed shutter warned: {closed:#?}");
+}
+
+/// Moving UsdLux lights (a rect light turning as it translates, lighting
+/// the floor by light sampling and by the rays that hit it; a sphere light
+/// the camera sees) light the floor as the average of still frames.
+#[test]
+fn moving_lights_light_the_floor_as_the_average_of_still_frames() {
+    blurred_equals_average_of_stills("motion_light");
 }

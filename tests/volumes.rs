@@ -654,8 +654,8 @@ def Xform "World"
     let ratios = |media: &Media, factor: f32| -> Vec<f32> {
         points
             .iter()
-            .filter(|&&p| unit.sigma_maj_at(p) > 0.0)
-            .map(|&p| media.sigma_maj_at(p * factor) / unit.sigma_maj_at(p))
+            .filter(|&&p| unit.sigma_maj_at(p, 0.0) > 0.0)
+            .map(|&p| media.sigma_maj_at(p * factor, 0.0) / unit.sigma_maj_at(p, 0.0))
             .collect()
     };
     let occupied = ratios(&unit, 1.0).len();

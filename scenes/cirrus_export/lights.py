@@ -1,5 +1,8 @@
 """UsdLux lights: common LightAPI inputs plus each type's own, at world transforms."""
 
+import math
+
+import numpy as np
 from pxr import Usd, UsdGeom, UsdLux
 
 from .assets import AssetResolver
@@ -18,6 +21,10 @@ LIGHT_TYPES = {
     "DomeLight": ("dome", [("texture", "inputs:texture:file", "asset")]),
     "DomeLight_1": ("dome", [("texture", "inputs:texture:file", "asset")]),
 }
+
+# USD types whose motion over the shutter is exported (the renderer moves them rigidly);
+# motion.warn_unblurred warns about the others (distant and dome lights).
+MOVING_LIGHT_TYPES = {"SphereLight", "RectLight", "DiskLight", "CylinderLight"}
 
 
 def _light_prims(stage: Usd.Stage, time: Usd.TimeCode, report: Report):
@@ -73,3 +80,24 @@ def _light_input(prim: Usd.Prim, name: str, convert, time: Usd.TimeCode,
     if not resolved[1]:
         report.warn(f"light {prim.GetPath()}: texture {resolved[0]} is missing; constant colour used")
     return resolved[0]
+
+
+def add_light_motion(stage: Usd.Stage, records: list[dict], times: list[float], frame_time: float,
+                     report: Report) -> None:
+    """Adds `motion` (world-from-light at every key time, frames relative to the frame) to
+    the records of the sphere, rect, disk and cylinder lights whose transform changes over
+    the shutter; a light with a non-finite transform at some key is warned about and left still."""
+    caches = [UsdGeom.XformCache(Usd.TimeCode(t)) for t in times]
+    for record in records:
+        prim = stage.GetPrimAtPath(record["path"])
+        if prim.GetTypeName() not in MOVING_LIGHT_TYPES:
+            continue
+        keys = [to_3x4_list(as_array(c.GetLocalToWorldTransform(prim))) for c in caches]
+        if all(k == record["transform"] for k in keys):
+            continue
+        if not all(math.isfinite(v) for k in keys for v in k):
+            report.warn(f"{record['path']}: the light's transform over the shutter is not finite; "
+                        f"exported without motion blur")
+            continue
+        record["motion"] = {"times": [float(np.float32(t - frame_time)) for t in times],
+                            "transforms": keys}

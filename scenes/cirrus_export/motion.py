@@ -16,7 +16,7 @@ import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdLux
 
 from .deforming import mesh_motion
-
+from .lights import MOVING_LIGHT_TYPES, add_light_motion
 from .report import Report
 from .xforms import as_array, to_3x4, to_3x4_list
 
@@ -102,12 +102,13 @@ def scan(stage: Usd.Stage, frame_time: float, start: float, end: float, report: 
             for attr in (instancer.GetPositionsAttr(), instancer.GetOrientationsAttr(),
                          instancer.GetScalesAttr()):
                 times.update(attr.GetTimeSamplesInInterval(interval))
-        if prim.HasAPI(UsdLux.LightAPI):
+        if prim.HasAPI(UsdLux.LightAPI) and prim.GetTypeName() not in MOVING_LIGHT_TYPES:
             at_frame = caches[0].GetLocalToWorldTransform(prim)
             if any(c.GetLocalToWorldTransform(prim) != at_frame for c in caches[1:]) or \
                     samples_inside_xform(prim, interval):
                 report.warn(f"{path}: the light's transform changes over the shutter; rendered "
-                            f"where it is at the frame (moving lights are not blurred yet)")
+                            f"where it is at the frame (moving distant and dome lights are not "
+                            f"blurred yet)")
         points = UsdGeom.PointBased(prim)
         if points and not prim.IsA(UsdGeom.Mesh):
             moved = [a.GetName() for a in (points.GetPointsAttr(),) if samples_inside(a)]
@@ -231,10 +232,11 @@ class _Silent(Report):
 
 def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, walker_at,
                records: tuple[dict, dict], frame: tuple[np.ndarray, np.ndarray],
-               writer, report: Report, deforming: tuple | None = None) -> None:
+               writer, report: Report, deforming: tuple | None = None,
+               lights: list[dict] = ()) -> None:
     """Adds `shutter` and `motion` to the camera record, `motion` to the instances record
-    (`records`) and to each deforming mesh record where the shutter is open and something
-    moves.
+    (`records`), to each deforming mesh record and to the moving `lights` where the shutter
+    is open and something moves.
 
     `walker_at(time_code)` walks the stage at another time and returns its TopSink;
     `frame` holds the instances' world matrices and source indices at the frame;
@@ -278,6 +280,7 @@ def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, wal
     moving = instance_motion(sampler, times, t0, reference.sources, source, writer, report)
     if moving is not None:
         instances["motion"] = moving
+    add_light_motion(stage, lights, times, t0, report)
     camera_keys = camera_motion(sampler, times, t0)
     if camera_keys is not None:
         camera["motion"] = camera_keys

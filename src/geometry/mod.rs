@@ -35,5 +35,6 @@ mod top_level;
 
 pub use bvh::{Geometry, Hit};
 pub use frame::Frame;
+pub use motion::MovingInstances;
 pub use obvhs::ray::Ray;
 pub use surface::{shadow_ray, MeshSite, SurfacePoint};

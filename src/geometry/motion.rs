@@ -14,7 +14,7 @@ use crate::motion::{Bracket, TransformTrack};
 use crate::scene::{self, affine, Scene};
 
 /// World-from-prototype tracks of the moving instances, by instance index.
-pub(super) struct MovingInstances {
+pub struct MovingInstances {
     /// Moving instance indices, strictly increasing.
     instances: Vec<u32>,
     /// `tracks[i]` moves instance `instances[i]`.
@@ -24,7 +24,7 @@ pub(super) struct MovingInstances {
 impl MovingInstances {
     /// The moving instances of `scene`; none without `motion` or when the
     /// scene has no motion.
-    pub(super) fn new(scene: &Scene, motion: bool) -> Self {
+    pub fn new(scene: &Scene, motion: bool) -> Self {
         let motion = scene.manifest.instances.motion.as_ref().filter(|_| motion);
         let Some(motion) = motion else {
             return Self {
@@ -54,7 +54,7 @@ impl MovingInstances {
     /// Lerping world-from-prototype keys and then placing the mesh equals
     /// lerping the placed keys, so the mesh's keys are the instance's
     /// times the part's transform.
-    pub(super) fn mesh_track(
+    pub fn mesh_track(
         &self,
         instance: u32,
         prototype_from_mesh: Affine3A,

@@ -238,7 +238,7 @@ impl Path<'_, '_> {
         let hit = geometry.intersect(ray, self.time);
         let (origin, direction) = (Vec3::from(ray.origin), Vec3::from(ray.direction));
         let t_surface = hit.map_or(ray.tmax, |h| h.t);
-        let light_hit = lights.intersect(origin, direction, t_surface);
+        let light_hit = lights.intersect(origin, direction, t_surface, self.time);
         let t_end = light_hit.map_or(t_surface, |l| l.t);
         // The camera ray's surface hit feeds the geometric AOVs even when
         // the path scatters in a volume before reaching it.

@@ -59,7 +59,9 @@ pub(super) fn visibility(
     counts.rays.shadow += 1;
     let (origin, direction) = (Vec3::from(shadow.origin), Vec3::from(shadow.direction));
     if state.geometry.occluded(shadow, time)
-        || state.lights.blocks(origin, direction, shadow.tmax, light)
+        || state
+            .lights
+            .blocks(origin, direction, shadow.tmax, time, light)
     {
         return Visibility::BLOCKED;
     }

@@ -9,6 +9,7 @@ use std::collections::{BTreeSet, HashMap, HashSet};
 use glam::{Vec2, Vec3};
 
 use super::mesh::MeshLight;
+use super::moving::MovingLight;
 use super::select::{self, LightSelection};
 use super::volume::VolumeLight;
 use super::{Emitters, Light, LightError, LightHit, LightSample, LOG_TARGET};
@@ -107,18 +108,26 @@ impl Lights {
             Light::Sphere(l) => Some(l.centre()),
             Light::Rect(l) => Some(l.centre()),
             Light::Disk(l) => Some(l.centre()),
+            Light::Moving(l) => Some(l.centre()),
             _ => None,
         }
     }
 
     /// The nearest front-face hit with t in (0, t_max) of the ray from
     /// `origin` along unit `direction` on the analytic area lights (sphere,
-    /// rect, disk, cylinder; emissive meshes are found by the geometry).
-    pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<LightHit> {
+    /// rect, disk, cylinder; emissive meshes are found by the geometry),
+    /// moving ones where they are at `time` (frames).
+    pub fn intersect(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        time: f32,
+    ) -> Option<LightHit> {
         let mut nearest: Option<(usize, LightHit)> = None;
         let mut t_max = t_max;
         for &i in &self.area {
-            if let Some(hit) = self.lights[i].intersect(origin, direction, t_max) {
+            if let Some(hit) = self.lights[i].intersect(origin, direction, t_max, time) {
                 t_max = hit.t;
                 nearest = Some((i, hit));
             }
@@ -137,11 +146,22 @@ impl Lights {
     /// too, or light sampling and BSDF sampling would estimate different
     /// images wherever one light hides another. The target itself is skipped:
     /// its sampled point is its first hit, up to rounding that would
-    /// otherwise let a sphere light shadow itself at grazing angles.
-    pub fn blocks(&self, origin: Vec3, direction: Vec3, t_max: f32, target: usize) -> bool {
-        self.area
-            .iter()
-            .any(|&i| i != target && self.lights[i].intersect(origin, direction, t_max).is_some())
+    /// otherwise let a sphere light shadow itself at grazing angles. Moving
+    /// lights block where they are at `time` (frames).
+    pub fn blocks(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        time: f32,
+        target: usize,
+    ) -> bool {
+        self.area.iter().any(|&i| {
+            i != target
+                && self.lights[i]
+                    .intersect(origin, direction, t_max, time)
+                    .is_some()
+        })
     }
 
     /// Calls `radiance_pdf(radiance, pdf)` once for each infinite light a ray
@@ -217,7 +237,7 @@ impl Lights {
         for record in &scene.manifest.lights {
             let light = Light::from_record(record)?;
             if light.power(radius) > 0.0 {
-                lights.push(light);
+                lights.push(moved(light, record, shutter));
             } else {
                 log::warn!(target: LOG_TARGET, "light {} emits nothing; left out", record.path);
             }
@@ -263,7 +283,7 @@ impl Lights {
         }
         // Fire counts as a light here whether or not it is light-sampled,
         // so `--volume-light-sampling off` renders the same image.
-        let emits = !scene.manifest.lights.is_empty() || any_mesh_emits || !emitters.is_empty();
+        let emits = !scene.manifest.lights.is_empty() || any_mesh_emits || media.emits();
         if lights.len() == volumes.len() && !emits {
             log::warn!(
                 target: LOG_TARGET,
@@ -292,7 +312,11 @@ impl Lights {
         let area = indices(|l| {
             matches!(
                 l,
-                Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_)
+                Light::Sphere(_)
+                    | Light::Rect(_)
+                    | Light::Disk(_)
+                    | Light::Cylinder(_)
+                    | Light::Moving(_)
             )
         });
         let infinite = indices(|l| match l {
@@ -349,7 +373,32 @@ fn default_dome() -> LightRecord {
         normalize: false,
         color_temperature: None,
         shape: LightShape::Dome { texture: None },
+        motion: None,
     }
+}
+
+/// `light` (of `record`) moving by the record's keys when `shutter` blurs
+/// and it has some; still, with a warning naming it, when its keys scale or
+/// shear it or it is a distant or dome light.
+fn moved(light: Light, record: &LightRecord, shutter: Shutter) -> Light {
+    let Some(motion) = record.motion.as_ref().filter(|_| shutter.blurs()) else {
+        return light;
+    };
+    let world_from_light = crate::scene::affine(&record.transform);
+    let still = light.clone();
+    MovingLight::new(light, &world_from_light, motion).map_or_else(
+        || {
+            log::warn!(
+                target: LOG_TARGET,
+                "light {}: its keys over the shutter scale or shear it (only rigid motion of \
+                 sphere, rect, disk and cylinder lights is blurred); rendered where it is at \
+                 the frame",
+                record.path
+            );
+            still
+        },
+        Light::Moving,
+    )
 }
 
 /// The instances that move over `shutter` (none when it does not blur).
@@ -426,7 +475,9 @@ mod tests {
             };
             counts[which] += 1;
             if which < 2 {
-                let hit = lights.intersect(Vec3::ZERO, s.wi, f32::INFINITY).unwrap();
+                let hit = lights
+                    .intersect(Vec3::ZERO, s.wi, f32::INFINITY, 0.0)
+                    .unwrap();
                 assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
             }
         }
@@ -574,7 +625,9 @@ mod tests {
                 });
                 assert_eq!(seen, 1);
             } else {
-                let hit = lights.intersect(Vec3::ZERO, s.wi, f32::INFINITY).unwrap();
+                let hit = lights
+                    .intersect(Vec3::ZERO, s.wi, f32::INFINITY, 0.0)
+                    .unwrap();
                 assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
             }
         }

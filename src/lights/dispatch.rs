@@ -27,12 +27,21 @@ impl Light {
             Self::Dome(l) => l.sample(u),
             Self::Mesh(l) => l.sample(emitters.materials, p, u),
             Self::Volume(l) => l.sample(emitters.media, p, u, emitters.time),
+            Self::Moving(l) => l.sample(emitters, p, u),
         }
     }
 
-    /// The ray's front-face hit on an analytic area light, pdf without selection.
-    pub(super) fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<LightHit> {
+    /// The ray's front-face hit on an analytic area light (where it is at
+    /// `time`, frames), pdf without selection.
+    pub(super) fn intersect(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        time: f32,
+    ) -> Option<LightHit> {
         match self {
+            Self::Moving(l) => l.intersect(origin, direction, t_max, time),
             Self::Sphere(l) => l.intersect(origin, direction, t_max),
             Self::Rect(l) => l.intersect(origin, direction, t_max),
             Self::Disk(l) => l.intersect(origin, direction, t_max),
@@ -60,6 +69,7 @@ impl Light {
             Self::Cylinder(l) => Some(l.bounds()),
             Self::Mesh(l) => Some(l.bounds()),
             Self::Volume(l) => Some(l.bounds()),
+            Self::Moving(l) => Some(l.bounds()),
             Self::Distant(_) | Self::Dome(_) => None,
         }
     }
@@ -90,6 +100,7 @@ impl Light {
             Self::Dome(l) => l.power(scene_radius),
             Self::Mesh(l) => l.power(),
             Self::Volume(l) => l.power(),
+            Self::Moving(l) => l.power(scene_radius),
         }
     }
 

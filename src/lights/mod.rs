@@ -12,6 +12,8 @@
 //! - `dome.rs`: constant, or an OpenEXR lat-long image importance-sampled
 //!   by a piecewise-constant 2D distribution (pbrt-v4 `ImageInfiniteLight`);
 //! - `mesh.rs`: each placed mesh with emissive triangles, uniformly by area;
+//! - `moving.rs`: a bounded light moving rigidly over the shutter, asked
+//!   at the sample's time through its still pose at the frame;
 //! - `volume.rs`: each placed volume that emits (fire), a point by power
 //!   (Villemin & Hery 2013), in the measure of free-flight tracking so that
 //!   emission found by tracking and by light sampling combine by MIS.
@@ -42,6 +44,7 @@ mod dome;
 mod emission;
 mod image;
 mod mesh;
+mod moving;
 mod plane;
 mod rect;
 mod select;
@@ -63,6 +66,7 @@ use self::disk::DiskLight;
 use self::distant::DistantLight;
 use self::dome::DomeLight;
 use self::mesh::MeshLight;
+use self::moving::MovingLight;
 use self::rect::RectLight;
 use self::sphere::SphereLight;
 use self::volume::VolumeLight;
@@ -169,4 +173,6 @@ pub(crate) enum Light {
     Mesh(MeshLight),
     /// A placed volume that emits.
     Volume(VolumeLight),
+    /// A sphere, rect, disk or cylinder light moving over the shutter.
+    Moving(MovingLight),
 }

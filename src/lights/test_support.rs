@@ -18,6 +18,7 @@ pub(crate) fn record(shape: LightShape, normalize: bool, intensity: f32) -> Ligh
         normalize,
         color_temperature: None,
         shape,
+        motion: None,
     }
 }
 

@@ -49,7 +49,7 @@ impl VolumeLight {
         let offset = point - p;
         let distance = offset.length();
         let source = media.source(point, time);
-        let sigma_maj = media.sigma_maj_at(point);
+        let sigma_maj = media.sigma_maj_at(point, time);
         if source == Vec3::ZERO || sigma_maj <= 0.0 || distance <= 0.0 {
             return None;
         }

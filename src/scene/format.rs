@@ -581,6 +581,12 @@ pub struct Light {
     /// The type and its own attributes.
     #[serde(flatten)]
     pub shape: LightShape,
+    /// World-from-light at key times over the shutter (the camera's record),
+    /// for a sphere, rect, disk or cylinder light whose transform changes;
+    /// absent when it does not move (and in files written before moving
+    /// lights).
+    #[serde(default)]
+    pub motion: Option<CameraMotion>,
 }
 
 /// The UsdLux light types, with their type-specific attributes.

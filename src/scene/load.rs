@@ -12,8 +12,8 @@ use std::path::{Path, PathBuf};
 use bytemuck::{Pod, Zeroable};
 
 use super::format::{
-    Array, Element, LightShape, Manifest, MeshMotion, Subdivision, FORMAT_NAME, FORMAT_VERSION,
-    NO_MATERIAL,
+    Array, CameraMotion, Element, LightShape, Manifest, MeshMotion, Subdivision, FORMAT_NAME,
+    FORMAT_VERSION, NO_MATERIAL,
 };
 use super::material::{Input, Material};
 
@@ -296,6 +296,9 @@ impl Checker<'_> {
         }
         for (i, light) in m.lights.iter().enumerate() {
             self.finite(&format!("lights[{i}].transform"), &light.transform)?;
+            if let Some(motion) = &light.motion {
+                self.keyed(&format!("lights[{i}].motion"), motion)?;
+            }
         }
         self.finite("camera.transform", &m.camera.transform)?;
         self.camera_motion()
@@ -308,21 +311,20 @@ impl Checker<'_> {
             crate::motion::Shutter::new(shutter[0], shutter[1])
                 .map_err(|e| self.invalid("camera.shutter", e.to_string()))?;
         }
-        let Some(motion) = &camera.motion else {
-            return Ok(());
-        };
-        self.key_times("camera.motion.times", &motion.times)?;
+        camera
+            .motion
+            .as_ref()
+            .map_or(Ok(()), |motion| self.keyed("camera.motion", motion))
+    }
+
+    /// Keyed transforms (a camera's or a light's `motion`): times strictly
+    /// increasing, one finite transform per key time.
+    fn keyed(&self, field: &str, motion: &CameraMotion) -> Result<(), SceneError> {
+        self.key_times(&format!("{field}.times"), &motion.times)?;
+        let field = format!("{field}.transforms");
         let keys = motion.transforms.len();
-        self.count(
-            "camera.motion.transforms",
-            keys,
-            motion.times.len(),
-            "key time",
-        )?;
-        self.finite(
-            "camera.motion.transforms",
-            bytemuck::cast_slice(&motion.transforms),
-        )
+        self.count(&field, keys, motion.times.len(), "key time")?;
+        self.finite(&field, bytemuck::cast_slice(&motion.transforms))
     }
 
     /// Moving instances: indices strictly increasing below the instance

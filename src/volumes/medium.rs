@@ -16,35 +16,27 @@
 
 use std::collections::HashMap;
 use std::f32::consts::PI;
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use glam::{Affine3A, Vec3};
 use smallvec::SmallVec;
 
-use super::advection::{Advection, VelocityField};
-use super::checks::{
-    check_emission_scales, velocity_units_per_frame, warn_bad_values, warn_bad_velocities,
-};
+use super::advection::Advection;
+use super::checks::{check_emission_scales, warn_bad_values};
 use super::emitter::{EmissionCells, SourceSample};
+use super::fields::{field_key, read_field, read_velocities, FieldKey};
+use super::moving::PlacementMotion;
 use super::overlap::{box_hit, merge};
 use super::placement::{longest_axis, to_f32, to_f64, world_box};
 use super::tracking::channel_mean;
 use super::{
     BlackbodyTable, GridInfo, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
-    MajorantSegments, SparseGrid, VdbFile, VolumeError,
+    MajorantSegments, SparseGrid, VolumeError,
 };
 use crate::color::luminance;
+use crate::geometry::MovingInstances;
 use crate::motion::Shutter;
-use crate::scene::{affine, Scene, VolumeField};
-
-/// A density field's identity: file, grid name and occurrence index. Each is
-/// read (and its majorant grid built) once, whatever the placements.
-type FieldKey = (PathBuf, String, u32);
-
-/// A volume's velocity field and the world units per frame one unit of it
-/// moves (`motion:velocityScale` / `timeCodesPerSecond`).
-type Velocity = (Arc<VelocityField>, f32);
+use crate::scene::{affine, Scene};
 
 /// An emitting volume's light cells and its majorant grid raised where it
 /// emits (see [`Medium::emission_cells`]).
@@ -77,6 +69,11 @@ pub struct Medium {
     /// Its velocity field, when it has one and the shutter is not closed
     /// at the frame (`advection.rs`); `None` reads every grid where it is.
     advection: Option<Advection>,
+    /// Its placement over the shutter when its transform moves
+    /// (`moving.rs`): rays enter index space at their time, and the frame
+    /// maps above (`index_from_world`, the emission grids') serve the
+    /// index-space points they reach. `None` for a still placement.
+    motion: Option<PlacementMotion>,
 }
 
 impl Medium {
@@ -111,7 +108,13 @@ impl Medium {
         if self.emission.is_empty() {
             return Vec3::ZERO;
         }
-        let p_index = self.index_from_world.transform_point3(p);
+        let p_index = self.index_from_world_at(time).transform_point3(p);
+        // A moving placement's emission grids are read where the point sits
+        // at the frame.
+        let p = match &self.motion {
+            Some(_) => self.world_from_index.transform_point3(p_index),
+            None => p,
+        };
         let (p_index, p) = match &self.advection {
             Some(advection) => {
                 let back = advection.displacement(p_index, time);
@@ -127,6 +130,16 @@ impl Medium {
             return Vec3::ZERO;
         }
         sigma_a * self.emitted(p, blackbody)
+    }
+
+    /// World to index space at `time` (frames): the frame's map for a
+    /// still placement.
+    #[inline]
+    fn index_from_world_at(&self, time: f32) -> Affine3A {
+        match &self.motion {
+            Some(motion) => motion.index_from_world(time),
+            None => self.index_from_world,
+        }
     }
 
     /// The emitted radiance Le at world point `p`, W/(m^2 sr) per RGB
@@ -267,19 +280,26 @@ pub struct Emitter {
 }
 
 impl Media {
-    /// The media that emit, with what the light selection needs of them.
+    /// The media that emit and do not move by their transforms (those are
+    /// not light-sampled: a light sample would sit where they are at the
+    /// frame), with what the light selection needs of them.
     pub fn emitters(&self) -> impl Iterator<Item = Emitter> + '_ {
-        self.media.iter().enumerate().filter_map(|(i, m)| {
-            let cells = m.emitter.as_ref()?;
-            let (lo, hi) = cells.index_box();
-            let (world_min, world_max) = world_box(&to_f64(&m.world_from_index), lo, hi);
-            Some(Emitter {
-                medium: i,
-                world_min,
-                world_max,
-                power: 4.0 * PI * cells.escaping() * m.voxel_volume,
+        let still = self.media.iter().map(|m| m.motion.is_none());
+        self.media
+            .iter()
+            .zip(still)
+            .enumerate()
+            .filter_map(|(i, (m, still))| {
+                let cells = m.emitter.as_ref().filter(|_| still)?;
+                let (lo, hi) = cells.index_box();
+                let (world_min, world_max) = world_box(&to_f64(&m.world_from_index), lo, hi);
+                Some(Emitter {
+                    medium: i,
+                    world_min,
+                    world_max,
+                    power: 4.0 * PI * cells.escaping() * m.voxel_volume,
+                })
             })
-        })
     }
 
     /// A world point of `medium`'s emission picked by power with `u` in
@@ -312,17 +332,24 @@ impl Media {
             .sum()
     }
 
-    /// The majorant tracking uses at world point `p`, per world unit: the
-    /// sum over media of their cells' (what [`MediaRay::segments`] carries
-    /// there), the rate of tentative collisions around `p`.
-    pub fn sigma_maj_at(&self, p: Vec3) -> f32 {
+    /// The majorant tracking uses at world point `p` and `time` (frames),
+    /// per world unit: the sum over media of their cells' (what
+    /// [`MediaRay::segments`] carries there), the rate of tentative
+    /// collisions around `p`.
+    pub fn sigma_maj_at(&self, p: Vec3, time: f32) -> f32 {
         self.media
             .iter()
             .map(|m| {
-                let p_index = m.index_from_world.transform_point3(p);
+                let p_index = m.index_from_world_at(time).transform_point3(p);
                 m.majorant.max_at(p_index) * m.density_scale.max_element()
             })
             .sum()
+    }
+
+    /// True when some medium emits, light-sampled or not (one moving by its
+    /// transform is found by tracking alone, see [`Self::emitters`]).
+    pub fn emits(&self) -> bool {
+        self.media.iter().any(|m| m.emitter.is_some())
     }
 
     /// True when the scene has no volume: the integrator skips all media work.
@@ -377,12 +404,15 @@ impl Media {
             .media
             .iter()
             .filter(|m| box_hit(origin, direction, t_max, m.world_min, m.world_max))
-            .map(|m| {
-                (
-                    m,
-                    m.index_from_world.transform_point3(origin),
-                    m.index_from_world.transform_vector3(direction),
-                )
+            .filter_map(|m| {
+                let (o, d) = match &m.motion {
+                    Some(motion) => motion.index_ray(origin, direction, time)?,
+                    None => (
+                        m.index_from_world.transform_point3(origin),
+                        m.index_from_world.transform_vector3(direction),
+                    ),
+                };
+                Some((m, o, d))
             })
             .collect();
         MediaRay {
@@ -447,6 +477,10 @@ impl<'a> MediaRay<'a> {
             point.sigma_s += m.albedo * sigma;
             if !m.emission.is_empty() {
                 let mut p = self.origin + self.direction * t;
+                if m.motion.is_some() {
+                    // Where the point sits at the frame, which the emission grids see.
+                    p = m.world_from_index.transform_point3(p_index);
+                }
                 if let Some(back) = back {
                     p -= m.world_from_index.transform_vector3(back);
                 }
@@ -516,7 +550,7 @@ impl Media {
             check_emission_scales(volume)?;
         }
         let velocities = read_velocities(scene, shutter)?;
-        warn_transform_motion(scene, shutter);
+        let moving = MovingInstances::new(scene, shutter.blurs());
         let times = (shutter.open, shutter.close);
         let blackbody = m
             .volumes
@@ -542,7 +576,9 @@ impl Media {
             }
         }
         let mut media = Vec::new();
-        for (world_from_prototype, &prototype) in transforms.iter().zip(prototypes) {
+        for (instance, (world_from_prototype, &prototype)) in
+            transforms.iter().zip(prototypes).enumerate()
+        {
             for part in &m.prototypes[prototype as usize].volumes {
                 let volume = &m.volumes[part.volume as usize];
                 let Some(field) = volume.fields.get("density") else {
@@ -638,8 +674,16 @@ impl Media {
                         .map(|(field, per_frame)| {
                             Advection::new(Arc::clone(field), density.transform(), *per_frame)
                         });
+                let motion = moving
+                    .mesh_track(instance as u32, affine(&part.transform))
+                    .map(|track| {
+                        PlacementMotion::new(&track, &density.transform().world_from_index)
+                    });
                 let (lo, hi) = majorant.index_box();
-                let (world_min, world_max) = world_box(&world_from_index, lo, hi);
+                let (world_min, world_max) = match &motion {
+                    Some(motion) => motion.world_box(lo, hi),
+                    None => world_box(&world_from_index, lo, hi),
+                };
                 let mut medium = Medium {
                     density,
                     majorant,
@@ -656,7 +700,15 @@ impl Media {
                     world_from_index: to_f32(&world_from_index),
                     voxel_volume: world_from_index.matrix3.determinant().abs() as f32,
                     advection,
+                    motion,
                 };
+                if !medium.emission.is_empty() && medium.motion.is_some() {
+                    log::warn!(
+                        "volume {}: it emits and moves by its transform over the shutter: its \
+                         light is found by tracking alone, not light-sampled (unbiased, noisier)",
+                        volume.path
+                    );
+                }
                 if !medium.emission.is_empty() {
                     let (cells, raised) = emitters
                         .entry(part.volume)
@@ -731,64 +783,4 @@ impl Medium {
         });
         (Some(Arc::new(cells)), raised)
     }
-}
-
-/// Warns once per Volume placed by an instance that moves over `shutter`:
-/// volumes are rendered at their frame transform (transform motion of
-/// volumes is not applied yet; velocity fields are).
-fn warn_transform_motion(scene: &Scene, shutter: Shutter) {
-    let m = &scene.manifest;
-    let Some(motion) = m.instances.motion.as_ref().filter(|_| shutter.blurs()) else {
-        return;
-    };
-    let prototypes = scene.view(&m.instances.prototype);
-    let mut warned = std::collections::BTreeSet::new();
-    for &instance in scene.view(&motion.instance) {
-        for part in &m.prototypes[prototypes[instance as usize] as usize].volumes {
-            let path = &m.volumes[part.volume as usize].path;
-            if warned.insert(path) {
-                log::warn!(
-                    "volume {path} moves over the shutter by its transform, which volumes do \
-                     not follow yet: it is rendered where it is at the frame"
-                );
-            }
-        }
-    }
-}
-
-/// Per volume, its velocity field (read once per file, grid and index) and
-/// world units per frame per unit of velocity, when it has one and
-/// `shutter` is not closed at the frame; `None` otherwise.
-fn read_velocities(scene: &Scene, shutter: Shutter) -> Result<Vec<Option<Velocity>>, VolumeError> {
-    let mut read: HashMap<FieldKey, Arc<VelocityField>> = HashMap::new();
-    let mut velocities = Vec::new();
-    for volume in &scene.manifest.volumes {
-        let field = volume.fields.get("velocity").filter(|_| shutter.blurs());
-        let Some(field) = field else {
-            velocities.push(None);
-            continue;
-        };
-        let per_frame = velocity_units_per_frame(volume)?;
-        let velocity = match read.get(&field_key(field)) {
-            Some(found) => Arc::clone(found),
-            None => {
-                let velocity = Arc::new(VelocityField::read(field)?);
-                warn_bad_velocities(volume, field, &velocity);
-                read.insert(field_key(field), Arc::clone(&velocity));
-                velocity
-            }
-        };
-        velocities.push(Some((velocity, per_frame)));
-    }
-    Ok(velocities)
-}
-
-/// The identity under which `field`'s grid is read once and shared.
-fn field_key(field: &VolumeField) -> FieldKey {
-    (field.file.clone(), field.grid.clone(), field.index)
-}
-
-/// Reads `field`'s float grid from its VDB file.
-fn read_field(field: &VolumeField) -> Result<SparseGrid, VolumeError> {
-    VdbFile::open(&field.file)?.read_float_grid(&field.grid, field.index as usize)
 }
