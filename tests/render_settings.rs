@@ -293,6 +293,56 @@ fn merged_parts_and_resumed_renders_write_what_the_render_writes() {
     }
 }
 
+/// The crop product's output folder replaced by a file mid-render: the
+/// rescued film state's command writes what the render would have written.
+#[test]
+fn the_rescue_command_writes_what_the_render_writes() {
+    let dir = common::scratch("render_settings_rescue");
+    let stage = stage();
+    let crop = [
+        "render",
+        stage.to_str().unwrap(),
+        "--settings",
+        "/Render/crop",
+    ];
+    let base = [&crop[..], &["--spp", "4096"]].concat();
+    cirrus_in(&dir, &base);
+    let shot = dir.join("shot");
+    let flags = ["-o", "shot/crop.exr", "--checkpoint-every", "0.01"];
+    let child = Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .current_dir(&dir)
+        .args([&base[..], &flags].concat())
+        .env("XDG_CACHE_HOME", dir.join("cache"))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while !shot.join("crop.checkpoint").exists() {
+        assert!(start.elapsed().as_secs() < 60, "no checkpoint");
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    std::fs::rename(&shot, dir.join("shot.gone")).unwrap();
+    std::fs::write(&shot, b"not a folder").unwrap();
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let command = stderr
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("cirrus merge "))
+        .unwrap_or_else(|| panic!("no command in: {stderr}"));
+    std::fs::remove_file(&shot).unwrap();
+    cirrus_in(
+        &dir,
+        &[
+            &["merge"][..],
+            &command.split_whitespace().collect::<Vec<_>>(),
+        ]
+        .concat(),
+    );
+    let rescued = shot.join("crop.exr");
+    assert_eq!(frame(&rescued), CROP);
+    assert_eq!(channels(&rescued), channels(&dir.join("crop.exr")));
+}
+
 /// pixelAspectRatio 2 at 16x16 is a 2:1 image whose pixels are twice as
 /// wide as tall: its alpha equals a 32x16 square-pixel render's averaged
 /// over pairs of columns (mean difference 0.004 as measured, against 0.047
