@@ -209,11 +209,20 @@ fn frame(path: &Path) -> Frame {
     }
 }
 
-/// `cirrus` with `args` in `dir`, which must succeed.
-fn cirrus_in(dir: &Path, args: &[&str]) {
+/// `cirrus merge` with `args` in `dir`, which must succeed.
+fn merge(dir: &Path, args: &[&str]) {
     let mut command = Command::new(env!("CARGO_BIN_EXE_cirrus"));
-    command.current_dir(dir).args(args);
+    command.current_dir(dir).arg("merge").args(args);
     common::succeeds(command);
+}
+
+/// `cirrus render` in `dir` of the stage's `settings` at `spp`, then `more`.
+fn settings_render(dir: &Path, settings: &str, spp: &str, more: &[&str]) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_cirrus"));
+    let flags = ["--settings", settings, "--spp", spp];
+    command.current_dir(dir).arg("render").arg(stage());
+    command.args(flags).args(more);
+    command
 }
 
 /// dataWindowNDC (0.25, 0.5, 0.75, 1) of 16x8 pixels, y up: columns 4..12
@@ -257,35 +266,22 @@ fn a_data_window_is_the_exrs_data_window_holding_the_full_renders_pixels() {
 #[test]
 fn merged_parts_and_resumed_renders_write_what_the_render_writes() {
     let dir = common::scratch("render_settings_merge");
-    let spp = ["--spp", "4096"];
-    let stage = stage();
-    let crop = [
-        "render",
-        stage.to_str().unwrap(),
-        "--settings",
-        "/Render/crop",
-    ];
-    let base = [&crop[..], &spp[..]].concat();
-    cirrus_in(&dir, &base);
+    let crop = |more: &[&str]| settings_render(&dir, "/Render/crop", "4096", more);
+    common::succeeds(crop(&[]));
     for tile in ["0/2", "1/2"] {
         let part = format!("part{}.film", &tile[..1]);
-        cirrus_in(&dir, &[&base[..], &["--tile", tile, "-o", &part]].concat());
+        common::succeeds(crop(&["--tile", tile, "-o", &part]));
     }
-    cirrus_in(
-        &dir,
-        &["merge", "part0.film", "part1.film", "-o", "merged.exr"],
-    );
-    let mut resumed = Command::new(env!("CARGO_BIN_EXE_cirrus"));
+    merge(&dir, &["part0.film", "part1.film", "-o", "merged.exr"]);
     let checkpointed = ["-o", "resumed.exr", "--checkpoint-every", "0.01"];
-    let interrupted = [&base[..], &checkpointed].concat();
-    resumed.current_dir(&dir).args(&interrupted);
-    common::interrupted_after_checkpoint(resumed, &dir.join("resumed.checkpoint"), "INT");
+    let checkpoint = dir.join("resumed.checkpoint");
+    common::interrupted_after_checkpoint(crop(&checkpointed), &checkpoint, "INT");
     let partial = dir.join("resumed.partial.exr");
     assert_eq!(frame(&partial), CROP);
     let whole = channels(&dir.join("crop.exr"));
     let names = |c: &BTreeMap<String, Vec<u32>>| c.keys().cloned().collect::<Vec<_>>();
     assert_eq!(names(&channels(&partial)), names(&whole));
-    cirrus_in(&dir, &[&interrupted[..], &["--resume"]].concat());
+    common::succeeds(crop(&[&checkpointed[..], &["--resume"]].concat()));
     for file in ["merged.exr", "resumed.exr"] {
         let path = dir.join(file);
         assert_eq!(frame(&path), CROP, "{file}");
@@ -298,20 +294,10 @@ fn merged_parts_and_resumed_renders_write_what_the_render_writes() {
 #[test]
 fn the_rescue_command_writes_what_the_render_writes() {
     let dir = common::scratch("render_settings_rescue");
-    let stage = stage();
-    let crop = [
-        "render",
-        stage.to_str().unwrap(),
-        "--settings",
-        "/Render/crop",
-    ];
-    let base = [&crop[..], &["--spp", "4096"]].concat();
-    cirrus_in(&dir, &base);
+    let crop = |more: &[&str]| settings_render(&dir, "/Render/crop", "4096", more);
+    common::succeeds(crop(&[]));
     let shot = dir.join("shot");
-    let flags = ["-o", "shot/crop.exr", "--checkpoint-every", "0.01"];
-    let child = Command::new(env!("CARGO_BIN_EXE_cirrus"))
-        .current_dir(&dir)
-        .args([&base[..], &flags].concat())
+    let child = crop(&["-o", "shot/crop.exr", "--checkpoint-every", "0.01"])
         .env("XDG_CACHE_HOME", dir.join("cache"))
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -330,14 +316,7 @@ fn the_rescue_command_writes_what_the_render_writes() {
         .find_map(|l| l.trim().strip_prefix("cirrus merge "))
         .unwrap_or_else(|| panic!("no command in: {stderr}"));
     std::fs::remove_file(&shot).unwrap();
-    cirrus_in(
-        &dir,
-        &[
-            &["merge"][..],
-            &command.split_whitespace().collect::<Vec<_>>(),
-        ]
-        .concat(),
-    );
+    merge(&dir, &command.split_whitespace().collect::<Vec<_>>());
     let rescued = shot.join("crop.exr");
     assert_eq!(frame(&rescued), CROP);
     assert_eq!(channels(&rescued), channels(&dir.join("crop.exr")));
@@ -352,15 +331,7 @@ fn the_rescue_command_writes_what_the_render_writes() {
 #[test]
 fn a_pixel_aspect_ratio_of_two_renders_wide_pixels_and_says_so() {
     let dir = common::scratch("render_settings_anamorphic");
-    let stage = stage();
-    let render = [
-        "render",
-        stage.to_str().unwrap(),
-        "--spp",
-        "64",
-        "--settings",
-    ];
-    cirrus_in(&dir, &[&render[..], &["/Render/anamorphic"]].concat());
+    common::succeeds(settings_render(&dir, "/Render/anamorphic", "64", &[]));
     let path = dir.join("anamorphic.exr");
     let square = Frame {
         origin: (0, 0),
@@ -375,11 +346,9 @@ fn a_pixel_aspect_ratio_of_two_renders_wide_pixels_and_says_so() {
     assert_eq!(frame(&path), wide);
     let alpha = |file: &str, res: &str| {
         // /Render/shot's product has square pixels.
-        let flags = ["/Render/shot", "-o", file, "--camera", "/World/cam_front"];
-        cirrus_in(
-            &dir,
-            &[&render[..], &flags, &["--res", res, "--aovs", "beauty"]].concat(),
-        );
+        let flags = ["-o", file, "--camera", "/World/cam_front", "--res", res];
+        let flags = [&flags[..], &["--aovs", "beauty"]].concat();
+        common::succeeds(settings_render(&dir, "/Render/shot", "64", &flags));
         values(&dir.join(file), "A")
     };
     let (double, round) = (alpha("double.exr", "32x16"), alpha("round.exr", "16x16"));
