@@ -19,6 +19,13 @@ struct Part {
     film: Film,
 }
 
+impl Part {
+    /// The pixels of its frame: the data window it records, else the image.
+    fn frame(&self) -> Tile {
+        (self.header.identity.part).frame_window(self.film.resolution)
+    }
+}
+
 /// What [`merge`] wrote.
 pub struct Merged {
     /// How many parts were added.
@@ -63,9 +70,8 @@ pub fn merge(
     let layers = (first.header.identity.exr.layers())
         .map_err(|e| FarmError::Refused(format!("{}: {e}", first.path.display())))?;
     prepare_folder(output)?;
-    let resolution = first.film.resolution;
-    let window = first.header.identity.part.frame_window(resolution);
-    let mut frame = Film::cropped(resolution, window, first.film.aov_set().clone());
+    let aovs = first.film.aov_set().clone();
+    let mut frame = Film::cropped(first.film.resolution, first.frame(), aovs);
     let mut stats = RenderStats {
         samples_per_pixel: first.header.identity.part.frame_spp,
         elapsed: Duration::ZERO,
@@ -127,11 +133,7 @@ fn problems(parts: &[Part]) -> Vec<String> {
             ));
         }
     }
-    let frame = first
-        .header
-        .identity
-        .part
-        .frame_window(first.film.resolution);
+    let frame = first.frame();
     for part in parts {
         if !inside(part.film.window, frame) {
             problems.push(format!(
@@ -188,11 +190,7 @@ fn overlap(a: Tile, b: Tile) -> bool {
 /// count and the first such pixel.
 fn missing(parts: &[Part]) -> Option<String> {
     let first = &parts[0];
-    let frame = first
-        .header
-        .identity
-        .part
-        .frame_window(first.film.resolution);
+    let frame = first.frame();
     let (o, r) = (frame.origin, frame.size);
     let spp = first.header.identity.part.frame_spp;
     let mut covered = vec![0u32; r.x as usize * r.y as usize];

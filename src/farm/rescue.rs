@@ -28,8 +28,9 @@ pub struct ImageFormat<'a> {
 /// or the EXRs and the PNG preview) and removes its checkpoint and partial
 /// image; returns the files written. A film of a window of the image (a
 /// render product's `dataWindowNDC`) is written as the EXRs' data window;
-/// the PNG preview shows that window alone. When writing fails, the film state is saved by
-/// [`rescue`] and the error says where and how to write the image.
+/// the PNG preview shows that window alone. When writing fails, the film
+/// state is saved by [`rescue`] and the error says where and how to write
+/// the image.
 pub fn write_finished(
     files: &OutputFiles,
     identity: &RenderIdentity,
