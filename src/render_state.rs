@@ -7,7 +7,7 @@ use std::collections::BTreeSet;
 use glam::UVec2;
 use thiserror::Error;
 
-use crate::camera::{Camera, CameraError};
+use crate::camera::{Camera, CameraError, Raster};
 use crate::film::{murmur3_32, primvar_of, Aov, AovSet, CryptoIds, CryptoNames, Murmur3};
 use crate::film::{CRYPTOMATTES, MAX_PRIMVARS};
 use crate::geometry::{Geometry, Hit};
@@ -209,7 +209,13 @@ impl RenderState {
             return Err(RenderStateError::Resolution(resolution.x, resolution.y));
         }
         // The camera first: its shutter says whether volumes and geometry move.
-        let camera = Camera::new(&scene.manifest.camera, resolution)?;
+        let raster = Raster {
+            resolution,
+            // The first render product's (the one rendered): square otherwise.
+            pixel_aspect: (scene.manifest.render.products.first())
+                .map_or(1.0, |p| p.pixel_aspect_ratio),
+        };
+        let camera = Camera::new(&scene.manifest.camera, raster)?;
         let camera = match options.shutter {
             Some(shutter) => camera.with_shutter(shutter),
             None => camera,

@@ -18,8 +18,17 @@ pub(super) mod ffi {
     /// Everything one EXR file needs; pixels are interleaved f32, channel-fastest.
     struct ExrRequest<'a> {
         path: &'a str,
+        /// The data window: `width` x `height` pixels whose top-left pixel
+        /// is (`x`, `y`) of the display window (x right, y down).
         width: u32,
         height: u32,
+        x: u32,
+        y: u32,
+        /// The display window's size, from (0, 0): the whole image.
+        full_width: u32,
+        full_height: u32,
+        /// A pixel's width over its height (`pixelAspectRatio`).
+        pixel_aspect: f32,
         channel_names: Vec<String>,
         /// One per channel: true stores the channel as half, false as float.
         channel_half: Vec<bool>,

@@ -84,7 +84,18 @@ void write_exr(const ExrRequest &req) {
     if (req.pixels.size() != size_t(req.width) * req.height * nch) {
       throw std::invalid_argument("pixel buffer size does not match width x height x channels");
     }
+    if (uint64_t(req.x) + req.width > req.full_width ||
+        uint64_t(req.y) + req.height > req.full_height) {
+      throw std::invalid_argument("data window outside the display window");
+    }
     OIIO::ImageSpec spec(int(req.width), int(req.height), int(nch), OIIO::TypeDesc::FLOAT);
+    spec.x = int(req.x);
+    spec.y = int(req.y);
+    spec.full_x = 0;
+    spec.full_y = 0;
+    spec.full_width = int(req.full_width);
+    spec.full_height = int(req.full_height);
+    spec.attribute("PixelAspectRatio", req.pixel_aspect);
     spec.channelnames.clear();
     spec.channelformats.clear();
     for (size_t c = 0; c < nch; ++c) {

@@ -10,7 +10,9 @@
 //!   an orthographic camera's apertures are its view size.
 //! - When the image aspect differs from the aperture's, the aperture is
 //!   conformed with UsdRender's default `aspectRatioConformPolicy`,
-//!   "expandAperture", about the aperture's (offset) centre.
+//!   "expandAperture", about the aperture's (offset) centre. The image
+//!   aspect is width x `pixelAspectRatio` / height ([`Raster`]): a pixel
+//!   covers `pixelAspectRatio` times more of the aperture across than down.
 //! - Thin lens (pbrt-v4 §5.2.3, `PerspectiveCamera`): with `fStop` > 0 and
 //!   `focusDistance` > 0, rays leave a lens of radius
 //!   focalLength / (2 fStop) and every ray of one film position passes through
@@ -32,14 +34,18 @@
 //!   depths like the clipping range.
 
 mod motion;
+mod validate;
 mod window;
 
-use glam::{Affine3A, Mat4, UVec2, Vec2, Vec3, Vec4};
+use glam::{Affine3A, Mat4, Vec2, Vec3, Vec4};
 use thiserror::Error;
+
+pub use window::Raster;
 
 use crate::motion::{Shutter, TransformTrack};
 use crate::sampling::warp::square_to_concentric_disk;
 use crate::scene;
+use validate::validate;
 use window::FilmWindow;
 
 /// A camera ready to generate world-space rays for a given image resolution.
@@ -57,6 +63,8 @@ pub struct Camera {
     near: f32,
     /// Camera-space depth of the far clipping plane.
     far: f32,
+    /// `pixelAspectRatio`: a pixel's width over its height.
+    pixel_aspect: f32,
     /// The shutter interval rays draw their times from.
     shutter: Shutter,
     /// World-from-camera over the shutter; `None` when the camera does not move.
@@ -151,6 +159,11 @@ impl Camera {
         }
     }
 
+    /// `pixelAspectRatio`: a pixel's width over its height.
+    pub fn pixel_aspect(&self) -> f32 {
+        self.pixel_aspect
+    }
+
     /// The shutter interval: a ray's time is drawn from it.
     pub fn shutter(&self) -> Shutter {
         self.shutter
@@ -213,15 +226,15 @@ impl Camera {
         ndc_from_camera * self.world_to_camera()
     }
 
-    /// The camera of `record` for an image of `resolution` pixels; refuses
+    /// The camera of `record` for an image of `raster`'s pixels; refuses
     /// attributes that cannot make rays (non-finite or non-positive focal
     /// length or apertures, near >= far, a singular transform, ...).
-    pub fn new(record: &scene::Camera, resolution: UVec2) -> Result<Self, CameraError> {
+    pub fn new(record: &scene::Camera, raster: Raster) -> Result<Self, CameraError> {
         let invalid = |message: String| CameraError::Invalid {
             path: record.path.clone().unwrap_or_else(|| DEFAULT_CAMERA.into()),
             message,
         };
-        validate(record, resolution).map_err(invalid)?;
+        validate(record, raster).map_err(invalid)?;
         let world_from_camera = scene::affine(&record.transform);
         let determinant = world_from_camera.matrix3.determinant();
         if !determinant.is_normal() {
@@ -245,7 +258,8 @@ impl Camera {
         let camera = Self {
             world_from_camera,
             camera_from_world: world_from_camera.inverse(),
-            window: FilmWindow::new(aperture, offset, resolution, plane_units),
+            window: FilmWindow::new(aperture, offset, raster, plane_units),
+            pixel_aspect: raster.pixel_aspect,
             projection,
             near: if near > NEAR_PLANE_MIN_FRACTION * far {
                 near
@@ -298,57 +312,11 @@ fn describe(path: &str) -> String {
     }
 }
 
-/// The attribute ranges a camera needs, as a message naming the first one
-/// out of range.
-fn validate(record: &scene::Camera, resolution: UVec2) -> Result<(), String> {
-    let positive = |name: &str, v: f32| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(format!("{name} must be finite and positive, got {v}"))
-        }
-    };
-    let non_negative = |name: &str, v: f32| {
-        if v.is_finite() && v >= 0.0 {
-            Ok(())
-        } else {
-            Err(format!("{name} must be finite and non-negative, got {v}"))
-        }
-    };
-    if resolution.min_element() == 0 {
-        return Err(format!("the resolution {resolution} has no pixels"));
-    }
-    if record.projection == scene::Projection::Perspective {
-        positive("focalLength", record.focal_length)?;
-    }
-    positive("horizontalAperture", record.horizontal_aperture)?;
-    positive("verticalAperture", record.vertical_aperture)?;
-    for (name, v) in [
-        (
-            "horizontalApertureOffset",
-            record.horizontal_aperture_offset,
-        ),
-        ("verticalApertureOffset", record.vertical_aperture_offset),
-    ] {
-        if !v.is_finite() {
-            return Err(format!("{name} must be finite, got {v}"));
-        }
-    }
-    let [near, far] = record.clipping_range;
-    non_negative("clippingRange near", near)?;
-    positive("clippingRange far", far)?;
-    if near >= far {
-        return Err(format!("clippingRange near {near} must be below far {far}"));
-    }
-    non_negative("fStop", record.f_stop)?;
-    non_negative("focusDistance", record.focus_distance)
-}
-
 #[cfg(test)]
 mod tests {
     use std::f32::consts::FRAC_PI_2;
 
-    use glam::{Mat4, Quat};
+    use glam::{Mat4, Quat, UVec2};
 
     use super::*;
     use crate::sampling::Pcg32;
@@ -381,7 +349,7 @@ mod tests {
     }
 
     fn camera(record: &scene::Camera, resolution: UVec2) -> Camera {
-        Camera::new(record, resolution).unwrap()
+        Camera::new(record, Raster::square(resolution)).unwrap()
     }
 
     fn angle_to(direction: Vec3, axis: Vec3) -> f32 {
@@ -629,27 +597,37 @@ mod tests {
         for (i, breaks) in broken.iter().enumerate() {
             let mut r = record();
             breaks(&mut r);
-            let message = Camera::new(&r, UVec2::new(8, 8)).unwrap_err().to_string();
+            let message = Camera::new(&r, Raster::square(UVec2::new(8, 8)))
+                .unwrap_err()
+                .to_string();
             assert!(
                 message.starts_with("camera /World/cam: "),
                 "case {i}: {message}"
             );
             r.path = None;
-            let message = Camera::new(&r, UVec2::new(8, 8)).unwrap_err().to_string();
+            let message = Camera::new(&r, Raster::square(UVec2::new(8, 8)))
+                .unwrap_err()
+                .to_string();
             assert!(
                 message.starts_with("default camera: "),
                 "case {i}: {message}"
             );
         }
-        let message = Camera::new(&record(), UVec2::new(0, 8))
+        let message = Camera::new(&record(), Raster::square(UVec2::new(0, 8)))
             .unwrap_err()
             .to_string();
         assert!(message.contains("resolution"), "{message}");
+        let flat = Raster {
+            pixel_aspect: 0.0,
+            ..Raster::square(UVec2::new(8, 8))
+        };
+        let message = Camera::new(&record(), flat).unwrap_err().to_string();
+        assert!(message.contains("pixelAspectRatio"), "{message}");
         // An orthographic camera does not use its focal length.
         let mut ortho = record();
         ortho.projection = scene::Projection::Orthographic;
         ortho.focal_length = 0.0;
-        assert!(Camera::new(&ortho, UVec2::new(8, 8)).is_ok());
+        assert!(Camera::new(&ortho, Raster::square(UVec2::new(8, 8))).is_ok());
     }
 
     /// A rotated, translated and scaled world-from-camera transform.

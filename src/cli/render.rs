@@ -12,9 +12,9 @@ use glam::UVec2;
 use super::signal::{Interrupted, StopSignal};
 use super::split::PartArgs;
 use cirrus::farm::{
-    data_window, frame_output, has_frame_number, is_film_output, plan_outputs, resume,
-    save_interrupted, write_finished, write_snapshot, Fingerprint, FrameRange, ImageFormat,
-    OutputFlags, PartInfo, RenderIdentity,
+    frame_output, has_frame_number, is_film_output, plan_outputs, resume, save_interrupted,
+    write_finished, write_snapshot, Fingerprint, FrameRange, ImageFormat, OutputFlags, PartInfo,
+    RenderIdentity,
 };
 use cirrus::film::Film;
 use cirrus::film::FilterKind;
@@ -310,10 +310,8 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
         return Ok(());
     };
     let resolution = render_state::resolution_for(&scene, args.res);
-    let window = match plan.data_window_ndc {
-        Some(ndc) if !part.is_part() => data_window(ndc, resolution)?,
-        _ => part.window(resolution)?,
-    };
+    let frame = plan.frame_window(resolution)?;
+    let window = part.window(frame, resolution)?;
     let needs = pool.install(|| memory::estimate(&scene, window.size, &settings.aovs))?;
     memory::check(&needs, args.memory_limit)?;
     log::debug!("estimated peak memory: {needs}");
@@ -325,10 +323,11 @@ fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
     let state = pool.install(|| RenderState::build(&scene, args.res, options))?;
     let identity = RenderIdentity {
         fingerprint: Fingerprint::new(&scene, state.resolution, &settings, options)?,
-        exr: ExrHeader::new(&state, &settings),
+        exr: ExrHeader::new(&state, &settings).with_layers(&plan.outputs[0].layers),
         part: PartInfo {
             samples: samples.clone(),
             frame_spp,
+            data_window: PartInfo::data_window_of(frame, resolution),
         },
     };
     drop(scene);

@@ -9,7 +9,7 @@ use super::{prepare_folder, read_snapshot, FarmError, OutputFiles, SnapshotHeade
 use crate::film::{Film, Tile};
 use crate::image::Compression;
 use crate::integrator::{RayCounts, RenderStats};
-use crate::output::{preview_path, write_film, write_film_preview, AovFiles, Layers};
+use crate::output::{preview_path, write_film, write_film_preview, AovFiles};
 use crate::volumes::TrackingStats;
 
 /// One part read back.
@@ -17,6 +17,13 @@ struct Part {
     path: PathBuf,
     header: SnapshotHeader,
     film: Film,
+}
+
+impl Part {
+    /// The pixels of its frame: the data window it records, else the image.
+    fn frame(&self) -> Tile {
+        (self.header.identity.part).frame_window(self.film.resolution)
+    }
 }
 
 /// What [`merge`] wrote.
@@ -60,8 +67,11 @@ pub fn merge(
     }
     let first = &parts[0];
     let files = OutputFiles::new(output, aov_files, first.film.aov_set());
+    let layers = (first.header.identity.exr.layers())
+        .map_err(|e| FarmError::Refused(format!("{}: {e}", first.path.display())))?;
     prepare_folder(output)?;
-    let mut frame = Film::new(first.film.resolution, first.film.aov_set().clone());
+    let aovs = first.film.aov_set().clone();
+    let mut frame = Film::cropped(first.film.resolution, first.frame(), aovs);
     let mut stats = RenderStats {
         samples_per_pixel: first.header.identity.part.frame_spp,
         elapsed: Duration::ZERO,
@@ -89,7 +99,7 @@ pub fn merge(
         &header,
         &stats,
         compression,
-        &Layers::Film,
+        &layers,
     )?;
     let preview = preview_path(output);
     write_film_preview(&preview, &frame)?;
@@ -114,7 +124,8 @@ fn problems(parts: &[Part]) -> Vec<String> {
             a.fingerprint
                 .differences(&b.fingerprint, [&name(first), &name(part)]),
         );
-        if b.part.frame_spp != a.part.frame_spp || part.film.resolution != first.film.resolution {
+        let frame = |p: &Part| (p.header.identity.part.frame_spp, p.film.resolution);
+        if frame(part) != frame(first) || b.part.data_window != a.part.data_window {
             problems.push(format!(
                 "{} is of another frame than {}",
                 name(part),
@@ -122,7 +133,14 @@ fn problems(parts: &[Part]) -> Vec<String> {
             ));
         }
     }
+    let frame = first.frame();
     for part in parts {
+        if !inside(part.film.window, frame) {
+            problems.push(format!(
+                "{} covers pixels outside its frame's data window",
+                name(part)
+            ));
+        }
         let p = &part.header.progress;
         if p.next_sample() != part.header.identity.part.samples.end {
             problems.push(format!(
@@ -156,6 +174,12 @@ fn problems(parts: &[Part]) -> Vec<String> {
     problems
 }
 
+/// Whether every pixel of `a` lies in `b`.
+fn inside(a: Tile, b: Tile) -> bool {
+    let (a1, b1) = (a.origin + a.size, b.origin + b.size);
+    a.origin.cmpge(b.origin).all() && a1.cmple(b1).all()
+}
+
 /// Whether two windows share a pixel.
 fn overlap(a: Tile, b: Tile) -> bool {
     let (a1, b1) = (a.origin + a.size, b.origin + b.size);
@@ -166,15 +190,16 @@ fn overlap(a: Tile, b: Tile) -> bool {
 /// count and the first such pixel.
 fn missing(parts: &[Part]) -> Option<String> {
     let first = &parts[0];
-    let r = first.film.resolution;
+    let frame = first.frame();
+    let (o, r) = (frame.origin, frame.size);
     let spp = first.header.identity.part.frame_spp;
     let mut covered = vec![0u32; r.x as usize * r.y as usize];
     for part in parts {
         let w = part.film.window;
         let n = part.header.identity.part.samples.len() as u32;
-        for y in w.origin.y..w.origin.y + w.size.y {
+        for y in w.origin.y - o.y..w.origin.y - o.y + w.size.y {
             let row = y as usize * r.x as usize;
-            for x in w.origin.x..w.origin.x + w.size.x {
+            for x in w.origin.x - o.x..w.origin.x - o.x + w.size.x {
                 covered[row + x as usize] += n;
             }
         }
@@ -184,8 +209,8 @@ fn missing(parts: &[Part]) -> Option<String> {
     Some(format!(
         "{} pixels lack samples; the first, ({}, {}), has {} of {spp}: a part is missing",
         short.len(),
-        i % r.x as usize,
-        i / r.x as usize,
+        o.x as usize + i % r.x as usize,
+        o.y as usize + i / r.x as usize,
         covered[i]
     ))
 }

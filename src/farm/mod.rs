@@ -30,7 +30,7 @@ pub use files::{is_film_output, prepare_folder, Claim, OutputFiles};
 pub use frames::{frame_output, has_frame_number, FrameRange};
 pub use merge::{merge, Merged};
 pub use part::{PartInfo, PartRequest};
-pub use products::{data_window, plan_outputs, OutputFlags, OutputPlan, ProductOutput};
+pub use products::{plan_outputs, OutputFlags, OutputPlan, ProductOutput};
 pub use rescue::{save_interrupted, write_finished, ImageFormat};
 pub use slurm::{submit, SlurmJob, SplitBy, Submitted};
 pub use snapshot::{

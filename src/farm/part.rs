@@ -32,6 +32,35 @@ pub struct PartInfo {
     pub samples: Range<u32>,
     /// Samples per pixel of the whole frame (`--spp`).
     pub frame_spp: u32,
+    /// The frame's data window (a render product's `dataWindowNDC`) as
+    /// `[x, y, width, height]` pixels, y down, when it is not the whole
+    /// image (always so in film states of version 2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data_window: Option<[u32; 4]>,
+}
+
+impl PartInfo {
+    /// The frame's data window as `[x, y, width, height]` when `window`
+    /// (of an image of `resolution`) is not the whole image.
+    pub fn data_window_of(window: Tile, resolution: UVec2) -> Option<[u32; 4]> {
+        let [x, y] = window.origin.to_array();
+        let [w, h] = window.size.to_array();
+        (window.size != resolution).then_some([x, y, w, h])
+    }
+
+    /// The pixels of an image of `resolution` the frame covers: its data window.
+    pub fn frame_window(&self, resolution: UVec2) -> Tile {
+        match self.data_window {
+            Some([x, y, w, h]) => Tile {
+                origin: UVec2::new(x, y),
+                size: UVec2::new(w, h),
+            },
+            None => Tile {
+                origin: UVec2::ZERO,
+                size: resolution,
+            },
+        }
+    }
 }
 
 impl PartRequest {
@@ -40,27 +69,35 @@ impl PartRequest {
         self.tile.is_some() || self.crop.is_some() || self.sample_range.is_some()
     }
 
-    /// The window of an image of `resolution` this part covers.
-    pub fn window(&self, resolution: UVec2) -> Result<Tile, FarmError> {
+    /// The pixels this part covers of a frame covering `frame` of an image
+    /// of `resolution` (all of it, or a render product's data window):
+    /// `--tile` splits its rows; `--crop` (in image pixels) must lie inside it.
+    pub fn window(&self, frame: Tile, resolution: UVec2) -> Result<Tile, FarmError> {
+        let (start, end) = (frame.origin, frame.origin + frame.size);
         if let Some((i, n)) = self.tile {
-            let row = |k: u32| (u64::from(k) * u64::from(resolution.y) / u64::from(n)) as u32;
+            let row = |k: u32| (u64::from(k) * u64::from(frame.size.y) / u64::from(n)) as u32;
             let (y0, y1) = (row(i), row(i + 1));
             if y0 == y1 {
                 return Err(FarmError::Refused(format!(
-                    "--tile {i}/{n}: the image has only {} rows",
-                    resolution.y
+                    "--tile {i}/{n}: the frame has only {} rows",
+                    frame.size.y
                 )));
             }
             return Ok(Tile {
-                origin: UVec2::new(0, y0),
-                size: UVec2::new(resolution.x, y1 - y0),
+                origin: UVec2::new(start.x, start.y + y0),
+                size: UVec2::new(frame.size.x, y1 - y0),
             });
         }
         if let Some([x0, y0, x1, y1]) = self.crop {
-            if x1 > resolution.x || y1 > resolution.y {
+            if x0 < start.x || y0 < start.y || x1 > end.x || y1 > end.y {
+                let frame = if frame.size == resolution {
+                    format!("the {}x{} image", resolution.x, resolution.y)
+                } else {
+                    let [a, b, c, d] = [start.x, start.y, end.x, end.y];
+                    format!("the render product's data window {a},{b},{c},{d} (dataWindowNDC)")
+                };
                 return Err(FarmError::Refused(format!(
-                    "--crop {x0},{y0},{x1},{y1}: outside the {}x{} image",
-                    resolution.x, resolution.y
+                    "--crop {x0},{y0},{x1},{y1}: outside {frame}"
                 )));
             }
             return Ok(Tile {
@@ -68,10 +105,7 @@ impl PartRequest {
                 size: UVec2::new(x1 - x0, y1 - y0),
             });
         }
-        Ok(Tile {
-            origin: UVec2::ZERO,
-            size: resolution,
-        })
+        Ok(frame)
     }
 
     /// The sample indices this part takes of a frame of `frame_spp`.

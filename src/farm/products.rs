@@ -7,7 +7,10 @@
 //!
 //! The products share one render: those whose camera, resolution, pixel
 //! aspect and data window equal the first's are written from its film; any
-//! other is not rendered, with a warning naming it.
+//! other is not rendered, with a warning naming it. The first product's
+//! `pixelAspectRatio` shapes the camera's pixels (`camera::Raster`) and its
+//! `dataWindowNDC` is the EXR's data window (the display window being the
+//! whole image).
 
 use std::path::{Path, PathBuf};
 
@@ -40,6 +43,18 @@ pub struct OutputPlan {
 }
 
 impl OutputPlan {
+    /// The pixels of an image of `resolution` the frame covers: the first
+    /// product's data window, else the whole image.
+    pub fn frame_window(&self, resolution: UVec2) -> Result<Tile, FarmError> {
+        match self.data_window_ndc {
+            Some(ndc) => data_window(ndc, resolution),
+            None => Ok(Tile {
+                origin: UVec2::ZERO,
+                size: resolution,
+            }),
+        }
+    }
+
     /// Each output's files, claimed before rendering ([`OutputFiles::claim`]:
     /// folders made, writability checked); `None` when `skip_existing` and
     /// the first output is complete. `resume` continues the first one's
@@ -121,12 +136,12 @@ pub fn plan_outputs(
             );
             continue;
         }
-        if product.pixel_aspect_ratio != 1.0 {
-            log::warn!(
-                "render product {}: pixelAspectRatio {} is not rendered; pixels are square",
-                product.path,
-                product.pixel_aspect_ratio
-            );
+        let aspect = product.pixel_aspect_ratio;
+        if !(aspect.is_finite() && aspect > 0.0) {
+            return Err(FarmError::Refused(format!(
+                "render product {}: pixelAspectRatio must be finite and positive, got {aspect}",
+                product.path
+            )));
         }
         let path = match flags.output {
             Some(output) if i == 0 => output.to_path_buf(),
@@ -203,7 +218,7 @@ fn product_layers(product: &RenderProduct) -> Vec<NamedLayer> {
 
 /// The pixels of an image of `resolution` whose centres lie in the NDC
 /// window `ndc` (`[xmin, ymin, xmax, ymax]`, y up); refused when none do.
-pub fn data_window(ndc: [f32; 4], resolution: UVec2) -> Result<Tile, FarmError> {
+fn data_window(ndc: [f32; 4], resolution: UVec2) -> Result<Tile, FarmError> {
     let [x0, y0, x1, y1] = ndc;
     let (w, h) = (resolution.x as f32, resolution.y as f32);
     // Pixel i's centre (i + 0.5) / w lies in [a, b) for ceil(a w - 0.5) <= i < ceil(b w - 0.5).

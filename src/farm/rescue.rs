@@ -9,7 +9,6 @@ use std::path::{Path, PathBuf};
 use super::files::is_film_output;
 use super::slurm::quote_path;
 use super::{write_snapshot, FarmError, OutputFiles, RenderIdentity};
-use crate::film::Film;
 use crate::image::Compression;
 use crate::integrator::{RenderStats, Snapshot};
 use crate::output::{preview_path, write_film, write_film_preview, AovFiles, Layers};
@@ -28,9 +27,10 @@ pub struct ImageFormat<'a> {
 /// Writes the finished render `end` to `files` (the film state of a part,
 /// or the EXRs and the PNG preview) and removes its checkpoint and partial
 /// image; returns the files written. A film of a window of the image (a
-/// render product's `dataWindowNDC`) is written at the image's size, black
-/// and transparent outside the window. When writing fails, the film state is
-/// saved by [`rescue`] and the error says where and how to write the image.
+/// render product's `dataWindowNDC`) is written as the EXRs' data window;
+/// the PNG preview shows that window alone. When writing fails, the film
+/// state is saved by [`rescue`] and the error says where and how to write
+/// the image.
 pub fn write_finished(
     files: &OutputFiles,
     identity: &RenderIdentity,
@@ -42,29 +42,17 @@ pub fn write_finished(
     let written = if is_film_output(output) {
         write_snapshot(output, identity, end).map(|()| vec![output.to_path_buf()])
     } else {
-        let header = &identity.exr;
-        let whole;
-        let film = if end.film.window.size == end.film.resolution {
-            &end.film
-        } else {
-            whole = {
-                let mut whole = Film::new(end.film.resolution, end.film.aov_set().clone());
-                whole.add_part(&end.film);
-                whole
-            };
-            &whole
-        };
         let preview = preview_path(output);
         write_film(
             output,
             format.aov_files,
-            film,
-            header,
+            &end.film,
+            &identity.exr,
             stats,
             format.compression,
             format.layers,
         )
-        .and_then(|()| write_film_preview(&preview, film))
+        .and_then(|()| write_film_preview(&preview, &end.film))
         .map(|()| vec![output.to_path_buf(), preview])
         .map_err(FarmError::from)
     };
@@ -88,6 +76,8 @@ fn rescue(
 ) -> FarmError {
     let output = files.output();
     let mut identity = identity.clone();
+    // `cirrus merge` writes the layers this file was to have.
+    identity.exr = identity.exr.with_layers(format.layers);
     if !is_film_output(output) {
         // The whole frame as one finished part, so `cirrus merge` takes it
         // alone: the samples taken (known only now for a --time render).
@@ -147,7 +137,8 @@ fn shell_word(path: &Path) -> String {
 }
 
 /// Saves the checkpoint and the partial EXR of a render stopped at `end`
-/// (a signal), for `--resume`.
+/// (a signal), for `--resume`; the partial EXR has the layers the
+/// checkpoint's header records (the first product's).
 pub fn save_interrupted(
     files: &OutputFiles,
     identity: &RenderIdentity,
@@ -157,6 +148,7 @@ pub fn save_interrupted(
 ) -> Result<(), FarmError> {
     write_snapshot(&files.checkpoint, identity, end)?;
     let (film, header) = (&end.film, &identity.exr);
+    let layers = header.layers().map_err(FarmError::Refused)?;
     write_film(
         &files.partial,
         AovFiles::Single,
@@ -164,7 +156,7 @@ pub fn save_interrupted(
         header,
         stats,
         compression,
-        &Layers::Film,
+        &layers,
     )?;
     Ok(())
 }

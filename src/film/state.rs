@@ -2,7 +2,9 @@
 //! settings and progress of the render that made it), so an interrupted
 //! render resumes bit-identically. Written atomically, checked by CRC-32.
 //!
-//! Layout, version 2 (integers and floats little-endian):
+//! Layout, version 3 (integers and floats little-endian; version 2 has the
+//! same bytes and is still read, its caller's header lacking what version 3
+//! added: the image's layer names, data window and pixel aspect):
 //!
 //! | bytes | what |
 //! |---|---|
@@ -31,11 +33,17 @@ use super::sums::{Film, NonFiniteSamples, PixelSum, Tile};
 
 /// The first bytes of every film-state file.
 const MAGIC: &[u8; 8] = b"CIRRUSFS";
-/// The layout version this build writes and reads.
+/// The layout version this build writes.
 /// (Version 1 stored Cryptomatte coverage by mesh and material index;
 /// version 2 by the names' MurmurHash3, and adaptive sampling's half
-/// buffer when the frame says `adaptive`.)
-pub const FILM_STATE_VERSION: u32 = 2;
+/// buffer when the frame says `adaptive`; version 3 is version 2 whose
+/// header records how its image is written (a render product's layer
+/// names, data window and pixel aspect), so a Cirrus that would write it
+/// otherwise refuses it.)
+pub const FILM_STATE_VERSION: u32 = 3;
+/// The layout versions this build reads: 2 (its image written with the
+/// film's layer names, whole and of square pixels) and 3.
+const READABLE_VERSIONS: [u32; 2] = [2, FILM_STATE_VERSION];
 /// Bytes of one [`PixelSum`] on disk.
 const PIXEL_BYTES: usize = 56;
 
@@ -192,9 +200,9 @@ fn decode<H: DeserializeOwned>(bytes: &[u8]) -> Result<(H, Film), String> {
         bytes: &body[MAGIC.len()..],
     };
     let version = r.u32()?;
-    if version != FILM_STATE_VERSION {
+    if !READABLE_VERSIONS.contains(&version) {
         return Err(format!(
-            "version {version}; this Cirrus reads version {FILM_STATE_VERSION} (render again, or \
+            "version {version}; this Cirrus reads versions {READABLE_VERSIONS:?} (render again, or \
              finish it with the Cirrus that wrote it)"
         ));
     }
@@ -409,19 +417,25 @@ mod tests {
         let (_, plain): (u32, Film) = read_film_state(&path).unwrap();
         assert!(!plain.keeps_halves());
         assert_eq!(layers(&plain), layers(&film()));
-        // Version 1 (coverage by index) and a future version are refused.
+        // Version 2 (the same bytes) is read; version 1 (coverage by
+        // index) and a future version are refused.
         let mut bytes = std::fs::read(&path).unwrap();
         let body = bytes.len() - 4;
-        for version in [1u32, 3] {
+        for version in [2u32, 1, 4] {
             bytes[8..12].copy_from_slice(&version.to_le_bytes());
             let crc = crc32fast::hash(&bytes[..body]);
             bytes[body..].copy_from_slice(&crc.to_le_bytes());
             std::fs::write(&path, &bytes).unwrap();
-            let err = read_film_state::<u32>(&path).unwrap_err().to_string();
-            assert!(
-                err.contains(&format!("version {version}; this Cirrus reads version 2")),
-                "{err}"
-            );
+            match read_film_state::<u32>(&path) {
+                Ok((_, two)) => assert!(version == 2 && layers(&two) == layers(&film())),
+                Err(e) => assert!(
+                    version != 2
+                        && e.to_string().contains(&format!(
+                            "version {version}; this Cirrus reads versions [2, 3]"
+                        )),
+                    "{e}"
+                ),
+            }
         }
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -10,6 +10,7 @@ mod oiio;
 
 pub use atomic::{replace_file, write_file};
 pub use oiio::{
-    read_exr, read_image, srgb_to_linear, write_display_png, write_exr, Channel, ChannelFormat,
-    Compression, ExrChannels, ExrImage, Image, ImageError, PixelType, StoredChannel, TextLabel,
+    read_exr, read_image, srgb_to_linear, write_display_png, write_exr, write_framed_exr, Channel,
+    ChannelFormat, Compression, ExrChannels, ExrFrame, ExrImage, Image, ImageError, PixelType,
+    StoredChannel, TextLabel,
 };

@@ -105,6 +105,29 @@ pub struct ExrImage<'a> {
     pub matrices: Vec<(String, [f32; 16])>,
 }
 
+/// Where an EXR's pixels sit in its image (OpenEXR's data and display
+/// windows, y down from the top-left corner) and the shape of a pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExrFrame {
+    /// The data window's top-left pixel in the image (x right, y down).
+    pub origin: [u32; 2],
+    /// The display window's width and height in pixels: the whole image.
+    pub display: [u32; 2],
+    /// `pixelAspectRatio`: a pixel's width over its height.
+    pub pixel_aspect: f32,
+}
+
+impl ExrFrame {
+    /// An image of `width` x `height` square pixels, all of them stored.
+    pub fn whole(width: u32, height: u32) -> Self {
+        Self {
+            origin: [0, 0],
+            display: [width, height],
+            pixel_aspect: 1.0,
+        }
+    }
+}
+
 /// A decoded image: linear values, interleaved, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
@@ -118,10 +141,18 @@ pub struct Image {
     pub pixels: Vec<f32>,
 }
 
-/// Writes `image` to `path` through OpenImageIO. The file appears atomically:
-/// it is written under a temporary name in the same folder, then renamed, so a
-/// failure never leaves a truncated file under `path`.
+/// Writes `image` to `path` through OpenImageIO as the whole image, of
+/// square pixels. The file appears atomically: it is written under a
+/// temporary name in the same folder, then renamed, so a failure never
+/// leaves a truncated file under `path`.
 pub fn write_exr(path: &Path, image: &ExrImage) -> Result<(), ImageError> {
+    write_framed_exr(path, image, &ExrFrame::whole(image.width, image.height))
+}
+
+/// Writes `image` to `path` (atomically, as [`write_exr`]) as the data
+/// window of a larger image, `frame` saying where it sits: what Nuke and
+/// husk write for a render of a window of the image.
+pub fn write_framed_exr(path: &Path, image: &ExrImage, frame: &ExrFrame) -> Result<(), ImageError> {
     let fail = |message: String| ImageError::Write {
         path: path.to_path_buf(),
         message,
@@ -141,6 +172,11 @@ pub fn write_exr(path: &Path, image: &ExrImage) -> Result<(), ImageError> {
             path: temp,
             width: image.width,
             height: image.height,
+            x: frame.origin[0],
+            y: frame.origin[1],
+            full_width: frame.display[0],
+            full_height: frame.display[1],
+            pixel_aspect: frame.pixel_aspect,
             channel_names: image.channels.iter().map(|c| c.name.clone()).collect(),
             channel_half: image
                 .channels

@@ -10,7 +10,9 @@ use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
 use crate::film::{Aov, AovSet, CryptoLayer, CryptoNames, Film, Layer, CRYPTOMATTES};
-use crate::image::{write_exr, Channel, Compression, ExrImage, ImageError, PixelType};
+use crate::image::{
+    write_framed_exr, Channel, Compression, ExrFrame, ExrImage, ImageError, PixelType,
+};
 use crate::integrator::{RenderSettings, RenderStats};
 use crate::render_state::RenderState;
 
@@ -46,6 +48,71 @@ pub struct ExrHeader {
     /// would.
     #[serde(with = "names_as_pairs")]
     crypto_names: [Option<CryptoNames>; 3],
+    /// `pixelAspectRatio`: a pixel's width over its height (1 in film
+    /// states of version 2, which rendered square pixels).
+    #[serde(default = "square")]
+    pixel_aspect: f32,
+    /// The layers a film state's image is written with (`cirrus merge`,
+    /// the rescue command): a render product's vars (its first product's
+    /// for a checkpoint or a part), or `None` for the film's own names (and
+    /// in film states of version 2).
+    #[serde(default)]
+    layers: Option<Vec<LayerRecord>>,
+}
+
+/// Square pixels: what film states of version 2 rendered.
+fn square() -> f32 {
+    1.0
+}
+
+/// A [`NamedLayer`] in a film state: its name, its AOVs by name (`None`:
+/// the beauty) and whether it is stored as half.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct LayerRecord {
+    name: String,
+    aovs: Option<Vec<String>>,
+    half: bool,
+}
+
+impl LayerRecord {
+    fn new(layer: &NamedLayer) -> Self {
+        Self {
+            name: layer.name.clone(),
+            aovs: match &layer.source {
+                LayerSource::Beauty => None,
+                LayerSource::Aovs(aovs) => Some(aovs.iter().map(|a| a.name().into()).collect()),
+            },
+            half: layer.pixel_type == PixelType::Half,
+        }
+    }
+
+    /// The layer back; an AOV name this Cirrus does not know is an error.
+    fn layer(&self) -> Result<NamedLayer, String> {
+        let source = match &self.aovs {
+            None => LayerSource::Beauty,
+            Some(names) => LayerSource::Aovs(
+                names
+                    .iter()
+                    .map(|name| {
+                        let set: AovSet = name.parse()?;
+                        set.aovs()
+                            .first()
+                            .copied()
+                            .ok_or(format!("no AOV '{name}'"))
+                    })
+                    .collect::<Result<_, String>>()?,
+            ),
+        };
+        Ok(NamedLayer {
+            name: self.name.clone(),
+            source,
+            pixel_type: if self.half {
+                PixelType::Half
+            } else {
+                PixelType::Float
+            },
+        })
+    }
 }
 
 /// Cryptomatte names in JSON as `[[id, name], ...]`: film-state headers are
@@ -107,6 +174,8 @@ impl ExrHeader {
             CRYPTOMATTES.map(|aov| settings.aovs.contains(aov).then(CryptoNames::new));
         Self {
             strings,
+            pixel_aspect: camera.pixel_aspect(),
+            layers: None,
             matrices: vec![
                 (
                     "worldToCamera".into(),
@@ -128,6 +197,33 @@ impl ExrHeader {
             }
         }
         header
+    }
+
+    /// This header writing a film state's image with `layers`.
+    pub fn with_layers(&self, layers: &Layers) -> Self {
+        let records = match layers {
+            Layers::Film => None,
+            Layers::Named(named) => Some(named.iter().map(LayerRecord::new).collect()),
+        };
+        Self {
+            layers: records,
+            ..self.clone()
+        }
+    }
+
+    /// The layers a film state's image is written with (see
+    /// [`ExrHeader::with_layers`]); an error names an AOV this Cirrus
+    /// does not know.
+    pub fn layers(&self) -> Result<Layers, String> {
+        Ok(match &self.layers {
+            None => Layers::Film,
+            Some(records) => Layers::Named(
+                records
+                    .iter()
+                    .map(LayerRecord::layer)
+                    .collect::<Result<_, _>>()?,
+            ),
+        })
     }
 
     /// Adds the Cryptomatte names `other` (another part of the same frame)
@@ -169,7 +265,9 @@ pub fn write_bytes_for(pixels: u64, aovs: &AovSet) -> u64 {
 /// Writes the film: its `layers` (the beauty and every chosen AOV, or a
 /// render product's vars), in one EXR or one per AOV (`OUT.<layer>.exr`,
 /// the beauty in OUT.exr), each with the header, the run's statistics and
-/// a Cryptomatte's own metadata.
+/// a Cryptomatte's own metadata. A film of a window of the image (a render
+/// product's `dataWindowNDC`) is written as the EXR's data window, the
+/// display window being the whole image.
 pub fn write_film(
     output: &Path,
     files: AovFiles,
@@ -207,6 +305,11 @@ pub fn write_film(
     let write = |path: &Path, layers: &[&FileLayer]| {
         let image = Image {
             size: film.window.size,
+            frame: ExrFrame {
+                origin: film.window.origin.to_array(),
+                display: film.resolution.to_array(),
+                pixel_aspect: header.pixel_aspect,
+            },
             layers: &layers.iter().map(|l| &l.layer).collect::<Vec<_>>(),
             compression,
         };
@@ -297,6 +400,10 @@ pub fn write_beauty(
     };
     let image = Image {
         size,
+        frame: ExrFrame {
+            pixel_aspect: header.pixel_aspect,
+            ..ExrFrame::whole(size.x, size.y)
+        },
         layers: &[&layer],
         compression: Compression::Zip,
     };
@@ -306,6 +413,8 @@ pub fn write_beauty(
 /// Layers of one size to interleave into one EXR.
 struct Image<'a> {
     size: UVec2,
+    /// Where they sit in the image.
+    frame: ExrFrame,
     layers: &'a [&'a Layer],
     compression: Compression,
 }
@@ -341,7 +450,7 @@ fn write_layers(
             format!("{:.3}", stats.elapsed.as_secs_f64()),
         ),
     ]);
-    write_exr(
+    write_framed_exr(
         path,
         &ExrImage {
             width: image.size.x,
@@ -352,5 +461,6 @@ fn write_layers(
             strings,
             matrices: header.matrices.clone(),
         },
+        &image.frame,
     )
 }
