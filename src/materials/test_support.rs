@@ -3,7 +3,6 @@
 
 use glam::{Vec2, Vec3};
 
-use super::bsdf::Bsdf;
 use super::param::Param;
 use super::preview_surface::PreviewSurface;
 use crate::geometry::SurfacePoint;
@@ -138,12 +137,18 @@ pub(crate) fn random_surface(rng: &mut Pcg32) -> (PreviewSurface, bool) {
     (s, u() < 0.5)
 }
 
-/// Chi-square test of `bsdf`'s sampling from `wo` against its density
-/// (pbrt-v4's bsdfs_test): 100k samples in 10 x 20 bins in (cos theta, phi)
-/// over the sphere, expected counts from the pdf integrated on 16 x 16
-/// points per bin, bins expecting fewer than 5 pooled; the statistic must
-/// stay below df + 5 sqrt(2 df). Dirac samples are not counted.
-pub(crate) fn assert_samples_follow_density(name: &str, bsdf: &Bsdf, wo: Vec3, rng: &mut Pcg32) {
+/// Chi-square test of a BSDF's sampling against its density (pbrt-v4's
+/// bsdfs_test): `sample(u_lobe, u)` draws a direction (and whether it is a
+/// Dirac sample, not counted), `pdf(wi)` is the density it claims; 100k
+/// samples in 10 x 20 bins in (cos theta, phi) over the sphere, expected
+/// counts from the pdf integrated on 16 x 16 points per bin, bins expecting
+/// fewer than 5 pooled; the statistic must stay below df + 5 sqrt(2 df).
+pub(crate) fn assert_samples_follow_density(
+    name: &str,
+    sample: impl Fn(f32, Vec2) -> Option<(Vec3, bool)>,
+    pdf: impl Fn(Vec3) -> f32,
+    rng: &mut Pcg32,
+) {
     let (nt, np, sub) = (10usize, 20usize, 16usize);
     let n = 100_000;
     let bin = |w: Vec3| {
@@ -155,8 +160,8 @@ pub(crate) fn assert_samples_follow_density(name: &str, bsdf: &Bsdf, wo: Vec3, r
     let mut observed = vec![0.0f64; nt * np];
     for _ in 0..n {
         let u = Vec2::new(rng.next_f32(), rng.next_f32());
-        if let Some(s) = bsdf.sample(wo, rng.next_f32(), u).filter(|s| !s.delta) {
-            observed[bin(s.wi)] += 1.0;
+        if let Some((wi, false)) = sample(rng.next_f32(), u) {
+            observed[bin(wi)] += 1.0;
         }
     }
     let mut expected = vec![0.0f64; nt * np];
@@ -167,7 +172,7 @@ pub(crate) fn assert_samples_follow_density(name: &str, bsdf: &Bsdf, wo: Vec3, r
             let phi =
                 std::f32::consts::TAU * (p as f32 + (b as f32 + 0.5) / sub as f32) / np as f32;
             let s = (1.0 - z * z).max(0.0).sqrt();
-            sum += f64::from(bsdf.pdf(wo, Vec3::new(s * phi.cos(), s * phi.sin(), z)));
+            sum += f64::from(pdf(Vec3::new(s * phi.cos(), s * phi.sin(), z)));
         }
         // Each bin spans 2/nt in z and 2 pi/np in phi (equal areas).
         let area = 4.0 * std::f64::consts::PI / (nt * np) as f64;
