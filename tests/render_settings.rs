@@ -163,6 +163,11 @@ fn unknown_product_types_source_names_and_data_types_warn_once_each() {
     ]);
     // A primvar no prim has (tests/primvar_aovs.rs renders ones they have).
     warned(&["/Render/Products/Vars/uv", "primvar st", "layer is 0"]);
+    warned(&[
+        "/Render/Products/odd",
+        "aspectRatioConformPolicy",
+        "cropAperture",
+    ]);
     assert!(!dir.join("deep.exr").exists());
     let names: Vec<String> = channels(&dir.join("odd.exr")).into_keys().collect();
     assert_eq!(
@@ -170,6 +175,32 @@ fn unknown_product_types_source_names_and_data_types_warn_once_each() {
         ["A", "B", "G", "R", "uv.G", "uv.R"],
         "only the beauty and primvar vars are produced"
     );
+}
+
+/// Settings without a raster product give only their resolution and camera:
+/// their pixelAspectRatio, dataWindowNDC and conform policy are each warned
+/// about once, and the whole image is rendered with square pixels.
+#[test]
+fn settings_without_products_warn_about_what_they_cannot_give() {
+    let dir = common::scratch("render_settings_bare");
+    let stderr = render_ok(&dir, &["--settings", "/Render/bare", "-o", "bare.exr"]);
+    for needles in [
+        ["pixelAspectRatio 2", "square pixels"],
+        ["dataWindowNDC", "whole image"],
+        ["aspectRatioConformPolicy", "adjustPixelAspectRatio"],
+    ] {
+        let said = stderr
+            .lines()
+            .filter(|l| l.contains("/Render/bare") && needles.iter().all(|n| l.contains(n)));
+        assert_eq!(
+            said.count(),
+            1,
+            "one warning with {needles:?} in:\n{stderr}"
+        );
+    }
+    let image = frame(&dir.join("bare.exr"));
+    assert_eq!((image.size, image.display), ((8, 4), (8, 4)));
+    assert_eq!(image.pixel_aspect, 1.0);
 }
 
 #[test]

@@ -11,7 +11,7 @@ import math
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdRender
 
-from .render_settings import render_products
+from .render_settings import render_products, warn_settings_without_products
 from .report import ExportError, Report
 from .xforms import as_array, to_3x4_list
 
@@ -59,6 +59,8 @@ def export_render(stage: Usd.Stage, time: Usd.TimeCode, bounds: tuple[np.ndarray
     """The manifest `camera` and `render` objects from `settings` (see chosen_settings);
     `chosen` (see chosen_camera) overrides the stage's camera."""
     products = render_products(settings, time, report) if settings else []
+    if settings and not products:
+        warn_settings_without_products(settings, time, report)
     resolution = products[0]["resolution"] if products else \
         settings.GetResolutionAttr().Get(time) if settings else None
     render = {"resolution": [int(resolution[0]), int(resolution[1])] if resolution else None,

@@ -123,6 +123,8 @@ def render_products(settings: UsdRender.Settings, time: Usd.TimeCode, report: Re
                             "RenderVar; skipped")
         resolution = _own_or_settings(product, settings, "resolution", time)
         window = _own_or_settings(product, settings, "dataWindowNDC", time)
+        _warn_conform_policy(str(target), _own_or_settings(product, settings,
+                                                            "aspectRatioConformPolicy", time), report)
         products.append({
             "path": str(target),
             "name": name,
@@ -133,3 +135,28 @@ def render_products(settings: UsdRender.Settings, time: Usd.TimeCode, report: Re
             "vars": variables,
         })
     return products
+
+
+def _warn_conform_policy(where: str, policy, report: Report) -> None:
+    """One warning when `aspectRatioConformPolicy` asks for anything but UsdRender's default,
+    the only policy rendered."""
+    if str(policy) != "expandAperture":
+        report.warn(f"{where}: aspectRatioConformPolicy {str(policy)!r} is not modelled; the "
+                    "aperture is expanded to the image's aspect (expandAperture, UsdRender's default)")
+
+
+def warn_settings_without_products(settings: UsdRender.Settings, time: Usd.TimeCode,
+                                   report: Report) -> None:
+    """Render settings with no raster product give only their resolution and camera: their own
+    pixelAspectRatio, dataWindowNDC and a conform policy other than the default are warned
+    about (square pixels, the whole image, expandAperture are rendered)."""
+    where = f"render settings {settings.GetPath()} (no raster product)"
+    aspect = float(settings.GetPixelAspectRatioAttr().Get(time))
+    if aspect != 1.0:
+        report.warn(f"{where}: pixelAspectRatio {aspect} is not used; square pixels are rendered "
+                    "(give the settings a RenderProduct to render it)")
+    window = [float(v) for v in settings.GetDataWindowNDCAttr().Get(time)]
+    if window != [0.0, 0.0, 1.0, 1.0]:
+        report.warn(f"{where}: dataWindowNDC {window} is not used; the whole image is rendered "
+                    "(give the settings a RenderProduct to crop it)")
+    _warn_conform_policy(where, settings.GetAspectRatioConformPolicyAttr().Get(time), report)
