@@ -1,8 +1,9 @@
 //! Motion blur end to end: a render whose shutter is open equals the
 //! average of still renders at stratified times over the shutter (a
 //! translating sphere, a rotating instance, PointInstancer velocities, a
-//! moving camera, a deforming mesh; mesh velocities against their
-//! time-sampled equivalent; a skinned mesh posed per key), within 4 sigma
+//! moving camera, a deforming mesh, a moving point cloud; mesh and point
+//! velocities against their time-sampled equivalents; a skinned mesh posed
+//! per key), within 4 sigma
 //! per band of columns; a shutter closed at the frame renders the still
 //! frame bit for bit; farm parts and resumed renders of a blurred frame stay
 //! bit-identical; bad shutters and non-finite transform samples are refused
@@ -173,23 +174,59 @@ fn a_deforming_mesh_blurs_to_the_average_of_still_frames() {
     blurred_equals_average_of_stills("motion_deform");
 }
 
+#[test]
+fn a_moving_point_cloud_blurs_to_the_average_of_still_frames() {
+    blurred_equals_average_of_stills("motion_points_sampled");
+}
+
 /// A mesh moved by `velocities` (scene units per second, 24 time codes per
 /// second) renders as the mesh whose time-sampled points make the same
 /// motion: every band of columns within 4 sigma (independent seeds).
 #[test]
 fn mesh_velocities_blur_as_their_time_sampled_equivalent() {
-    let dir = common::scratch("motion_velocities");
+    velocities_blur_as_their_time_sampled_equivalent("motion_deform", "motion_velocities");
+}
+
+/// A point cloud moved by `velocities` renders as the cloud whose
+/// time-sampled points make the same motion (every band within 4 sigma),
+/// and it blurs: some band differs from the closed-shutter render by far
+/// more than its noise.
+#[test]
+fn point_velocities_blur_as_their_time_sampled_equivalent() {
+    let driven = velocities_blur_as_their_time_sampled_equivalent(
+        "motion_points_sampled",
+        "motion_points_velocities",
+    );
+    let dir = common::scratch("motion_points_closed");
+    let flags = ["--spp", BLURRED_SPP, "--seed", "13", "--shutter", "0,0"];
+    let closed = render(
+        &exported("motion_points_velocities"),
+        &dir.join("closed.exr"),
+        &flags,
+    );
+    let closed = common::column_bands(std::slice::from_ref(&closed), (WIDTH, HEIGHT), BAND);
+    let widest = driven
+        .iter()
+        .zip(&closed)
+        .map(|((a, va), (b, vb))| (a - b).abs() / (va + vb).sqrt().max(1e-9));
+    let widest = widest.fold(0.0f64, f64::max);
+    assert!(
+        widest > 20.0,
+        "the moving cloud renders as the closed shutter does ({widest:.1} sigma)"
+    );
+}
+
+/// `sampled` (time-sampled points) and `driven` (the same motion by
+/// `velocities`), both blurred over their shutter 0..1: every band of
+/// columns within 4 sigma (independent seeds); the bands of `driven`.
+fn velocities_blur_as_their_time_sampled_equivalent(
+    sampled: &str,
+    driven: &str,
+) -> Vec<(f64, f64)> {
+    let dir = common::scratch(driven);
     let flags = |seed| ["--spp", BLURRED_SPP, "--seed", seed];
-    let sampled = render(
-        &exported("motion_deform"),
-        &dir.join("sampled.exr"),
-        &flags("11"),
-    );
-    let driven = render(
-        &exported("motion_velocities"),
-        &dir.join("driven.exr"),
-        &flags("12"),
-    );
+    let sampled = render(&exported(sampled), &dir.join("sampled.exr"), &flags("11"));
+    let driven = render(&exported(driven), &dir.join("driven.exr"), &flags("12"));
     let [sampled, driven] = [sampled, driven]
         .map(|image| common::column_bands(std::slice::from_ref(&image), (WIDTH, HEIGHT), BAND));
     for (band, ((a, va), (b, vb))) in sampled.iter().zip(&driven).enumerate() {
@@ -199,6 +236,7 @@ fn mesh_velocities_blur_as_their_time_sampled_equivalent() {
             "band {band}: time-sampled {a} vs velocities {b} (sigma {sigma})"
         );
     }
+    driven
 }
 
 /// A mesh skinned by a SkelAnimation animated inside the shutter (the
@@ -398,6 +436,7 @@ fn a_closed_shutter_renders_the_still_frame_bit_identically() {
         "motion_instance",
         "motion_camera",
         "motion_deform",
+        "motion_points_sampled",
     ] {
         let still = dir.join(format!("{name}_still"));
         let usda = stage(name);
