@@ -352,26 +352,48 @@ fn a_deforming_emitter_is_not_light_sampled_and_is_warned_about() {
 /// 1) is exported as it is at the frame, with a warning naming it.
 #[test]
 fn a_mesh_changing_topology_is_warned_about_and_left_still() {
-    let dir = common::scratch("motion_topology");
-    let text = std::fs::read_to_string(stage("motion_deform")).unwrap();
-    let last = "1: [(-1, -1, 0), (3, -1, 0), (3, 1, 0), (-1, 1, 0)],";
-    assert!(text.contains(last), "the test stage changed");
-    let usda = dir.join("topology.usda");
-    let more = "1: [(-1, -1, 0), (3, -1, 0), (3, 1, 0), (-1, 1, 0), (0, 0, 0)],";
-    std::fs::write(&usda, text.replace(last, more)).unwrap();
-    let out = dir.join("topology");
+    exported_still_with_a_point_more(
+        "motion_deform",
+        ("1: [(-1, -1, 0), (3, -1, 0), (3, 1, 0), (-1, 1, 0)", "]"),
+        "/World/Sheet: its topology changes over the shutter",
+    );
+}
+
+/// A point cloud whose point count changes over the shutter (a point more
+/// at frame 1) is exported as it is at the frame, with a warning naming it.
+#[test]
+fn a_point_cloud_changing_its_count_is_warned_about_and_left_still() {
+    exported_still_with_a_point_more(
+        "motion_points_sampled",
+        (
+            "1: [(-1, -1, 0), (1, 0, 0), (-1, 1, 0), (2, -0.5, 0), (0, 0.5, 0)",
+            "]",
+        ),
+        "/World/Cloud: its point count changes over the shutter",
+    );
+}
+
+/// Exports `scenes/tests/NAME.usda` with a point `(0, 0, 0)` added to the
+/// points sample `last` (its text before and after the place to add it):
+/// the log says `warning` and the manifest holds no motion.
+fn exported_still_with_a_point_more(name: &str, last: (&str, &str), warning: &str) {
+    let dir = common::scratch(&format!("{name}_more"));
+    let text = std::fs::read_to_string(stage(name)).unwrap();
+    let before = format!("{}{}", last.0, last.1);
+    assert!(text.contains(&before), "the test stage changed");
+    let usda = dir.join("more.usda");
+    let more = format!("{}, (0, 0, 0){}", last.0, last.1);
+    std::fs::write(&usda, text.replace(&before, &more)).unwrap();
+    let out = dir.join("more");
     let log = cirrus_ok(&[
         "export",
         usda.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
     ]);
-    assert!(
-        log.contains("/World/Sheet: its topology changes over the shutter"),
-        "{log}"
-    );
+    assert!(log.contains(warning), "{log}");
     let manifest = std::fs::read_to_string(out.join("scene.json")).unwrap();
-    assert!(!manifest.contains("\"motion\""), "it still deforms");
+    assert!(!manifest.contains("\"motion\""), "it still moves");
 }
 
 /// Exports `scenes/tests/motion_velocities.usda` with its `velocities`
