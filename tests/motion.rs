@@ -737,9 +737,10 @@ fn blurred_farm_parts_and_resumed_renders_are_bit_identical() {
 }
 
 /// Motion the export does not carry yet (a turning distant light,
-/// time-sampled curves, points with velocities) is warned about by prim
+/// time-sampled curves, curves with velocities) is warned about by prim
 /// when the shutter is open, and not at all when it is closed; deforming
-/// meshes and moving sphere/rect/disk/cylinder lights are carried.
+/// meshes, moving points (the stage's "Cloud") and moving
+/// sphere/rect/disk/cylinder lights are carried.
 #[test]
 fn motion_not_blurred_yet_is_warned_about_by_prim() {
     let dir = common::scratch("motion_unblurred");
