@@ -1,8 +1,9 @@
 //! Motion blur end to end: a render whose shutter is open equals the
 //! average of still renders at stratified times over the shutter (a
 //! translating sphere, a rotating instance, PointInstancer velocities, a
-//! moving camera, a deforming mesh; mesh velocities against their
-//! time-sampled equivalent; a skinned mesh posed per key), within 4 sigma
+//! moving camera, a deforming mesh, a moving point cloud; mesh and point
+//! velocities against their time-sampled equivalents; a skinned mesh posed
+//! per key), within 4 sigma
 //! per band of columns; a shutter closed at the frame renders the still
 //! frame bit for bit; farm parts and resumed renders of a blurred frame stay
 //! bit-identical; bad shutters and non-finite transform samples are refused
@@ -173,23 +174,59 @@ fn a_deforming_mesh_blurs_to_the_average_of_still_frames() {
     blurred_equals_average_of_stills("motion_deform");
 }
 
+#[test]
+fn a_moving_point_cloud_blurs_to_the_average_of_still_frames() {
+    blurred_equals_average_of_stills("motion_points_sampled");
+}
+
 /// A mesh moved by `velocities` (scene units per second, 24 time codes per
 /// second) renders as the mesh whose time-sampled points make the same
 /// motion: every band of columns within 4 sigma (independent seeds).
 #[test]
 fn mesh_velocities_blur_as_their_time_sampled_equivalent() {
-    let dir = common::scratch("motion_velocities");
+    velocities_blur_as_their_time_sampled_equivalent("motion_deform", "motion_velocities");
+}
+
+/// A point cloud moved by `velocities` renders as the cloud whose
+/// time-sampled points make the same motion (every band within 4 sigma),
+/// and it blurs: some band differs from the closed-shutter render by far
+/// more than its noise.
+#[test]
+fn point_velocities_blur_as_their_time_sampled_equivalent() {
+    let driven = velocities_blur_as_their_time_sampled_equivalent(
+        "motion_points_sampled",
+        "motion_points_velocities",
+    );
+    let dir = common::scratch("motion_points_closed");
+    let flags = ["--spp", BLURRED_SPP, "--seed", "13", "--shutter", "0,0"];
+    let closed = render(
+        &exported("motion_points_velocities"),
+        &dir.join("closed.exr"),
+        &flags,
+    );
+    let closed = common::column_bands(std::slice::from_ref(&closed), (WIDTH, HEIGHT), BAND);
+    let widest = driven
+        .iter()
+        .zip(&closed)
+        .map(|((a, va), (b, vb))| (a - b).abs() / (va + vb).sqrt().max(1e-9));
+    let widest = widest.fold(0.0f64, f64::max);
+    assert!(
+        widest > 20.0,
+        "the moving cloud renders as the closed shutter does ({widest:.1} sigma)"
+    );
+}
+
+/// `sampled` (time-sampled points) and `driven` (the same motion by
+/// `velocities`), both blurred over their shutter 0..1: every band of
+/// columns within 4 sigma (independent seeds); the bands of `driven`.
+fn velocities_blur_as_their_time_sampled_equivalent(
+    sampled: &str,
+    driven: &str,
+) -> Vec<(f64, f64)> {
+    let dir = common::scratch(driven);
     let flags = |seed| ["--spp", BLURRED_SPP, "--seed", seed];
-    let sampled = render(
-        &exported("motion_deform"),
-        &dir.join("sampled.exr"),
-        &flags("11"),
-    );
-    let driven = render(
-        &exported("motion_velocities"),
-        &dir.join("driven.exr"),
-        &flags("12"),
-    );
+    let sampled = render(&exported(sampled), &dir.join("sampled.exr"), &flags("11"));
+    let driven = render(&exported(driven), &dir.join("driven.exr"), &flags("12"));
     let [sampled, driven] = [sampled, driven]
         .map(|image| common::column_bands(std::slice::from_ref(&image), (WIDTH, HEIGHT), BAND));
     for (band, ((a, va), (b, vb))) in sampled.iter().zip(&driven).enumerate() {
@@ -199,6 +236,7 @@ fn mesh_velocities_blur_as_their_time_sampled_equivalent() {
             "band {band}: time-sampled {a} vs velocities {b} (sigma {sigma})"
         );
     }
+    driven
 }
 
 /// A mesh skinned by a SkelAnimation animated inside the shutter (the
@@ -314,26 +352,48 @@ fn a_deforming_emitter_is_not_light_sampled_and_is_warned_about() {
 /// 1) is exported as it is at the frame, with a warning naming it.
 #[test]
 fn a_mesh_changing_topology_is_warned_about_and_left_still() {
-    let dir = common::scratch("motion_topology");
-    let text = std::fs::read_to_string(stage("motion_deform")).unwrap();
-    let last = "1: [(-1, -1, 0), (3, -1, 0), (3, 1, 0), (-1, 1, 0)],";
-    assert!(text.contains(last), "the test stage changed");
-    let usda = dir.join("topology.usda");
-    let more = "1: [(-1, -1, 0), (3, -1, 0), (3, 1, 0), (-1, 1, 0), (0, 0, 0)],";
-    std::fs::write(&usda, text.replace(last, more)).unwrap();
-    let out = dir.join("topology");
+    exported_still_with_a_point_more(
+        "motion_deform",
+        ("1: [(-1, -1, 0), (3, -1, 0), (3, 1, 0), (-1, 1, 0)", "]"),
+        "/World/Sheet: its topology changes over the shutter",
+    );
+}
+
+/// A point cloud whose point count changes over the shutter (a point more
+/// at frame 1) is exported as it is at the frame, with a warning naming it.
+#[test]
+fn a_point_cloud_changing_its_count_is_warned_about_and_left_still() {
+    exported_still_with_a_point_more(
+        "motion_points_sampled",
+        (
+            "1: [(-1, -1, 0), (1, 0, 0), (-1, 1, 0), (2, -0.5, 0), (0, 0.5, 0)",
+            "]",
+        ),
+        "/World/Cloud: its point count changes over the shutter",
+    );
+}
+
+/// Exports `scenes/tests/NAME.usda` with a point `(0, 0, 0)` added to the
+/// points sample `last` (its text before and after the place to add it):
+/// the log says `warning` and the manifest holds no motion.
+fn exported_still_with_a_point_more(name: &str, last: (&str, &str), warning: &str) {
+    let dir = common::scratch(&format!("{name}_more"));
+    let text = std::fs::read_to_string(stage(name)).unwrap();
+    let before = format!("{}{}", last.0, last.1);
+    assert!(text.contains(&before), "the test stage changed");
+    let usda = dir.join("more.usda");
+    let more = format!("{}, (0, 0, 0){}", last.0, last.1);
+    std::fs::write(&usda, text.replace(&before, &more)).unwrap();
+    let out = dir.join("more");
     let log = cirrus_ok(&[
         "export",
         usda.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
     ]);
-    assert!(
-        log.contains("/World/Sheet: its topology changes over the shutter"),
-        "{log}"
-    );
+    assert!(log.contains(warning), "{log}");
     let manifest = std::fs::read_to_string(out.join("scene.json")).unwrap();
-    assert!(!manifest.contains("\"motion\""), "it still deforms");
+    assert!(!manifest.contains("\"motion\""), "it still moves");
 }
 
 /// Exports `scenes/tests/motion_velocities.usda` with its `velocities`
@@ -398,6 +458,7 @@ fn a_closed_shutter_renders_the_still_frame_bit_identically() {
         "motion_instance",
         "motion_camera",
         "motion_deform",
+        "motion_points_sampled",
     ] {
         let still = dir.join(format!("{name}_still"));
         let usda = stage(name);
@@ -676,9 +737,10 @@ fn blurred_farm_parts_and_resumed_renders_are_bit_identical() {
 }
 
 /// Motion the export does not carry yet (a turning distant light,
-/// time-sampled curves, points with velocities) is warned about by prim
+/// time-sampled curves, curves with velocities) is warned about by prim
 /// when the shutter is open, and not at all when it is closed; deforming
-/// meshes and moving sphere/rect/disk/cylinder lights are carried.
+/// meshes, moving points (the stage's "Cloud") and moving
+/// sphere/rect/disk/cylinder lights are carried.
 #[test]
 fn motion_not_blurred_yet_is_warned_about_by_prim() {
     let dir = common::scratch("motion_unblurred");

@@ -1,4 +1,5 @@
-"""Deforming meshes over the shutter: each mesh's points (and normals) at motion keys.
+"""Deforming meshes and moving points over the shutter: each mesh's points (and normals),
+each Points prim's centres (and widths), at motion keys.
 
 A mesh deforms when its `points` are time-sampled, when it authors `velocities` (and
 `accelerations`), or when UsdSkel poses it with an animated SkelAnimation. Its keys are the
@@ -18,6 +19,12 @@ or whose points there are not finite, is warned about and exported as it is at t
 so is a rigidly skinned mesh (UsdSkel moves it by one transform, which is not carried).
 Only meshes whose key points differ from the frame's get `motion`: static exports are
 unchanged.
+
+A UsdGeomPoints prim is keyed the same way (time-sampled points, else velocities and
+accelerations), at its points kept at the frame (`points.py`); its widths are keyed too
+when they are time-sampled (their samples inside the shutter become keys), else the
+frame's hold. A prim whose point count changes, or whose keyed centres or widths are not
+finite (widths negative), is warned about and left as it is at the frame.
 """
 
 import numpy as np
@@ -42,12 +49,30 @@ def mesh_motion(meshes, skinning: Skinning, stage: Usd.Stage, frame_time: float,
         if source[0].IsA(UsdGeom.Mesh):
             motion = context.motion(record, *source)
             if motion is not None:
-                times, points, normals = motion
-                record["motion"] = {
-                    "times": [float(np.float32(t - frame_time)) for t in times],
-                    "points": writer.add(points, "f32", 3),
-                    "normals": None if normals is None else writer.add(normals, "f32", 3),
-                }
+                record["motion"] = _record(motion, ("normals", 3), frame_time, writer)
+
+
+def points_motion(points, stage: Usd.Stage, frame_time: float, shutter: tuple[float, float],
+                  writer, reports: tuple[Report, Report]) -> None:
+    """Adds `motion` to every points record (of `points`, the export's PointsTable) whose
+    centres or widths move over the shutter [start, end] (absolute time codes)."""
+    context = _Context(stage, frame_time, shutter, reports, None)
+    for record, source in zip(points.records, points.sources):
+        keyed = context.point_keys(*source)
+        if keyed is not None:
+            record["motion"] = _record(keyed, ("widths", 1), frame_time, writer)
+
+
+def _record(keys: tuple, extra: tuple[str, int], frame_time: float, writer) -> dict:
+    """The `motion` record of (key times, points, `extra`'s values or None): times relative
+    to the frame, points and the optional `extra` (name, width) written as f32."""
+    times, points, values = keys
+    name, width = extra
+    return {
+        "times": [float(np.float32(t - frame_time)) for t in times],
+        "points": writer.add(points, "f32", 3),
+        name: None if values is None else writer.add(values, "f32", width),
+    }
 
 
 class _Context:
@@ -96,6 +121,48 @@ class _Context:
                    else still.normals for k in keys]
         return times, points.reshape(-1, 3), np.concatenate(normals)
 
+    def point_keys(self, prim: Usd.Prim, keep: np.ndarray, still: np.ndarray):
+        """(key times, (k * n, 3) f32 centres, (k * n,) f32 widths or None) of a Points prim
+        whose kept points (`keep`, at the frame `still`) move over the shutter, else None."""
+        geom, frame, path = UsdGeom.Points(prim), Usd.TimeCode(self.frame_time), prim.GetPath()
+        driven = self._velocity_path(geom, frame)
+        points_attr, widths_attr = geom.GetPointsAttr(), geom.GetWidthsAttr()
+        if driven is not None:
+            times, _, at = driven
+        elif points_attr.GetNumTimeSamples() >= 2:
+            times = self._sampled(points_attr)
+            at = lambda t: np.array(points_attr.Get(Usd.TimeCode(t)) or [], np.float64)  # noqa: E731
+        else:
+            return None
+        keyed_widths = widths_attr.GetNumTimeSamples() >= 2
+        if keyed_widths:
+            times = sorted({*times, *self._sampled(widths_attr)})
+        keys = [at(t).reshape(-1, 3) for t in times]
+        if any(len(k) != len(keep) for k in keys):
+            self.report.warn(f"{path}: its point count changes over the shutter; rendered as it is at the frame")
+            return None
+        centres = np.stack(keys)[:, keep].astype(np.float32)
+        if not np.isfinite(centres).all():
+            self.report.warn(f"{path}: points over the shutter are not finite; rendered as it is at the frame")
+            return None
+        widths = None
+        if keyed_widths:
+            read = [np.asarray(widths_attr.Get(Usd.TimeCode(t)) or [], np.float64) for t in times]
+            if any(len(w) not in (1, len(keep)) for w in read) or \
+                    not all(np.isfinite(w).all() and (w >= 0).all() for w in read):
+                self.report.warn(f"{path}: widths over the shutter do not fit its points or are negative or "
+                                 f"not finite; rendered as it is at the frame")
+                return None
+            widths = np.stack([np.broadcast_to(w, len(keep))[keep] for w in read]).astype(np.float32)
+        if widths is None and (centres == still.astype(np.float32)[None]).all():
+            return None
+        return times, centres.reshape(-1, 3), None if widths is None else widths.reshape(-1)
+
+    def _sampled(self, attr: Usd.Attribute) -> list[float]:
+        """The shutter's ends and `attr`'s time samples strictly inside it."""
+        start, end = self.shutter
+        return sorted({start, *(t for t in attr.GetTimeSamples() if start < t < end), end})
+
     def _keyed(self, prim: Usd.Prim, frame: Usd.TimeCode):
         """(key times, time -> pose override or None to read the points at that time) for
         a mesh that may deform, else None."""
@@ -118,7 +185,7 @@ class _Context:
         points = mesh.GetPointsAttr()
         if points.GetNumTimeSamples() < 2:
             return None
-        return sorted({start, *inside(points.GetTimeSamples()), end}), lambda t: None
+        return self._sampled(points), lambda t: None
 
     def _pose_at(self, prim: Usd.Prim):
         """time -> the prim's UsdSkel pose at that time code."""
@@ -131,7 +198,18 @@ class _Context:
     def _velocity_driven(self, mesh: UsdGeom.Mesh, frame: Usd.TimeCode):
         """Keys and poses from `velocities` (and `accelerations`) by USD's rule, or None when
         the mesh has none that may be used (warned about when their length is wrong)."""
-        points_attr, velocities_attr = mesh.GetPointsAttr(), mesh.GetVelocitiesAttr()
+        driven = self._velocity_path(mesh, frame)
+        if driven is None:
+            return None
+        times, base_time, at = driven
+        normals = read_normals(mesh, Usd.TimeCode(base_time))
+        return times, lambda time: Pose(None, at(time), normals, np.eye(4))
+
+    def _velocity_path(self, geom: UsdGeom.PointBased, frame: Usd.TimeCode):
+        """(key times, base sample time, time -> (n, 3) points) from `velocities` (and
+        `accelerations`) by USD's rule, or None when the prim has none that may be used
+        (warned about when their length is wrong)."""
+        points_attr, velocities_attr = geom.GetPointsAttr(), geom.GetVelocitiesAttr()
         if not velocities_attr.HasAuthoredValue():
             return None
         bracket = points_attr.GetBracketingTimeSamples(self.frame_time)
@@ -141,25 +219,23 @@ class _Context:
                 velocities_attr.GetBracketingTimeSamples(self.frame_time)[:1] != (base_time,):
             return None  # USD interpolates the points when velocities are sampled elsewhere
         positions = np.array(points_attr.Get(base) or [], dtype=np.float64).reshape(-1, 3)
-        path = mesh.GetPath()
+        path = geom.GetPath()
         velocities = self._per_point(path, velocities_attr, base, len(positions))
         if velocities is None:
             return None
-        accelerations = self._per_point(path, mesh.GetAccelerationsAttr(), base, len(positions))
+        accelerations = self._per_point(path, geom.GetAccelerationsAttr(), base, len(positions))
         if accelerations is None:
             accelerations = np.zeros_like(velocities)
         start, end = self.shutter
         times = sorted({start, end})
         if accelerations.any() and end > start:
             times = [float(t) for t in np.linspace(start, end, ACCELERATION_SEGMENTS + 1)]
-        scale = UsdGeom.MotionAPI(mesh.GetPrim()).ComputeVelocityScale(frame)
-        normals = read_normals(mesh, base)
+        scale = UsdGeom.MotionAPI(geom.GetPrim()).ComputeVelocityScale(frame)
 
-        def pose(time: float) -> Pose:
+        def at(time: float) -> np.ndarray:
             dt = (time - base_time) * self.seconds_per_code
-            moved = positions + scale * dt * (velocities + 0.5 * dt * accelerations)
-            return Pose(None, moved, normals, np.eye(4))
-        return times, pose
+            return positions + scale * dt * (velocities + 0.5 * dt * accelerations)
+        return times, base_time, at
 
     def _per_point(self, path, attr: Usd.Attribute, time: Usd.TimeCode, count: int) -> np.ndarray | None:
         """An authored per-point vector attribute at `time`, its non-finite entries zeroed

@@ -15,7 +15,7 @@ import math
 import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdLux
 
-from .deforming import mesh_motion
+from .deforming import mesh_motion, points_motion
 from .lights import MOVING_LIGHT_TYPES, add_light_motion
 from .report import Report
 from .xforms import as_array, to_3x4, to_3x4_list
@@ -77,8 +77,8 @@ def scan(stage: Usd.Stage, frame_time: float, start: float, end: float, report: 
     transform key times (the interval's ends and every authored transform time sample
     strictly inside it, xformOps and PointInstancer positions/orientations/scales), and
     one warning per prim whose motion the export does not carry, so it renders as it is
-    at the frame: lights whose transform changes, and points or curves (point-based prims
-    other than meshes, which deforming.py keys) whose points are time-sampled inside the
+    at the frame: lights whose transform changes, and curves (point-based prims other than
+    meshes and points, which deforming.py keys) whose points are time-sampled inside the
     shutter or that author non-zero velocities or accelerations."""
     times = {start, end}
     interval = Gf.Interval(start, end)
@@ -110,13 +110,13 @@ def scan(stage: Usd.Stage, frame_time: float, start: float, end: float, report: 
                             f"where it is at the frame (moving distant and dome lights are not "
                             f"blurred yet)")
         points = UsdGeom.PointBased(prim)
-        if points and not prim.IsA(UsdGeom.Mesh):
+        if points and not prim.IsA(UsdGeom.Mesh) and not prim.IsA(UsdGeom.Points):
             moved = [a.GetName() for a in (points.GetPointsAttr(),) if samples_inside(a)]
             moved += [a.GetName() for a in (points.GetVelocitiesAttr(),
                                             points.GetAccelerationsAttr()) if non_zero(a)]
             if moved:
                 report.warn(f"{path}: {', '.join(moved)} deform it over the shutter; rendered "
-                            f"as it is at the frame (deforming points and curves are not blurred yet)")
+                            f"as it is at the frame (deforming curves are not blurred yet)")
     return sorted(t for t in times if start <= t <= end)
 
 
@@ -235,12 +235,13 @@ def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, wal
                writer, report: Report, deforming: tuple | None = None,
                lights: list[dict] = ()) -> None:
     """Adds `shutter` and `motion` to the camera record, `motion` to the instances record
-    (`records`), to each deforming mesh record and to the moving `lights` where the shutter
+    (`records`), to each deforming mesh and moving points record and to the moving `lights` where the shutter
     is open and something moves.
 
     `walker_at(time_code)` walks the stage at another time and returns its TopSink;
     `frame` holds the instances' world matrices and source indices at the frame;
-    `deforming` the export's (MeshTable, Skinning), whose meshes may deform."""
+    `deforming` the export's (MeshTable, Skinning, PointsTable), whose meshes may deform
+    and whose points may move."""
     camera, instances = records
     prim = stage.GetPrimAtPath(camera["path"]) if camera["path"] else None
     open_, close = shutter(prim, time, override)
@@ -258,7 +259,10 @@ def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, wal
     t0 = time.GetValue()
     transform_keys = scan(stage, t0, t0 + open_, t0 + close, report)
     if deforming is not None:
-        mesh_motion(*deforming, stage, t0, (t0 + open_, t0 + close), writer, (report, _Silent()))
+        meshes, skinning, points = deforming
+        keys = (stage, t0, (t0 + open_, t0 + close), writer, (report, _Silent()))
+        mesh_motion(meshes, skinning, *keys)
+        points_motion(points, *keys)
     matrices, source = frame
     reference = walker_at(time)
 

@@ -3,7 +3,7 @@
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from .round_shapes import RoundTable
+from .round_shapes import RoundContext, RoundTable
 
 # UsdGeomPoints declares no fallback for `widths`; Hydra (UsdImaging's points adapter) draws
 # unauthored widths as 1, which we follow, with a warning.
@@ -11,7 +11,13 @@ DEFAULT_WIDTH = 1.0
 
 
 class PointsTable(RoundTable):
-    """The manifest's points records, each stored once per prototype path and material."""
+    """The manifest's points records, each stored once per prototype path and material;
+    `sources` holds, per record, its prim, the mask of points kept and their centres at the
+    frame (deforming.py keys them over the shutter)."""
+
+    def __init__(self, context: RoundContext) -> None:
+        super().__init__(context)
+        self.sources: list[tuple[Usd.Prim, np.ndarray, np.ndarray]] = []
 
     def _add(self, prim: Usd.Prim, key: tuple[str, int]) -> int | None:
         c, geom, name = self._c, UsdGeom.Points(prim), f"{self._c.source}: Points {prim.GetPath()}"
@@ -50,4 +56,5 @@ class PointsTable(RoundTable):
             "material": material,
             "primvars": c.primvars(prim, material, expand),
         }
+        self.sources.append((prim, keep, points[keep]))
         return c.add(record, points[keep], 0.5 * per_point[keep])

@@ -268,7 +268,7 @@ impl Geometry {
             top,
             leaves,
             tracks,
-            round: RoundShapes::build(scene, &moving),
+            round: RoundShapes::build(scene, &moving, motion),
         }
     }
 

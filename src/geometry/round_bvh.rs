@@ -5,9 +5,14 @@
 //! placement of one (instance x prototype part) is a leaf of a top level of
 //! its own, built as the meshes' ([`TopLevel`]): a ray enters a prim
 //! through the inverse of its placement's transform, at the ray's time for
-//! a moving instance. Resident per point: 16 bytes (centre and radius), a
-//! 4-byte primitive index and about 20 bytes of BVH nodes; per curve
-//! vertex 16 bytes and per piece 4 + 4 + 20.
+//! a moving instance. Moving points (`points[i].motion`, under an open
+//! shutter) keep their spheres at every key: a ray at time t meets each
+//! sphere lerped between the two keys around t (`crate::motion::Bracket`,
+//! end keys held), and the prim's BVH bounds each sphere by the union of
+//! its boxes at the keys (conservative: a lerped sphere lies in the hull
+//! of its key spheres). Resident per point: 16 bytes (centre and radius)
+//! plus 16 per key when it moves, a 4-byte primitive index and about 20
+//! bytes of BVH nodes; per curve vertex 16 bytes and per piece 4 + 4 + 20.
 
 use glam::{Affine3A, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
@@ -21,7 +26,7 @@ use super::round_intersect::{RoundHit, RoundRay};
 use super::round_surface::RoundShading;
 use super::surface::SurfacePoint;
 use super::top_level::{build_cwbvh, TopLevel};
-use crate::motion::TransformTrack;
+use crate::motion::{Bracket, TransformTrack};
 use crate::scene::{affine, Scene, Transform};
 
 /// Per point (or curve piece), resident: 16 bytes of centre and radius
@@ -61,6 +66,17 @@ pub(super) struct RoundBvh {
     /// Curves: per piece, its first vertex (the second follows it); empty
     /// for points.
     pieces: Vec<u32>,
+    /// Moving points: their spheres at the keys; `None` when still.
+    keys: Option<SphereKeys>,
+}
+
+/// Moving points' spheres at key times.
+struct SphereKeys {
+    /// Key times, frames, strictly increasing.
+    times: Vec<f32>,
+    /// Spheres per key, key-major (`spheres.len()` per key): xyz centre, w
+    /// radius.
+    spheres: Vec<Vec4>,
 }
 
 /// One shape of one instance: a top-level leaf.
@@ -98,7 +114,8 @@ impl RoundShapes {
 
     /// Builds every placed prim's BVH (in parallel) and the top level over
     /// the placements; `None` when the scene places no points or curves.
-    pub(super) fn build(scene: &Scene, moving: &MovingInstances) -> Option<Self> {
+    /// Without `motion` (a closed shutter) moving points stay at the frame.
+    pub(super) fn build(scene: &Scene, moving: &MovingInstances, motion: bool) -> Option<Self> {
         let m = &scene.manifest;
         let mut placed = vec![false; m.points.len() + m.curves.len()];
         for &p in scene.view(&m.instances.prototype) {
@@ -110,22 +127,37 @@ impl RoundShapes {
             return None;
         }
         let points = m.points.par_iter().map(|p| {
-            let centres = scene.view(&p.points);
-            let widths = scene.view(&p.widths);
-            let width = |i: usize| widths[if widths.len() == 1 { 0 } else { i }];
-            let spheres = centres.iter().enumerate();
-            let spheres = spheres.map(|(i, c)| Vec3A::from_array(*c).extend(0.5 * width(i)));
-            (spheres.collect(), Vec::new())
+            let spheres = spheres(scene.view(&p.points), scene.view(&p.widths));
+            let keys = p.motion.as_ref().filter(|_| motion).map(|keys| {
+                let widths = keys
+                    .widths
+                    .as_ref()
+                    .map_or(scene.view(&p.widths), |w| scene.view(w));
+                let centres = scene.view(&keys.points);
+                let n = spheres.len().max(1);
+                let keyed = centres.chunks_exact(n).enumerate().flat_map(|(k, key)| {
+                    // Keyed widths are laid out like the centres.
+                    let keyed = widths.len() == centres.len();
+                    self::spheres(key, if keyed { &widths[k * n..][..n] } else { widths })
+                });
+                SphereKeys {
+                    times: keys.times.clone(),
+                    spheres: keyed.collect(),
+                }
+            });
+            (spheres, Vec::new(), keys)
         });
         let curves = m.curves.par_iter().map(|c| {
             let vertices = scene.view(&c.points).iter().zip(scene.view(&c.widths));
             let spheres = vertices.map(|(p, w)| Vec3A::from_array(*p).extend(0.5 * w));
-            (spheres.collect(), scene.piece_starts(c))
+            (spheres.collect(), scene.piece_starts(c), None)
         });
         let shapes: Vec<Option<RoundBvh>> = points
             .chain(curves)
             .zip(placed.par_iter())
-            .map(|((spheres, pieces), &placed)| placed.then(|| RoundBvh::build(spheres, pieces))?)
+            .map(|((spheres, pieces, keys), &placed)| {
+                placed.then(|| RoundBvh::build(spheres, pieces, keys))?
+            })
             .collect();
         let boxes: Vec<Aabb> = placements(scene, moving)
             .filter(|(leaf, _, _)| shapes[leaf.shape as usize].is_some())
@@ -179,7 +211,7 @@ impl RoundShapes {
             let leaf = &self.leaves[index];
             let found = self
                 .local_ray(leaf, ray, time)
-                .and_then(|local| self.shape(leaf).intersect(&local));
+                .and_then(|local| self.shape(leaf).intersect(&local, time));
             match found {
                 Some((element, hit)) => {
                     let leaf = index as u32;
@@ -198,7 +230,7 @@ impl RoundShapes {
             top.any(ray, |ray, index| {
                 let leaf = &self.leaves[index];
                 self.local_ray(leaf, ray, time)
-                    .is_some_and(|local| self.shape(leaf).intersect(&local).is_some())
+                    .is_some_and(|local| self.shape(leaf).intersect(&local, time).is_some())
             })
         })
     }
@@ -214,8 +246,9 @@ impl RoundShapes {
     pub(super) fn surface_point(&self, hit: &ShapeHit, time: f32) -> SurfacePoint {
         let leaf = &self.leaves[hit.leaf as usize];
         let shape = self.shape(leaf);
+        let bracket = shape.bracket(time);
         self.shading[leaf.shape as usize].surface_point(
-            (&shape.spheres, &shape.pieces),
+            (&|i| shape.sphere(i, bracket.as_ref()), &shape.pieces),
             &self.shape_from_world(leaf, time),
             hit.element,
             &hit.hit,
@@ -245,13 +278,18 @@ impl RoundShapes {
 impl RoundBvh {
     /// The BVH over `spheres` (points) or over the tube pieces starting at
     /// `pieces` (curves); `None` when there is nothing to hit.
-    fn build(spheres: Vec<Vec4>, pieces: Vec<u32>) -> Option<Self> {
+    /// Moving points' boxes are the union of their spheres' over `keys`.
+    fn build(spheres: Vec<Vec4>, pieces: Vec<u32>, keys: Option<SphereKeys>) -> Option<Self> {
         let sphere_box = |s: Vec4| {
             let (c, r) = (Vec3A::from(s.truncate()), Vec3A::splat(s.w));
             Aabb::new(c - r, c + r)
         };
         let boxes: Vec<Aabb> = if pieces.is_empty() {
-            let boxes = spheres.iter().map(|&s| sphere_box(s));
+            let keyed = keys.as_ref().map_or(&[][..], |k| &k.spheres);
+            let boxes = spheres.iter().enumerate().map(|(i, &s)| {
+                let at_keys = keyed.iter().skip(i).step_by(spheres.len().max(1));
+                at_keys.fold(sphere_box(s), |b, &k| b.union(&sphere_box(k)))
+            });
             boxes.enumerate().map(|(i, b)| padded(b, i)).collect()
         } else {
             let boxes = pieces.iter().map(|&v| {
@@ -263,17 +301,40 @@ impl RoundBvh {
             bvh: build_cwbvh(boxes),
             spheres,
             pieces,
+            keys,
         })
     }
 
-    /// The nearest sphere or piece hit along a ray in the prim's space, as
-    /// (point or piece index, hit).
-    fn intersect(&self, ray: &Ray) -> Option<(u32, RoundHit)> {
+    /// Where `time` (frames) falls among a moving prim's keys; `None` when
+    /// it is still.
+    fn bracket(&self, time: f32) -> Option<Bracket> {
+        self.keys.as_ref().map(|k| Bracket::at(&k.times, time))
+    }
+
+    /// Sphere (or curve vertex) `i` at `bracket` (the frame's without one).
+    #[inline]
+    fn sphere(&self, i: u32, bracket: Option<&Bracket>) -> Vec4 {
+        match (&self.keys, bracket) {
+            (Some(keys), Some(b)) => {
+                let (n, i) = (self.spheres.len(), i as usize);
+                b.lerp(
+                    keys.spheres[b.before * n + i],
+                    keys.spheres[b.after * n + i],
+                )
+            }
+            _ => self.spheres[i as usize],
+        }
+    }
+
+    /// The nearest sphere or piece hit along a ray in the prim's space at
+    /// `time` (frames), as (point or piece index, hit).
+    fn intersect(&self, ray: &Ray, time: f32) -> Option<(u32, RoundHit)> {
         let round = RoundRay::new(ray.origin, ray.direction);
+        let bracket = self.bracket(time);
         let mut closest = None;
         self.bvh.ray_traverse(*ray, &mut RayHit::none(), |ray, id| {
             let element = self.bvh.primitive_indices[id];
-            match self.element_hit(&round, element, ray.tmin, ray.tmax) {
+            match self.element_hit(&round, element, bracket.as_ref(), ray.tmin, ray.tmax) {
                 Some(hit) => {
                     closest = Some((element, hit));
                     hit.t
@@ -290,17 +351,27 @@ impl RoundBvh {
         &self,
         ray: &RoundRay,
         element: u32,
+        bracket: Option<&Bracket>,
         t_min: f32,
         t_max: f32,
     ) -> Option<RoundHit> {
         match self.pieces.get(element as usize) {
-            None => ray.sphere(self.spheres[element as usize], t_min, t_max),
+            None => ray.sphere(self.sphere(element, bracket), t_min, t_max),
             Some(&v) => {
                 let (a, b) = (self.spheres[v as usize], self.spheres[v as usize + 1]);
                 ray.round_cone(a, b, t_min, t_max)
             }
         }
     }
+}
+
+/// Spheres of `centres` and diameters `widths` (one, or one per centre).
+fn spheres(centres: &[[f32; 3]], widths: &[f32]) -> Vec<Vec4> {
+    let width = |i: usize| widths[if widths.len() == 1 { 0 } else { i }];
+    let spheres = centres.iter().enumerate();
+    spheres
+        .map(|(i, c)| Vec3A::from_array(*c).extend(0.5 * width(i)))
+        .collect()
 }
 
 /// Prototype `p`'s points and curves parts as (shape index, transform),

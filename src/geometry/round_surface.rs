@@ -30,13 +30,13 @@ pub(super) struct RoundShading {
 
 impl RoundShading {
     /// The surface point of `hit` on `element` (point or piece) of a shape
-    /// of `spheres` (xyz centre, w radius) and `pieces` (each piece's first
+    /// of spheres (`sphere(i)`: xyz centre, w radius, at the hit's time) and `pieces` (each piece's first
     /// vertex; empty for points), placed by the inverse of `shape_from_world`; `ids` = (instance,
     /// prototype part id, object index: the scene's meshes, then its
     /// points, then its curves).
     pub(super) fn surface_point(
         &self,
-        (spheres, pieces): (&[Vec4], &[u32]),
+        (sphere, pieces): (&dyn Fn(u32) -> Vec4, &[u32]),
         shape_from_world: &Affine3A,
         element: u32,
         hit: &RoundHit,
@@ -45,14 +45,14 @@ impl RoundShading {
         let n = hit.normal;
         let (centre, radius, tangent, uv) = match pieces.get(element as usize) {
             None => {
-                let sphere = spheres[element as usize];
+                let sphere = sphere(element);
                 let longitude = n.y.atan2(n.x) / TAU + 0.5;
                 let colatitude = n.z.clamp(-1.0, 1.0).acos() * FRAC_1_PI;
                 let tangent = Vec3A::new(-n.y, n.x, 0.0);
                 (sphere, sphere.w, tangent, Vec2::new(longitude, colatitude))
             }
             Some(&v) => {
-                let (a, b) = (spheres[v as usize], spheres[v as usize + 1]);
+                let (a, b) = (sphere(v), sphere(v + 1));
                 let centre = a.lerp(b, hit.s);
                 let tangent = Vec3A::from((b - a).truncate());
                 let curve = self.curve_starts.partition_point(|&start| start <= v) - 1;

@@ -320,6 +320,24 @@ pub struct Points {
     /// `width` 1 to 4, one element per point.
     #[serde(default)]
     pub primvars: BTreeMap<String, Array<f32>>,
+    /// The centres (and widths) at key times over the shutter, when the
+    /// points move (time-sampled `points`, `velocities`); absent otherwise.
+    #[serde(default)]
+    pub motion: Option<PointsMotion>,
+}
+
+/// Moving points' spheres at key times (docs/rendering.md, "Motion blur"):
+/// each centre (and diameter) moves linearly between neighbouring keys, the
+/// end keys held outside them.
+#[derive(Clone, Debug, Deserialize)]
+pub struct PointsMotion {
+    /// Key times, frames relative to `source.time_code`, strictly increasing.
+    pub times: Vec<f32>,
+    /// Every centre at every key, key-major (`k * points.count + i`).
+    pub points: Array<[f32; 3]>,
+    /// Diameters laid out like `points` when `widths` are time-sampled;
+    /// absent: the [`Points`]' widths at every key.
+    pub widths: Option<Array<f32>>,
 }
 
 /// A `UsdGeomBasisCurves` prim as linear round tubes (docs/conventions.md,

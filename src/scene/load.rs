@@ -503,11 +503,7 @@ impl Checker<'_> {
         normals: bool,
     ) -> Result<(), SceneError> {
         let f = |name: &str| format!("{field}.{name}");
-        self.key_times(&f("times"), &motion.times)?;
-        let want = points * motion.times.len();
-        let keyed = self.array(&f("points"), &motion.points)?;
-        self.count(&f("points"), keyed.len(), want, "point and key time")?;
-        self.finite(&f("points"), bytemuck::cast_slice(keyed))?;
+        let want = self.keyed_points(field, &motion.times, &motion.points, points)?;
         match (&motion.normals, normals) {
             (Some(keyed), true) => {
                 let keyed = self.array(&f("normals"), keyed)?;
@@ -523,6 +519,25 @@ impl Checker<'_> {
                 ),
             )),
         }
+    }
+
+    /// Keyed points (`field` is a record's `motion`): key times, and a finite
+    /// point for each of `points` at every key; the element count wanted
+    /// of arrays laid out like them.
+    fn keyed_points(
+        &self,
+        field: &str,
+        times: &[f32],
+        keyed: &Array<[f32; 3]>,
+        points: usize,
+    ) -> Result<usize, SceneError> {
+        let f = |name: &str| format!("{field}.{name}");
+        self.key_times(&f("times"), times)?;
+        let want = points * times.len();
+        let keyed = self.array(&f("points"), keyed)?;
+        self.count(&f("points"), keyed.len(), want, "point and key time")?;
+        self.finite(&f("points"), bytemuck::cast_slice(keyed))?;
+        Ok(want)
     }
 
     /// A subdivision record: every index below what it indexes, counts

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use super::{Checker, SceneError};
-use crate::scene::format::{Array, Curves, Points, NO_MATERIAL};
+use crate::scene::format::{Array, Curves, Points, PointsMotion, NO_MATERIAL};
 
 impl Checker<'_> {
     /// Every points and curves record, and every prototype's parts placing them.
@@ -36,7 +36,28 @@ impl Checker<'_> {
         }
         self.widths(&field("widths"), widths)?;
         self.shape_material(&field("material"), points.material)?;
+        if let Some(motion) = &points.motion {
+            self.points_motion(&field("motion"), motion, centres.len())?;
+        }
         self.shape_primvars(&field("primvars"), &points.primvars, centres.len(), "point")
+    }
+
+    /// Moving points' keys (`field` is `points[i].motion`): key times, a
+    /// finite centre (and width, when keyed) for every point at every key.
+    fn points_motion(
+        &self,
+        field: &str,
+        motion: &PointsMotion,
+        points: usize,
+    ) -> Result<(), SceneError> {
+        let want = self.keyed_points(field, &motion.times, &motion.points, points)?;
+        if let Some(widths) = &motion.widths {
+            let field = format!("{field}.widths");
+            let widths = self.array(&field, widths)?;
+            self.count(&field, widths.len(), want, "point and key time")?;
+            self.widths(&field, widths)?;
+        }
+        Ok(())
     }
 
     /// Finite vertices, one width per vertex, curves of 2 or more vertices
