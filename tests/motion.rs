@@ -373,6 +373,37 @@ fn a_point_cloud_changing_its_count_is_warned_about_and_left_still() {
     );
 }
 
+/// Spheres that only grow or shrink (time-sampled `widths`, still points)
+/// are keyed too: motion_points_sampled.usda with its points held at frame
+/// 0 exports widths keys with the shutter open, nothing with it closed.
+#[test]
+fn points_whose_widths_alone_change_are_keyed() {
+    let dir = common::scratch("motion_points_widths");
+    let text = std::fs::read_to_string(stage("motion_points_sampled")).unwrap();
+    let sampled = "        point3f[] points.timeSamples = {\n            0: [(-3, -1, 0), (-3, 0, 0), (-3, 1, 0), (-2, -0.5, 0), (-2, 0.5, 0)],\n            1: [(-1, -1, 0), (1, 0, 0), (-1, 1, 0), (2, -0.5, 0), (0, 0.5, 0)],\n        }\n";
+    assert!(text.contains(sampled), "the test stage changed");
+    let still = "        point3f[] points = [(-3, -1, 0), (-3, 0, 0), (-3, 1, 0), (-2, -0.5, 0), (-2, 0.5, 0)]\n";
+    let usda = dir.join("widths.usda");
+    std::fs::write(&usda, text.replace(sampled, still)).unwrap();
+    let motion = |shutter: &str| {
+        let out = dir.join(shutter.replace(',', "_"));
+        let args = [
+            "export",
+            usda.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        cirrus_ok(&[&args[..], &["--shutter", shutter]].concat());
+        let text = std::fs::read_to_string(out.join("scene.json")).unwrap();
+        let manifest: serde_json::Value = serde_json::from_str(&text).unwrap();
+        manifest["points"][0]["motion"].clone()
+    };
+    let open = motion("0,1");
+    assert_eq!(open["times"], serde_json::json!([0.0, 0.5, 1.0]), "{open}");
+    assert!(open["widths"].is_object(), "{open}");
+    assert!(motion("0,0").is_null());
+}
+
 /// Exports `scenes/tests/NAME.usda` with a point `(0, 0, 0)` added to the
 /// points sample `last` (its text before and after the place to add it):
 /// the log says `warning` and the manifest holds no motion.

@@ -132,6 +132,9 @@ class _Context:
         elif points_attr.GetNumTimeSamples() >= 2:
             times = self._sampled(points_attr)
             at = lambda t: np.array(points_attr.Get(Usd.TimeCode(t)) or [], np.float64)  # noqa: E731
+        elif widths_attr.GetNumTimeSamples() >= 2:  # still centres, growing or shrinking spheres
+            times = self._sampled(widths_attr)
+            at = lambda t: np.array(points_attr.Get(frame) or [], np.float64)  # noqa: E731
         else:
             return None
         keyed_widths = widths_attr.GetNumTimeSamples() >= 2
@@ -154,7 +157,12 @@ class _Context:
                                  f"not finite; rendered as it is at the frame")
                 return None
             widths = np.stack([np.broadcast_to(w, len(keep))[keep] for w in read]).astype(np.float32)
-        if widths is None and (centres == still.astype(np.float32)[None]).all():
+        still_widths = widths is None
+        if widths is not None:
+            now = np.asarray(widths_attr.Get(frame) or [], np.float64)
+            still_widths = len(now) in (1, len(keep)) and \
+                bool((widths == np.broadcast_to(now, len(keep))[keep].astype(np.float32)[None]).all())
+        if still_widths and (centres == still.astype(np.float32)[None]).all():
             return None
         return times, centres.reshape(-1, 3), None if widths is None else widths.reshape(-1)
 
