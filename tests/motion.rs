@@ -126,20 +126,9 @@ fn blurred_equals_average_of_stills(name: &str) {
         common::column_bands(&stills, (WIDTH, HEIGHT), BAND),
         common::column_bands(std::slice::from_ref(&frame_0), (WIDTH, HEIGHT), BAND),
     );
-    let mut widest = 0.0f64;
-    for (band, ((b, vb), (s, vs))) in blurred.iter().zip(&stills).enumerate() {
-        let sigma = (vb + vs).sqrt().max(1e-5 * s);
-        let what = format!("{name} band {band}");
-        eprintln!("{what}: blurred {b:.5}, stills {s:.5}, sigma {sigma:.1e}");
-        assert!(
-            (b - s).abs() <= 4.0 * sigma,
-            "{what}: {b} vs {s} (sigma {sigma})"
-        );
-        let (f, vf) = frame_0[band];
-        widest = widest.max((b - f).abs() / (vb + vf).sqrt().max(1e-9));
-    }
+    common::assert_bands_agree(&format!("{name}: blurred vs stills"), &blurred, &stills);
     assert!(
-        widest > 20.0,
+        common::widest_gap(&blurred, &frame_0) > 20.0,
         "{name}: the blurred render looks like frame 0"
     );
 }
@@ -205,11 +194,7 @@ fn point_velocities_blur_as_their_time_sampled_equivalent() {
         &flags,
     );
     let closed = common::column_bands(std::slice::from_ref(&closed), (WIDTH, HEIGHT), BAND);
-    let widest = driven
-        .iter()
-        .zip(&closed)
-        .map(|((a, va), (b, vb))| (a - b).abs() / (va + vb).sqrt().max(1e-9));
-    let widest = widest.fold(0.0f64, f64::max);
+    let widest = common::widest_gap(&driven, &closed);
     assert!(
         widest > 20.0,
         "the moving cloud renders as the closed shutter does ({widest:.1} sigma)"
@@ -229,13 +214,7 @@ fn velocities_blur_as_their_time_sampled_equivalent(
     let driven = render(&exported(driven), &dir.join("driven.exr"), &flags("12"));
     let [sampled, driven] = [sampled, driven]
         .map(|image| common::column_bands(std::slice::from_ref(&image), (WIDTH, HEIGHT), BAND));
-    for (band, ((a, va), (b, vb))) in sampled.iter().zip(&driven).enumerate() {
-        let sigma = (va + vb).sqrt().max(1e-5 * a);
-        assert!(
-            (a - b).abs() <= 4.0 * sigma,
-            "band {band}: time-sampled {a} vs velocities {b} (sigma {sigma})"
-        );
-    }
+    common::assert_bands_agree("time-sampled vs velocities", &sampled, &driven);
     driven
 }
 

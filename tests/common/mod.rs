@@ -294,3 +294,28 @@ pub fn column_bands(
         })
         .collect()
 }
+
+/// Asserts every band of `a` (mean, variance of the mean) lies within 4
+/// sigma of the same band of `b` (sigma from both variances, at least 1e-5
+/// of the mean so noise-free bands are not asked for more digits than f32
+/// has), printing each; `what` names the pair in messages.
+pub fn assert_bands_agree(what: &str, a: &[(f64, f64)], b: &[(f64, f64)]) {
+    assert_eq!(a.len(), b.len(), "{what}: band counts differ");
+    for (band, ((x, vx), (y, vy))) in a.iter().zip(b).enumerate() {
+        let sigma = (vx + vy).sqrt().max(1e-5 * x.abs());
+        eprintln!("{what} band {band}: {x:.5} vs {y:.5}, sigma {sigma:.1e}");
+        assert!(
+            (x - y).abs() <= 4.0 * sigma,
+            "{what} band {band}: {x} vs {y} (sigma {sigma})"
+        );
+    }
+}
+
+/// The widest gap between the same bands of `a` and `b`, in sigmas of
+/// their difference: how clearly two renders differ somewhere.
+pub fn widest_gap(a: &[(f64, f64)], b: &[(f64, f64)]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|((x, vx), (y, vy))| (x - y).abs() / (vx + vy).sqrt().max(1e-9))
+        .fold(0.0, f64::max)
+}
