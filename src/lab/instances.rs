@@ -223,10 +223,20 @@ pub(super) fn run_venv_script(script: &str, stage: &Path, args: &[String]) -> Re
 /// returns its three numbers. A fresh process per stage keeps memory freed by
 /// an earlier stage, and kept by the allocator, out of the next one's count.
 pub(super) fn memory_in_child(scene_dir: &Path) -> Result<[f64; 3]> {
+    numbers_in_child(&["bench", "instances-memory"], scene_dir)
+}
+
+/// Runs `cirrus ARGS SCENE_DIR` in a fresh process and returns the `N`
+/// numbers it prints; an error with its output when it fails or prints
+/// another count.
+pub(super) fn numbers_in_child<const N: usize>(
+    args: &[&str],
+    scene_dir: &Path,
+) -> Result<[f64; N]> {
     let exe = std::env::current_exe()
         .map_err(|e| LabError::system("finding the cirrus executable", e))?;
     let out = Command::new(&exe)
-        .args(["bench", "instances-memory"])
+        .args(args)
         .arg(scene_dir)
         .output()
         .map_err(|e| LabError::system(format!("running {}", exe.display()), e))?;
@@ -235,10 +245,11 @@ pub(super) fn memory_in_child(scene_dir: &Path) -> Result<[f64; 3]> {
         .split_whitespace()
         .filter_map(|w| w.parse().ok())
         .collect();
-    match (out.status.success(), numbers.as_slice()) {
-        (true, &[a, b, c]) => Ok([a, b, c]),
+    match (out.status.success(), <[f64; N]>::try_from(numbers)) {
+        (true, Ok(numbers)) => Ok(numbers),
         _ => Err(LabError::Failed(format!(
-            "cirrus bench instances-memory {}: {}{}",
+            "cirrus {} {}: {}{}",
+            args.join(" "),
             scene_dir.display(),
             stdout.trim(),
             String::from_utf8_lossy(&out.stderr).trim()

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use glam::UVec2;
 
 use super::aovs::settings;
-use super::instances::{memory, timed};
+use super::instances::{memory, numbers_in_child, timed};
 use super::machine::{machine_line, with_threads};
 use super::scenes::scene_name;
 use super::stats::median;
@@ -133,25 +133,8 @@ fn samples_per_second(path: &Path, bench: &LooksBench) -> Result<f64> {
 /// Runs [`print_memory`] on `scene_dir` in a fresh `cirrus` process: its
 /// resident bytes after the render-state build and at their peak.
 fn memory_in_child(scene_dir: &Path, threads: usize) -> Result<[f64; 2]> {
-    let exe = std::env::current_exe()
-        .map_err(|e| LabError::system("finding the cirrus executable", e))?;
-    let out = std::process::Command::new(&exe)
-        .args(["bench", "looks-memory", "--threads", &threads.to_string()])
-        .arg(scene_dir)
-        .output()
-        .map_err(|e| LabError::system(format!("running {}", exe.display()), e))?;
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let numbers: Vec<f64> = stdout
-        .split_whitespace()
-        .filter_map(|w| w.parse().ok())
-        .collect();
-    match (out.status.success(), numbers.as_slice()) {
-        (true, &[a, b]) => Ok([a, b]),
-        _ => Err(LabError::Failed(format!(
-            "cirrus bench looks-memory failed: {stdout}{}",
-            String::from_utf8_lossy(&out.stderr)
-        ))),
-    }
+    let threads = threads.to_string();
+    numbers_in_child(&["bench", "looks-memory", "--threads", &threads], scene_dir)
 }
 
 /// Internal to `bench looks`: loads `scene_dir` and builds its render state
