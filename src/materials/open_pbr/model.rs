@@ -238,12 +238,17 @@ impl OpenPbr {
         );
         let specular_below = Substrate::dielectric(specular_eta.min(1e4));
         let metal_below = Substrate::metal(metal_f0, unit_color(i.specular_color));
-        // The film's directional albedo, approximated as the filmless one
-        // scaled by the ratio of the Fresnel factors at wo.
-        let bare_f = Interface::Dielectric.fresnel(mu_o, specular_eta);
-        let film_ratio =
-            with_film(film.as_ref(), Vec3::splat(bare_f), mu_o, &specular_below) / bare_f.max(1e-6);
-        let e_specular = (specular_albedo(mu_o) * film_ratio).min(Vec3::ONE);
+        // With a film, its directional albedo, approximated as the filmless
+        // one scaled by the ratio of the Fresnel factors at wo.
+        let e_specular = match &film {
+            None => Vec3::splat(specular_albedo(mu_o)),
+            Some(f) => {
+                let bare = Interface::Dielectric.fresnel(mu_o, specular_eta);
+                let ratio =
+                    with_film(Some(f), Vec3::splat(bare), mu_o, &specular_below) / bare.max(1e-6);
+                (specular_albedo(mu_o) * ratio).min(Vec3::ONE)
+            }
+        };
 
         // Diffuse: EON, its colour blended with the subsurface fallback.
         let subsurface = unit(i.subsurface_weight);
