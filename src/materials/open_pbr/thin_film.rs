@@ -149,6 +149,32 @@ pub(super) fn with_film(film: Option<&ThinFilm>, bare: Vec3, cos: f32, below: &S
     }
 }
 
+impl ThinFilm {
+    /// The film on the outer face of a thick dielectric (relative index
+    /// `eta` of the far side over `wo`'s: > 1 from outside, < 1 from
+    /// inside) at microfacet cosine `cos` on `wo`'s side, blended with the
+    /// filmless reflectance `bare` there by the weight. The film is lossless
+    /// and a lossless stack transmits alike both ways (Stokes relations), so
+    /// it reflects the same from inside as from outside at the angle Snell's
+    /// law pairs with it: from inside the film's reflectance is read at that
+    /// outside angle, and is 1 under total internal reflection. The light
+    /// transmitted is 1 minus this, per channel.
+    pub(super) fn lossless_reflectance(&self, cos: f32, eta: f32, bare: f32) -> Vec3 {
+        let (cos_out, eta_out) = if eta >= 1.0 {
+            (cos, eta)
+        } else {
+            let eta_out = 1.0 / eta;
+            let cos2 = 1.0 - (1.0 - cos * cos) * eta_out * eta_out;
+            if cos2 <= 0.0 {
+                return Vec3::ONE;
+            }
+            (cos2.sqrt(), eta_out)
+        };
+        let below = Substrate::dielectric(eta_out);
+        with_film(Some(self), Vec3::splat(bare), cos_out, &below)
+    }
+}
+
 /// The two linear polarisations of the Fresnel amplitudes.
 #[derive(Clone, Copy)]
 enum Polarisation {
