@@ -235,7 +235,8 @@ fn a_thin_film_colours_without_creating_energy() {
 /// is 1 within 1% and 4 sigma, from outside and from inside (where cos 0.5
 /// and 0.15 are totally reflected), at cos 1, 0.85, 0.5, 0.15. The reflection is the
 /// film's over the same glass as on an opaque specular layer (the existing
-/// film model) within 4 sigma, at normal incidence and at cos 0.5.
+/// film model) within 4 sigma, at normal incidence and at cos 0.5. A thin
+/// wall with the film reflects and passes E = 1 within 1% and 4 sigma.
 #[test]
 fn a_thin_film_on_glass_conserves_energy() {
     let mut rng = Pcg32::new(26, 0);
@@ -270,15 +271,9 @@ fn a_thin_film_on_glass_conserves_energy() {
                     total.push(r + t);
                 }
                 let mut it = total.into_iter();
-                let (mean, sigma) = estimate(n, || it.next().unwrap());
-                eprintln!(
-                    "film {thickness} um ior {ior} on glass, front {front}, cos {:.2}: R + eta^2 T = {mean} +- {sigma}",
-                    wo.z
-                );
-                let bound = (4.0 * sigma + Vec3::splat(2e-3)).min(Vec3::splat(0.01));
-                assert!(
-                    (mean - Vec3::ONE).abs().cmple(bound).all(),
-                    "{mean} +- {sigma}"
+                assert_unit_energy(
+                    &format!("film {thickness} um ior {ior} on glass, front {front}, cos {:.2}: R + eta^2 T", wo.z),
+                    estimate(n, || it.next().unwrap()),
                 );
                 if !front || wo.z < 0.5 {
                     continue;
@@ -294,7 +289,31 @@ fn a_thin_film_on_glass_conserves_energy() {
                 assert!((r - e).abs().cmple(bound).all(), "{r} vs {e}");
             }
         }
+        // A thin wall with the film on the face towards wo: what it does not
+        // reflect passes straight through (no eta^2 to undo).
+        let mut wall = glass;
+        wall.geometry_thin_walled = true;
+        for wo in directions(&[1.0, 0.5, 0.15]) {
+            let bsdf = Bsdf::from_open_pbr(&wall, &frames(0.0, true), wo);
+            let [sampled, _] = albedos(&bsdf, wo, n, &mut rng);
+            let what = format!(
+                "film {thickness} um ior {ior} on a thin wall, cos {:.2}",
+                wo.z
+            );
+            assert_unit_energy(&what, sampled);
+        }
     }
+}
+
+/// Every channel of the estimate `(mean, sigma)` is 1 within 1% and 4
+/// sigma (printed with `what`).
+fn assert_unit_energy(what: &str, (mean, sigma): (Vec3, Vec3)) {
+    eprintln!("{what}: {mean} +- {sigma}");
+    let bound = (4.0 * sigma + Vec3::splat(2e-3)).min(Vec3::splat(0.01));
+    assert!(
+        (mean - Vec3::ONE).abs().cmple(bound).all(),
+        "{what}: {mean} +- {sigma}"
+    );
 }
 
 /// Where energy is lost on purpose, E stays below 1 (4 sigma) and above a
@@ -443,6 +462,16 @@ fn configurations() -> Vec<(&'static str, OpenPbrInputs, ShadingFrames)> {
                 i.thin_film_thickness = 0.3;
             }),
             frames(0.0, false),
+        ),
+        (
+            "thin wall with a film",
+            inputs(|i| {
+                i.transmission_weight = 0.7;
+                i.specular_roughness = 0.4;
+                i.geometry_thin_walled = true;
+                i.thin_film_weight = 1.0;
+            }),
+            frames(0.0, true),
         ),
         (
             "thin wall, half present",

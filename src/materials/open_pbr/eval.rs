@@ -7,7 +7,6 @@
 
 use glam::{Vec2, Vec3};
 
-use super::albedo::Interface;
 use super::model::{mean, OpenPbr, OpenPbrLobe, OPEN_PBR_LOBES};
 use crate::geometry::Frame;
 use crate::materials::fresnel;
@@ -83,8 +82,7 @@ impl OpenPbr {
             let f = if !self.thin {
                 self.transmission_fresnel(cos_h)
             } else {
-                let f = Interface::ThinSheet.fresnel(cos_h, self.transmission_eta);
-                Vec3::splat(self.thin_compensation * f)
+                self.thin_fresnel(cos_h)
             };
             fresnel += self.specular_tint * self.translucent * f;
         }

@@ -14,6 +14,8 @@
 //!   specular_weight ior modulation, coat darkening and roughening;
 //! - thick transmission: the rough dielectric of Walter et al. 2007, its
 //!   interior's absorption from transmission_depth (medium.rs);
+//! - thin film: Belcour and Barla 2017's Airy reflectance on the metal,
+//!   specular and transmission Fresnel (1 - R transmitted), thin_film.rs;
 //! - fuzz: Zeltner et al. 2022's LTC sheen, fuzz.rs;
 //! - energy compensation of the GGX lobes (Turquin 2019) and albedo-scaling
 //!   layering from tabulated directional albedos, albedo.rs.

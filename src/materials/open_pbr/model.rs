@@ -119,8 +119,9 @@ pub(crate) struct OpenPbr {
     /// thick ones of transmission_depth 0); white where the interior
     /// absorbs instead (medium.rs).
     pub(super) transmission_tint: Vec3,
-    /// The thin film on the thick dielectric's outer face, under the
-    /// ambient medium (the transmission interface is uncoated), if any.
+    /// The thin film on the dielectric's outer face (each face of a thin
+    /// wall), under the ambient medium (the transmission interface is
+    /// uncoated), if any.
     pub(super) transmission_film: Option<ThinFilm>,
     /// Turquin compensation of the thin wall's reflection at `wo`.
     pub(super) thin_compensation: f32,
@@ -285,7 +286,7 @@ impl OpenPbr {
         } else {
             Vec3::ONE
         };
-        let transmission_film = if thin || index_matched {
+        let transmission_film = if index_matched {
             None
         } else {
             ThinFilm::new(
@@ -297,10 +298,17 @@ impl OpenPbr {
         };
         let thin_f0 = fresnel::thin_dielectric(1.0, eta_t);
         let thin_compensation = albedo::compensation(mu_o, &ggx, Vec3::splat(thin_f0)).x;
+        // With a film, the sheet's albedo scaled by the ratio of its
+        // reflectances with and without the film at wo (as e_specular).
         let thin_albedo = if thin && !index_matched {
-            (thin_compensation * Interface::ThinSheet.albedo(mu_o, &ggx, transmission_f0)).min(1.0)
+            let e = thin_compensation * Interface::ThinSheet.albedo(mu_o, &ggx, transmission_f0);
+            let ratio = transmission_film.as_ref().map_or(Vec3::ONE, |f| {
+                let bare = Interface::ThinSheet.fresnel(mu_o, eta_t);
+                f.sheet_reflectance(mu_o, eta_t) / bare.max(1e-6)
+            });
+            (e * ratio).min(Vec3::ONE)
         } else {
-            0.0
+            Vec3::ZERO
         };
 
         // Coat darkening (spec "Darkening"): Delta = (1 - K) / (1 - E_b K).
@@ -356,7 +364,7 @@ impl OpenPbr {
         let w_o = below_fuzz * model.base_weight(mu_c);
         model.pass = Vec3::splat(1.0 - presence)
             + w_o
-                * (translucent * (1.0 - thin_albedo))
+                * (translucent * (Vec3::ONE - thin_albedo))
                 * transmission_tint
                 * f32::from(thin || index_matched);
         let metal_albedo = model.metal_scale * model.metal_fresnel(mu_o);
@@ -367,7 +375,7 @@ impl OpenPbr {
             mean(w_o)
                 * (metal * mean(metal_albedo)
                     + gloss * mean(e_specular * model.specular_tint)
-                    + translucent * thin_albedo),
+                    + translucent * mean(thin_albedo)),
             mean(w_o) * thick * (f_t + (1.0 - f_t) * mean(transmission_tint)),
             below_fuzz * coat * coat_albedo,
             mean(fuzz_tint) * fuzz.albedo(),
@@ -417,6 +425,17 @@ impl OpenPbr {
             None => Vec3::splat(bare),
             Some(film) => film.lossless_reflectance(cos, self.transmission_eta, bare),
         }
+    }
+
+    /// The thin wall's reflectance at microfacet cosine `cos`, compensated:
+    /// the thin sheet's, or with the film on its faces where present.
+    pub(super) fn thin_fresnel(&self, cos: f32) -> Vec3 {
+        let eta = self.transmission_eta;
+        self.thin_compensation
+            * match &self.transmission_film {
+                None => Vec3::splat(Interface::ThinSheet.fresnel(cos, eta)),
+                Some(film) => film.sheet_reflectance(cos, eta),
+            }
     }
 
     /// The probability that sampling the thick dielectric reflects at
