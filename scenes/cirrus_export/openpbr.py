@@ -80,9 +80,6 @@ def open_pbr_record(surface: Node, resolver: GraphResolver, warn, material: str)
     if inputs["subsurface_weight"] != 0.0:
         warn(f"material {material}: subsurface is rendered as OpenPBR's diffuse fallback tinted by "
              f"subsurface_color (no subsurface scattering; radius and scale are not used)")
-    if inputs["thin_film_weight"] != 0.0 and inputs["transmission_weight"] != 0.0:
-        warn(f"material {material}: the thin film colours reflection only; its fringes in "
-             f"transmission are not rendered (transmission_weight is not 0)")
     dropped = [name for name in NOT_MODELLED[surface.category] if _has_effect(surface, name)]
     if dropped:
         warn(f"material {material}: {surface.category} inputs {', '.join(dropped)} are not modelled; ignored")

@@ -316,6 +316,15 @@ impl Path<'_, '_> {
             return None;
         };
         let sp = end.surface.unwrap_or_else(|| geometry.surface_point(&hit));
+        // Leaving a thick dielectric through its back face: Beer-Lambert
+        // over the segment just travelled inside it (docs/materials.md,
+        // "Interior absorption").
+        if direction.dot(sp.ng) > 0.0 {
+            let materials = &self.state.materials;
+            if let Some(sigma_a) = materials.interior_absorption(sp.material, &sp.site()) {
+                self.throughput *= (-sigma_a * sp.p.distance(origin)).exp();
+            }
+        }
         self.at_surface(&sp, origin, -direction, null_ratio, depth)
     }
 

@@ -233,7 +233,7 @@ pub(super) fn reflection_pdf(ggx: Ggx, wo: Vec3, wi: Vec3) -> f32 {
 /// index `eta`), oriented up, and the Jacobian dh/dwi = eta^2 |wi.h| /
 /// (wo.h + eta wi.h)^2 (Walter et al. 2007, eq. 17). `None` when no
 /// microfacet facing `wo` refracts it into `wi`.
-fn refraction_half_vector(wo: Vec3, wi: Vec3, eta: f32) -> Option<(Vec3, f32)> {
+pub(super) fn refraction_half_vector(wo: Vec3, wi: Vec3, eta: f32) -> Option<(Vec3, f32)> {
     let mut h = (wo + eta * wi).try_normalize()?;
     if h.z < 0.0 {
         h = -h;

@@ -159,6 +159,17 @@ impl Materials {
         }
     }
 
+    /// The absorption coefficient (per scene unit, RGB) of the interior
+    /// behind `material`'s surface at `site`: an OpenPBR thick dielectric
+    /// with `transmission_depth` > 0 (`open_pbr/medium.rs`); `None` for a
+    /// clear interior.
+    pub fn interior_absorption(&self, material: u32, site: &MeshSite) -> Option<Vec3> {
+        match self.surface(material) {
+            Surface::Preview(_) => None,
+            Surface::OpenPbr(s) => s.interior_absorption(&self.lookups(), site),
+        }
+    }
+
     /// Whether `material` can emit: its emission varies (texture, primvar,
     /// maths) or is a non-black constant.
     pub fn is_emissive(&self, material: u32) -> bool {

@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 
-use super::open_pbr::{OpenPbrInputs, ShadingFrames};
+use super::open_pbr::{interior_absorption, OpenPbrInputs, ShadingFrames};
 use super::param::{Lookups, Param, Value};
 use super::preview_surface::{side, tangent_space_normal, wo_frame};
 use super::primvars::PrimvarNames;
@@ -134,6 +134,18 @@ impl OpenPbrSurface {
         let p = &self.params;
         (p.emission_luminance.eval(lookups, site) * p.emission_color.eval(lookups, site))
             .max(Vec3::ZERO)
+    }
+
+    /// The interior's absorption coefficient at `site` (per scene unit;
+    /// `None` where it is clear or the wall thin), from `transmission_color`
+    /// and `transmission_depth` there.
+    pub(crate) fn interior_absorption(&self, lookups: &Lookups, site: &MeshSite) -> Option<Vec3> {
+        if self.thin_walled {
+            return None;
+        }
+        let p = &self.params;
+        let depth = p.transmission_depth.eval(lookups, site);
+        interior_absorption(p.transmission_color.eval(lookups, site), depth)
     }
 
     /// Whether it can emit: neither `emission_luminance` nor

@@ -229,6 +229,93 @@ fn a_thin_film_colours_without_creating_energy() {
     }
 }
 
+/// A lossless film over thick smooth glass only moves light between
+/// reflection and transmission: per channel, the reflected E_R plus the
+/// transmitted E_T times eta^2 (undoing the radiance scaling of refraction)
+/// is 1 within 1% and 4 sigma, from outside and from inside (where cos 0.5
+/// and 0.15 are totally reflected), at cos 1, 0.85, 0.5, 0.15. The reflection is the
+/// film's over the same glass as on an opaque specular layer (the existing
+/// film model) within 4 sigma, at normal incidence and at cos 0.5. A thin
+/// wall with the film reflects and passes E = 1 within 1% and 4 sigma.
+#[test]
+fn a_thin_film_on_glass_conserves_energy() {
+    let mut rng = Pcg32::new(26, 0);
+    let film = |thickness: f32, ior: f32, transmission: f32| {
+        inputs(|i| {
+            i.base_color = Vec3::ZERO;
+            i.specular_roughness = 0.0;
+            i.transmission_weight = transmission;
+            i.thin_film_weight = 1.0;
+            i.thin_film_thickness = thickness;
+            i.thin_film_ior = ior;
+        })
+    };
+    let n = 20_000;
+    for (thickness, ior) in [(0.3, 1.4), (0.5, 2.0)] {
+        let glass = film(thickness, ior, 1.0);
+        for (front, eta) in [(true, 1.5f32), (false, 1.0 / 1.5)] {
+            for wo in directions(&[1.0, 0.85, 0.5, 0.15]) {
+                let bsdf = Bsdf::from_open_pbr(&glass, &frames(0.0, front), wo);
+                let (mut reflected, mut total) = (Vec::new(), Vec::new());
+                for _ in 0..n {
+                    let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                    let s = bsdf.sample(wo, rng.next_f32(), u);
+                    let (r, t) = s.map_or((Vec3::ZERO, Vec3::ZERO), |s| {
+                        if s.wi.z > 0.0 {
+                            (s.weight, Vec3::ZERO)
+                        } else {
+                            (Vec3::ZERO, s.weight * eta * eta)
+                        }
+                    });
+                    reflected.push(r);
+                    total.push(r + t);
+                }
+                let mut it = total.into_iter();
+                assert_unit_energy(
+                    &format!("film {thickness} um ior {ior} on glass, front {front}, cos {:.2}: R + eta^2 T", wo.z),
+                    estimate(n, || it.next().unwrap()),
+                );
+                if !front || wo.z < 0.5 {
+                    continue;
+                }
+                let mut it = reflected.into_iter();
+                let (r, r_sigma) = estimate(n, || it.next().unwrap());
+                let opaque =
+                    Bsdf::from_open_pbr(&film(thickness, ior, 0.0), &frames(0.0, true), wo);
+                let [(e, e_sigma), _] = albedos(&opaque, wo, n, &mut rng);
+                eprintln!("  reflected {r} +- {r_sigma}, on an opaque layer {e} +- {e_sigma}");
+                let bound =
+                    4.0 * (r_sigma * r_sigma + e_sigma * e_sigma).sqrt() + Vec3::splat(2e-3);
+                assert!((r - e).abs().cmple(bound).all(), "{r} vs {e}");
+            }
+        }
+        // A thin wall with the film on the face towards wo: what it does not
+        // reflect passes straight through (no eta^2 to undo).
+        let mut wall = glass;
+        wall.geometry_thin_walled = true;
+        for wo in directions(&[1.0, 0.5, 0.15]) {
+            let bsdf = Bsdf::from_open_pbr(&wall, &frames(0.0, true), wo);
+            let [sampled, _] = albedos(&bsdf, wo, n, &mut rng);
+            let what = format!(
+                "film {thickness} um ior {ior} on a thin wall, cos {:.2}",
+                wo.z
+            );
+            assert_unit_energy(&what, sampled);
+        }
+    }
+}
+
+/// Every channel of the estimate `(mean, sigma)` is 1 within 1% and 4
+/// sigma (printed with `what`).
+fn assert_unit_energy(what: &str, (mean, sigma): (Vec3, Vec3)) {
+    eprintln!("{what}: {mean} +- {sigma}");
+    let bound = (4.0 * sigma + Vec3::splat(2e-3)).min(Vec3::splat(0.01));
+    assert!(
+        (mean - Vec3::ONE).abs().cmple(bound).all(),
+        "{what}: {mean} +- {sigma}"
+    );
+}
+
 /// Where energy is lost on purpose, E stays below 1 (4 sigma) and above a
 /// floor: coat absorption (coat_color 0.5), coat darkening over a grey
 /// base, a tinted specular (specular_color 0.2: the spec tints reflection
@@ -357,6 +444,36 @@ fn configurations() -> Vec<(&'static str, OpenPbrInputs, ShadingFrames)> {
             frames(0.0, false),
         ),
         (
+            "thick glass with a film",
+            inputs(|i| {
+                i.transmission_weight = 1.0;
+                i.specular_roughness = 0.3;
+                i.thin_film_weight = 0.8;
+                i.thin_film_ior = 2.0;
+            }),
+            frames(0.0, true),
+        ),
+        (
+            "thick glass with a film, from inside",
+            inputs(|i| {
+                i.transmission_weight = 1.0;
+                i.specular_roughness = 0.3;
+                i.thin_film_weight = 1.0;
+                i.thin_film_thickness = 0.3;
+            }),
+            frames(0.0, false),
+        ),
+        (
+            "thin wall with a film",
+            inputs(|i| {
+                i.transmission_weight = 0.7;
+                i.specular_roughness = 0.4;
+                i.geometry_thin_walled = true;
+                i.thin_film_weight = 1.0;
+            }),
+            frames(0.0, true),
+        ),
+        (
             "thin wall, half present",
             inputs(|i| {
                 i.transmission_weight = 0.6;
@@ -465,6 +582,15 @@ fn each_lobe_samples_its_density() {
             inputs(|i| {
                 i.transmission_weight = 1.0;
                 i.specular_roughness = 0.6;
+            }),
+        ),
+        (
+            "walter under a film",
+            inputs(|i| {
+                i.transmission_weight = 1.0;
+                i.specular_roughness = 0.6;
+                i.thin_film_weight = 1.0;
+                i.thin_film_ior = 2.0;
             }),
         ),
         (

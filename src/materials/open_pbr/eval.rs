@@ -7,12 +7,11 @@
 
 use glam::{Vec2, Vec3};
 
-use super::albedo::Interface;
-use super::model::{OpenPbr, OpenPbrLobe, OPEN_PBR_LOBES};
+use super::model::{mean, OpenPbr, OpenPbrLobe, OPEN_PBR_LOBES};
 use crate::geometry::Frame;
 use crate::materials::fresnel;
 use crate::materials::lobes::{
-    dielectric_reflection_pdf, microfacet_reflection, reflection_pdf, refraction, refraction_pdf,
+    microfacet_reflection, reflection_pdf, refraction, refraction_half_vector, refraction_pdf,
     LobeValues,
 };
 use crate::materials::scatter::{pick_lobe, reflect, refract, BsdfSample, Drawn, Side};
@@ -45,9 +44,9 @@ impl OpenPbr {
             if self.thin || self.translucent <= 0.0 {
                 return LobeValues::default();
             }
-            let t = refraction(self.ggx, self.transmission_eta, wo_l, wi_l);
+            let t = self.refraction(wo_l, wi_l);
             return LobeValues {
-                transmission: w * (self.translucent * t) * self.transmission_tint,
+                transmission: w * self.translucent * t * self.transmission_tint,
                 ..LobeValues::default()
             };
         }
@@ -80,17 +79,41 @@ impl OpenPbr {
             fresnel += self.specular_tint * (self.gloss * self.specular_compensation) * f;
         }
         if self.translucent > 0.0 {
-            let f = if self.thin {
-                self.thin_compensation * Interface::ThinSheet.fresnel(cos_h, self.transmission_eta)
+            let f = if !self.thin {
+                self.transmission_fresnel(cos_h)
             } else {
-                fresnel::dielectric(cos_h, self.transmission_eta)
+                self.thin_fresnel(cos_h)
             };
-            fresnel += self.specular_tint * (self.translucent * f);
+            fresnel += self.specular_tint * self.translucent * f;
         }
         if fresnel != Vec3::ZERO {
             values.specular += w * fresnel * microfacet_reflection(self.ggx, wo_l, wi_l, h);
         }
         values
+    }
+
+    /// The thick dielectric's rough refraction |cos_i| f_t (Walter et al.
+    /// 2007, eq. 21, over eta^2), per channel: its transmittance is the
+    /// film's where there is one.
+    fn refraction(&self, wo_l: Vec3, wi_l: Vec3) -> Vec3 {
+        let t = refraction(self.ggx, self.transmission_eta, wo_l, wi_l);
+        self.with_film_transmittance(wo_l, wi_l, t)
+    }
+
+    /// `bare`, a refraction value or density that carries the filmless
+    /// transmittance 1 - F at the microfacet refracting `wo_l` into `wi_l`,
+    /// with the film's 1 - R_film there instead (per channel); `bare`
+    /// itself without a film.
+    fn with_film_transmittance(&self, wo_l: Vec3, wi_l: Vec3, bare: f32) -> Vec3 {
+        if self.transmission_film.is_none() || bare == 0.0 {
+            return Vec3::splat(bare);
+        }
+        let Some((h, _)) = refraction_half_vector(wo_l, wi_l, self.transmission_eta) else {
+            return Vec3::ZERO;
+        };
+        let cos = wo_l.dot(h);
+        let f = fresnel::dielectric(cos, self.transmission_eta);
+        bare / (1.0 - f) * (Vec3::ONE - self.transmission_fresnel(cos))
     }
 
     /// The mixture density of the non-Dirac lobes drawing `wi`.
@@ -116,10 +139,15 @@ impl OpenPbr {
             (OpenPbrLobe::Diffuse, Side::Reflect) => warp::cosine_hemisphere_pdf(wi_l.z),
             (OpenPbrLobe::Specular, Side::Reflect) => reflection_pdf(self.ggx, wo_l, wi_l),
             (OpenPbrLobe::Translucent, Side::Reflect) => {
-                dielectric_reflection_pdf(self.ggx, self.transmission_eta, wo_l, wi_l)
+                let cos_h = wo_l.dot((wo_l + wi_l).normalize());
+                self.reflect_probability(cos_h) * reflection_pdf(self.ggx, wo_l, wi_l)
             }
             (OpenPbrLobe::Translucent, Side::Transmit) => {
-                refraction_pdf(self.ggx, self.transmission_eta, wo_l, wi_l)
+                let pdf = refraction_pdf(self.ggx, self.transmission_eta, wo_l, wi_l);
+                match self.transmission_film {
+                    None => pdf,
+                    Some(_) => mean(self.with_film_transmittance(wo_l, wi_l, pdf)),
+                }
             }
             (OpenPbrLobe::Coat, Side::Reflect) => {
                 let wi_c = self.coat_frame.to_local(wi);
@@ -144,7 +172,7 @@ impl OpenPbr {
             OpenPbrLobe::Specular => (reflect(wo_l, self.ggx.sample_visible_normal(wo_l, u)), true),
             OpenPbrLobe::Translucent => {
                 let h = self.ggx.sample_visible_normal(wo_l, u);
-                if u_lobe < fresnel::dielectric(wo_l.dot(h), self.transmission_eta) {
+                if u_lobe < self.reflect_probability(wo_l.dot(h)) {
                     (reflect(wo_l, h), true)
                 } else {
                     (refract(wo_l, h, self.transmission_eta)?, false)

@@ -22,6 +22,7 @@ use super::albedo::{self, Interface};
 use super::eon::Eon;
 use super::fuzz::Fuzz;
 use super::inputs::{OpenPbrInputs, ShadingFrames};
+use super::medium::has_interior;
 use super::thin_film::{with_film, Substrate, ThinFilm};
 use crate::geometry::Frame;
 use crate::materials::fresnel;
@@ -114,7 +115,14 @@ pub(crate) struct OpenPbr {
     pub(super) thin: bool,
     /// Relative index of the far side over `wo`'s side for refraction.
     pub(super) transmission_eta: f32,
+    /// transmission_color where it tints the interface (thin walls, and
+    /// thick ones of transmission_depth 0); white where the interior
+    /// absorbs instead (medium.rs).
     pub(super) transmission_tint: Vec3,
+    /// The thin film on the dielectric's outer face (each face of a thin
+    /// wall), under the ambient medium (the transmission interface is
+    /// uncoated), if any.
+    pub(super) transmission_film: Option<ThinFilm>,
     /// Turquin compensation of the thin wall's reflection at `wo`.
     pub(super) thin_compensation: f32,
     /// The Dirac pass-through's weight at `wo` (RGB).
@@ -156,7 +164,8 @@ fn modulated_f0(eta: f32, xi: f32) -> f32 {
     (xi * r * r).clamp(0.0, 1.0)
 }
 
-fn mean(v: Vec3) -> f32 {
+/// The mean of the three channels.
+pub(super) fn mean(v: Vec3) -> f32 {
     (v.x + v.y + v.z) / 3.0
 }
 
@@ -272,13 +281,34 @@ impl OpenPbr {
         } else {
             1.0 / eta_t
         };
-        let transmission_tint = unit_color(i.transmission_color);
+        let transmission_tint = if thin || !has_interior(i.transmission_depth) {
+            unit_color(i.transmission_color)
+        } else {
+            Vec3::ONE
+        };
+        let transmission_film = if index_matched {
+            None
+        } else {
+            ThinFilm::new(
+                i.thin_film_weight,
+                i.thin_film_thickness,
+                i.thin_film_ior,
+                1.0,
+            )
+        };
         let thin_f0 = fresnel::thin_dielectric(1.0, eta_t);
         let thin_compensation = albedo::compensation(mu_o, &ggx, Vec3::splat(thin_f0)).x;
+        // With a film, the sheet's albedo scaled by the ratio of its
+        // reflectances with and without the film at wo (as e_specular).
         let thin_albedo = if thin && !index_matched {
-            (thin_compensation * Interface::ThinSheet.albedo(mu_o, &ggx, transmission_f0)).min(1.0)
+            let e = thin_compensation * Interface::ThinSheet.albedo(mu_o, &ggx, transmission_f0);
+            let ratio = transmission_film.as_ref().map_or(Vec3::ONE, |f| {
+                let bare = Interface::ThinSheet.fresnel(mu_o, eta_t);
+                f.sheet_reflectance(mu_o, eta_t) / bare.max(1e-6)
+            });
+            (e * ratio).min(Vec3::ONE)
         } else {
-            0.0
+            Vec3::ZERO
         };
 
         // Coat darkening (spec "Darkening"): Delta = (1 - K) / (1 - E_b K).
@@ -323,6 +353,7 @@ impl OpenPbr {
             thin: thin || index_matched,
             transmission_eta,
             transmission_tint,
+            transmission_film,
             thin_compensation,
             pass: Vec3::ZERO,
             lobe_pdf: [0.0; OPEN_PBR_LOBES],
@@ -333,18 +364,18 @@ impl OpenPbr {
         let w_o = below_fuzz * model.base_weight(mu_c);
         model.pass = Vec3::splat(1.0 - presence)
             + w_o
-                * (translucent * (1.0 - thin_albedo))
+                * (translucent * (Vec3::ONE - thin_albedo))
                 * transmission_tint
                 * f32::from(thin || index_matched);
         let metal_albedo = model.metal_scale * model.metal_fresnel(mu_o);
         let thick = translucent * f32::from(!(thin || index_matched));
-        let f_t = fresnel::dielectric(mu_o, transmission_eta);
+        let f_t = model.reflect_probability(mu_o);
         model.lobe_pdf = normalized([
             mean(w_o) * gloss * mean((Vec3::ONE - e_specular) * rho),
             mean(w_o)
                 * (metal * mean(metal_albedo)
                     + gloss * mean(e_specular * model.specular_tint)
-                    + translucent * thin_albedo),
+                    + translucent * mean(thin_albedo)),
             mean(w_o) * thick * (f_t + (1.0 - f_t) * mean(transmission_tint)),
             below_fuzz * coat * coat_albedo,
             mean(fuzz_tint) * fuzz.albedo(),
@@ -383,6 +414,37 @@ impl OpenPbr {
     pub(super) fn specular_fresnel(&self, cos: f32) -> Vec3 {
         let bare = Vec3::splat(Interface::Dielectric.fresnel(cos, self.specular_eta));
         with_film(self.film.as_ref(), bare, cos, &self.specular_below)
+    }
+
+    /// The thick dielectric's reflectance at microfacet cosine `cos` (from
+    /// `wo`'s side), per channel: exact Fresnel, or with the film where
+    /// present (its transmittance is 1 minus this: the film is lossless).
+    pub(super) fn transmission_fresnel(&self, cos: f32) -> Vec3 {
+        let bare = fresnel::dielectric(cos, self.transmission_eta);
+        match &self.transmission_film {
+            None => Vec3::splat(bare),
+            Some(film) => film.lossless_reflectance(cos, self.transmission_eta, bare),
+        }
+    }
+
+    /// The thin wall's reflectance at microfacet cosine `cos`, compensated:
+    /// the thin sheet's, or with the film on its faces where present.
+    pub(super) fn thin_fresnel(&self, cos: f32) -> Vec3 {
+        let eta = self.transmission_eta;
+        self.thin_compensation
+            * match &self.transmission_film {
+                None => Vec3::splat(Interface::ThinSheet.fresnel(cos, eta)),
+                Some(film) => film.sheet_reflectance(cos, eta),
+            }
+    }
+
+    /// The probability that sampling the thick dielectric reflects at
+    /// microfacet cosine `cos`: its reflectance, averaged over channels.
+    pub(super) fn reflect_probability(&self, cos: f32) -> f32 {
+        match &self.transmission_film {
+            None => fresnel::dielectric(cos, self.transmission_eta),
+            Some(_) => mean(self.transmission_fresnel(cos)),
+        }
     }
 
     /// Reflectance for the albedo AOV: the EON colour, white where the

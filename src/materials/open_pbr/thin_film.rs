@@ -1,7 +1,8 @@
 //! Thin-film iridescence (OpenPBR 1.1 "Thin-film iridescence"): a smooth,
 //! non-absorbing film of index n_f and thickness d on the base, folded into
-//! the Fresnel factor of the metal and dielectric-specular microfacet lobes,
-//! by the model the specification recommends, Belcour and Barla 2017 ("A
+//! the Fresnel factor of the metal, dielectric-specular and transmission
+//! microfacet lobes (transmission gets 1 - R: the film is lossless), by the
+//! model the specification recommends, Belcour and Barla 2017 ("A
 //! Practical Extension to Microfacet Theory for the Modeling of Varying
 //! Iridescence", ACM TOG 36(4)):
 //! ```text
@@ -24,6 +25,8 @@ use std::f32::consts::PI;
 
 use glam::{Mat3, Vec3};
 use num_complex::Complex32;
+
+use crate::materials::fresnel;
 
 /// A film on the base at one hit.
 #[derive(Clone, Copy, Debug)]
@@ -149,6 +152,46 @@ pub(super) fn with_film(film: Option<&ThinFilm>, bare: Vec3, cos: f32, below: &S
     }
 }
 
+impl ThinFilm {
+    /// The film on the outer face of a thick dielectric (relative index
+    /// `eta` of the far side over `wo`'s: > 1 from outside, < 1 from
+    /// inside) at microfacet cosine `cos` on `wo`'s side, blended with the
+    /// filmless reflectance `bare` there by the weight. The film is lossless
+    /// and a lossless stack transmits alike both ways (Stokes relations), so
+    /// it reflects the same from inside as from outside at the angle Snell's
+    /// law pairs with it: from inside the film's reflectance is read at that
+    /// outside angle, and is 1 under total internal reflection. The light
+    /// transmitted is 1 minus this, per channel.
+    pub(super) fn lossless_reflectance(&self, cos: f32, eta: f32, bare: f32) -> Vec3 {
+        let (cos_out, eta_out) = if eta >= 1.0 {
+            (cos, eta)
+        } else {
+            let eta_out = 1.0 / eta;
+            let cos2 = 1.0 - (1.0 - cos * cos) * eta_out * eta_out;
+            if cos2 <= 0.0 {
+                return Vec3::ONE;
+            }
+            (cos2.sqrt(), eta_out)
+        };
+        let below = Substrate::dielectric(eta_out);
+        with_film(Some(self), Vec3::splat(bare), cos_out, &below)
+    }
+
+    /// A thin wall of relative index `eta` (> 1) whose face towards the
+    /// light carries the film: the incoherent sum of the filmed face's
+    /// reflectance r1 (from either side, as [`Self::lossless_reflectance`])
+    /// and the bare face's r2 = F, R = r1 + (1 - r1)^2 r2 / (1 - r1 r2)
+    /// (the thin sheet's r + t^2 r / (1 - r^2) with r1 for one r), at
+    /// cosine `cos`; the wall transmits 1 - R.
+    pub(super) fn sheet_reflectance(&self, cos: f32, eta: f32) -> Vec3 {
+        let r2 = fresnel::dielectric(cos, eta);
+        let r1 = self.lossless_reflectance(cos, eta, r2);
+        let t1 = Vec3::ONE - r1;
+        let inner = (Vec3::ONE - r1 * r2).max(Vec3::splat(1e-6));
+        (r1 + t1 * t1 * r2 / inner).min(Vec3::ONE)
+    }
+}
+
 /// The two linear polarisations of the Fresnel amplitudes.
 #[derive(Clone, Copy)]
 enum Polarisation {
@@ -212,7 +255,6 @@ fn sensitivity(opd: f32, shift: Vec3) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::materials::fresnel;
 
     fn film(thickness_um: f32, ior: f32) -> ThinFilm {
         ThinFilm::new(1.0, thickness_um, ior, 1.0).unwrap()
