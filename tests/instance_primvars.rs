@@ -145,3 +145,34 @@ fn overlapping_instance_primvar_runs_are_refused_naming_the_run() {
         "{stderr}"
     );
 }
+
+/// The values of `instances.primvars.NAME`'s only run, which must start at
+/// instance 0, from the exported `scene`'s scene.bin.
+fn only_run(scene: &Path, manifest: &Value, name: &str) -> Vec<f32> {
+    let runs = manifest["instances"]["primvars"][name].as_array().unwrap();
+    assert_eq!(runs.len(), 1, "{name}: {runs:?}");
+    assert_eq!(runs[0]["first"], 0);
+    let values = &runs[0]["values"];
+    let at = values["offset"].as_u64().unwrap() as usize;
+    let n = (values["count"].as_u64().unwrap() * values["width"].as_u64().unwrap()) as usize;
+    let blob = std::fs::read(scene.join("scene.bin")).unwrap();
+    blob[at..at + 4 * n]
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+        .collect()
+}
+
+#[test]
+fn nested_instancers_give_the_nearest_value_and_masked_copies_none() {
+    let scene = exported("instance_primvars_nested");
+    let manifest = manifest(&scene);
+    assert_eq!(manifest["instances"]["count"], 4);
+    // Copies outer-major: Outer 0 x Inner (0, 2), then Outer 1 x Inner (0, 2).
+    let tint = only_run(&scene, &manifest, "tint");
+    let inner = [0.1f32, 0.3, 0.1, 0.3].map(|v| [v; 3]).concat();
+    assert_eq!(tint, inner);
+    assert_eq!(
+        only_run(&scene, &manifest, "grey"),
+        [0.25, 0.25, 0.75, 0.75]
+    );
+}
