@@ -13,15 +13,23 @@ asset by the nearest `component`/`assembly` model above it.
 Meshes posed by UsdSkel are placed by their skeleton (`Skinning.placed`); copies of a
 prototype share a group only when their skinning signatures agree (same skeleton and
 SkelAnimation), so differently animated instances get their own posed meshes.
+
+Primvars per copy (docs/materials.md, "Primvars"): a PointInstancer's `vertex`/`varying`
+primvar (one value per instance) gives each of its copies its value, a `constant`/`uniform`
+one gives all of them the same, and a constant primvar on a native instance root or an
+ancestor above it gives the copies below. Only the primvars the copies' materials (or
+primvar RenderVars) read and their meshes lack are carried; the nearest holder wins, as
+USD's primvar inheritance lets the nearest ancestor's win.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from pxr import Usd, UsdGeom
 
 from .binfile import BinWriter
-from .prototypes import PREDICATE, Prototypes, asset_above, asset_within, below, prototype_path
+from .prototypes import (PREDICATE, Prototypes, asset_above, asset_within, below, inherited_primvar, numeric,
+                         prototype_path)
 from .report import Report
 from .skinning import Skinning
 from .xforms import compose, local_transform, to_3x4
@@ -31,6 +39,11 @@ PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Volume",
 SKIPPED_PURPOSES = {UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy}
 # Renderable prim types Cirrus does not render yet: each is warned about by name.
 UNRENDERED_TYPES = {"HermiteCurves", "NurbsPatch", "TetMesh"}
+# Parts stored as meshes (whose materials' primvars instances may carry).
+MESH_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule"}
+# PointInstancer primvar interpolations: one value per instance, or one for all of them.
+PER_INSTANCE = {UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying}
+ALL_INSTANCES = {UsdGeom.Tokens.constant, UsdGeom.Tokens.uniform}
 
 
 @dataclass(frozen=True)
@@ -76,7 +89,9 @@ class Leaf:
     `ids` when authored), 0 when no PointInstancer is involved; a nested one's index is in
     `root.inner`. `root` names the copies'
     prototype root and `asset` the nearest model above it, both relative to the holder
-    (None: no model between them).
+    (None: no model between them). `reads` are the primvars the prototype's materials (and
+    primvar RenderVars) read, `lacking` (primvar, mesh prim, warning) those its meshes lack, and
+    `primvars` each copy's values found so far, name -> (n, width).
     """
 
     prototype: int
@@ -84,17 +99,28 @@ class Leaf:
     index: np.ndarray  # (n,) int64
     root: Name = Name()
     asset: Name | None = None
+    reads: frozenset[str] = frozenset()
+    lacking: tuple[tuple[str, str, str], ...] = ()
+    primvars: dict[str, np.ndarray] = field(default_factory=dict)
 
     def placed(self, matrix: np.ndarray) -> "Leaf":
         """The same copies moved by one more (4, 4) transform."""
-        return Leaf(self.prototype, self.matrices @ matrix, self.index, self.root, self.asset)
+        return replace(self, matrices=self.matrices @ matrix)
 
     def named_under(self, path: str, asset: str | None) -> "Leaf":
         """The same copies named under `path`, with `asset` (a path) as their asset when they
         have none nearer."""
         nearer = self.asset.under(path) if self.asset else None
         fallback = Name(asset) if asset is not None else None
-        return Leaf(self.prototype, self.matrices, self.index, self.root.under(path), nearer or fallback)
+        return replace(self, root=self.root.under(path), asset=nearer or fallback)
+
+    def unset(self) -> list[str]:
+        """The primvars read that no holder has given the copies yet, sorted."""
+        return sorted(self.reads - self.primvars.keys())
+
+    def with_primvars(self, values: dict[str, np.ndarray]) -> "Leaf":
+        """The same copies with more per-copy values (those already set win)."""
+        return replace(self, primvars={**values, **self.primvars}) if values else self
 
 
 class GroupSink:
@@ -135,7 +161,7 @@ class TopSink:
         """A plain prim: its own prototype, one instance at its world transform."""
         proto = self._prototypes.add(str(prim.GetPath()), [(prim, np.eye(4))], prim, False)
         if proto is not None:
-            self.nested(prim, [Leaf(proto, np.eye(4)[None], np.zeros(1, np.int64))], matrix)
+            self.nested(prim, [group_leaf(self._prototypes, proto, [prim])], matrix)
 
     def nested(self, prim: Usd.Prim, leaves: list[Leaf], matrix: np.ndarray) -> None:
         """All copies made by one native instance or PointInstancer of the stage."""
@@ -163,6 +189,42 @@ class TopSink:
         return [{"count": len(leaf.index), "root": leaf.root.record(),
                  "asset": leaf.asset.record() if leaf.asset else None} for _, leaf in self.placed]
 
+    def primvars(self, writer: BinWriter) -> dict[str, list[dict]]:
+        """The Instances `primvars` runs: per name, one per placed leaf that carries it."""
+        runs: dict[str, list[dict]] = {}
+        first = 0
+        for _, leaf in self.placed:
+            for name, values in sorted(leaf.primvars.items()):
+                runs.setdefault(name, []).append(
+                    {"first": first, "values": writer.add(values, "f32", values.shape[1])})
+            first += len(leaf.index)
+        return runs
+
+    def warn_lacking(self, report: Report) -> None:
+        """One warning per mesh and primvar its material reads that some copies get from
+        neither the mesh nor an instance (naming those copies when the mesh's path, that of
+        the first copy met, does not): they read the reader's fallback."""
+        for _, leaf in self.placed:
+            for name, path, warning in leaf.lacking:
+                if name not in leaf.primvars:
+                    copies = leaf.root.head + ("[i]" if leaf.root.indexed else "")
+                    report.warn(warning if path.startswith(leaf.root.head) else f"{warning} in copies {copies}")
+
+
+def group_leaf(prototypes, proto: int, prims: list[Usd.Prim]) -> Leaf:
+    """The one copy of prototype `proto` made of the parts `prims`, with what their meshes'
+    materials read and lack."""
+    meshes = [prim for prim in prims if prim.GetTypeName() in MESH_TYPES]
+    return Leaf(proto, np.eye(4)[None], np.zeros(1, np.int64), reads=prototypes.meshes.reads(meshes),
+                lacking=prototypes.meshes.lacking(meshes))
+
+
+def constant_primvars(prim: Usd.Prim, names: list[str], time: Usd.TimeCode) -> dict[str, np.ndarray]:
+    """The (1, width) values of the constant primvars `names` that `prim` or an ancestor up to
+    the nearest instance or PointInstancer holds (the nearest wins)."""
+    found = {name: inherited_primvar(prim, name, time) for name in names}
+    return {name: value for name, value in found.items() if value is not None}
+
 
 class Walker:
     """Depth-first traversal honouring visibility and purpose at one time code."""
@@ -179,6 +241,7 @@ class Walker:
         sink = TopSink(self._prototypes)
         for child in stage.GetPseudoRoot().GetFilteredChildren(PREDICATE):
             self._walk(child, np.eye(4), sink)
+        sink.warn_lacking(self._report)
         return sink
 
     def _renderable(self, prim: Usd.Prim) -> bool:
@@ -204,10 +267,10 @@ class Walker:
             local, resets = local_transform(prim, self._time)
             matrix = local if resets else local @ parent
         if prim.IsInstance():
-            sink.nested(prim, self._native_leaves(prim), matrix)
+            sink.nested(prim, self._inheriting(prim, self._native_leaves(prim)), matrix)
             return
         if prim.IsA(UsdGeom.PointInstancer):
-            sink.nested(prim, self._point_instancer_leaves(prim), matrix)
+            sink.nested(prim, self._inheriting(prim, self._point_instancer_leaves(prim)), matrix)
             return
         if prim.GetTypeName() in PART_TYPES:
             sink.part(prim, self._skinning.placed(prim, sink.holder, matrix))
@@ -229,9 +292,40 @@ class Walker:
             leaves = list(sink.leaves)
             proto = self._prototypes.add(name, sink.parts, holder, not apply_local) if sink.parts else None
             if proto is not None:
-                leaves.insert(0, Leaf(proto, np.eye(4)[None], np.zeros(1, np.int64)))
+                leaves.insert(0, group_leaf(self._prototypes, proto, [prim for prim, _ in sink.parts]))
             self._groups[key] = leaves
         return self._groups[key]
+
+    def _inheriting(self, prim: Usd.Prim, leaves: list[Leaf]) -> list[Leaf]:
+        """The copies made by the instance or PointInstancer `prim`, given the constant primvars
+        they still lack from `prim` and its ancestors (up to the nearest holder)."""
+        result = []
+        for leaf in leaves:
+            found = constant_primvars(prim, leaf.unset(), self._time)
+            n = len(leaf.index)
+            result.append(leaf.with_primvars({name: np.repeat(v, n, axis=0) for name, v in found.items()}))
+        return result
+
+    def _instancer_primvars(self, prim: Usd.Prim, names: set[str], count: int) -> dict[str, np.ndarray]:
+        """A PointInstancer's primvars among `names`, (count, width) each: one value per instance
+        (vertex, varying) or one for all (constant, uniform). A wrong length, another
+        interpolation or a value no input can read is warned about and ignored."""
+        found = {}
+        for name in sorted(names):
+            primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
+            if not primvar or not primvar.HasValue():
+                continue
+            interpolation = primvar.GetInterpolation()
+            values = numeric(primvar.ComputeFlattened(self._time))
+            want = count if interpolation in PER_INSTANCE else 1
+            if values is None or interpolation not in PER_INSTANCE | ALL_INSTANCES or len(values) != want:
+                got = "no numeric values of width 1 to 4" if values is None else f"{len(values)} values"
+                self._report.warn(f"PointInstancer {prim.GetPath()}: primvars:{name} ({interpolation}) has {got}, "
+                                  f"expected {want} (one per instance for vertex or varying, one for constant "
+                                  f"or uniform); ignored")
+                continue
+            found[name] = values if want == count else np.repeat(values, count, axis=0)
+        return found
 
     def _native_leaves(self, prim: Usd.Prim) -> list[Leaf]:
         """A native instance's prototype, in the instance prim's space (its xform excluded).
@@ -261,20 +355,32 @@ class Walker:
             self._report.warn(f"PointInstancer {prim.GetPath()}: protoIndices, ids, mask and transforms "
                               f"disagree in length or index range; skipped")
             return []
-        proto_indices, ids = proto_indices[mask], ids[mask]
         stage = prim.GetStage()
-        leaves = []
+        groups = {}
         for j, target in enumerate(targets):
+            if (proto_indices[mask] == j).any():
+                root = stage.GetPrimAtPath(target)
+                key = (prototype_path(root), self._skinning.signature(root))
+                groups[j] = self._group(key, str(target), root, [root], False)
+        wanted = {name for group in groups.values() for leaf in group for name in leaf.unset()}
+        per_instance = {name: values[mask] for name, values in
+                        self._instancer_primvars(prim, wanted, proto_indices.size).items()}
+        proto_indices, ids = proto_indices[mask], ids[mask]
+        leaves = []
+        for j, group in groups.items():
             chosen = proto_indices == j
-            if not chosen.any():
-                continue
-            root = stage.GetPrimAtPath(target)
-            key = (prototype_path(root), self._skinning.signature(root))
-            for leaf in self._group(key, str(target), root, [root], False):
+            for leaf in group:
                 inner = compose(leaf.matrices, matrices[chosen])
-                leaves.append(Leaf(leaf.prototype, inner, np.repeat(ids[chosen], len(leaf.index)),
-                                   leaf.root.instanced(leaf.index),
-                                   leaf.asset.instanced(leaf.index) if leaf.asset else None))
+                m = len(leaf.index)
+                # Copies are outer-major (compose): the leaf's own values repeat per instance,
+                # the instancer's repeat per copy within one instance.
+                own = {name: np.tile(v, (int(chosen.sum()), 1)) for name, v in leaf.primvars.items()}
+                given = {name: np.repeat(per_instance[name][chosen], m, axis=0)
+                         for name in leaf.unset() if name in per_instance}
+                leaves.append(replace(leaf, matrices=inner, index=np.repeat(ids[chosen], m),
+                                      root=leaf.root.instanced(leaf.index),
+                                      asset=leaf.asset.instanced(leaf.index) if leaf.asset else None,
+                                      primvars={**given, **own}))
         return leaves
 
 
@@ -290,4 +396,7 @@ def instance_records(sink: TopSink, writer: BinWriter) -> tuple[dict, np.ndarray
         "instance_sources": sink.sources,
         "names": sink.names(),
     }
+    primvars = sink.primvars(writer)
+    if primvars:
+        record["primvars"] = primvars
     return record, arrays["prototype"], arrays["matrices"]

@@ -3,6 +3,12 @@
 A mesh is keyed by its path inside its USD prototype, so every instance of a native
 prototype or PointInstancer prototype shares one copy; a mesh posed by UsdSkel is keyed
 by its own path (the walker decides which instances may share its pose).
+
+A primvar a mesh's material reads and the mesh lacks is inherited, as USD inherits
+primvars, from the nearest ancestor with a constant one, up to the nearest native instance
+or PointInstancer (`inherited_primvar`); above that it differs per copy and is carried per
+instance (instancing.py). A primvar still missing is warned about once the walk knows
+whether every copy's instance carries it (`missing`).
 """
 
 from typing import TYPE_CHECKING
@@ -62,6 +68,35 @@ def asset_above(prim: Usd.Prim) -> str | None:
     return None
 
 
+def inherited_primvar(prim: Usd.Prim, name: str, time: Usd.TimeCode) -> np.ndarray | None:
+    """The (1, width) value of the nearest constant primvar `name` at or above `prim`, up to
+    (not including) the nearest native instance or PointInstancer above it, as
+    UsdGeomPrimvarsAPI.FindPrimvarWithInheritance within one copy: above that boundary
+    each copy has its own ancestors. None when there is none, or it is not numeric."""
+    at = prim
+    while at and not at.IsPseudoRoot():
+        if at != prim and (at.IsInstance() or at.IsA(UsdGeom.PointInstancer)):
+            return None
+        primvar = UsdGeom.PrimvarsAPI(at).GetPrimvar(name)
+        if primvar and primvar.HasValue() and primvar.GetInterpolation() == UsdGeom.Tokens.constant:
+            values = numeric(primvar.ComputeFlattened(time))
+            return None if values is None or len(values) == 0 else values[:1]
+        at = at.GetParent()
+    return None
+
+
+def numeric(values) -> np.ndarray | None:
+    """Primvar values as an (n, width) float64 array (width 1 to 4), or None for strings,
+    tokens, matrices and other values no material input can read."""
+    if values is None:
+        return None
+    try:
+        array = np.array(values, dtype=np.float64).reshape(len(values), -1)
+    except (TypeError, ValueError):
+        return None
+    return array if 1 <= array.shape[1] <= 4 and np.isfinite(array).all() else None
+
+
 def _optional(writer: BinWriter, values: np.ndarray | None, width: int) -> dict | None:
     """An f32 array reference, or None for an absent attribute."""
     return None if values is None else writer.add(values, "f32", width)
@@ -78,6 +113,9 @@ class MeshTable:
         self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
         # Per record, what read it: (prim, uv primvar, material primvars), for deforming.py.
         self.sources: list[tuple[Usd.Prim, str, tuple[str, ...]]] = []
+        # Per record index: (primvar, prim path, warning) for each primvar its materials read
+        # and it lacks.
+        self.missing: dict[int, list[tuple[str, str, str]]] = {}
         self._cages = CageWriter(writer, report, time, source)
         self._by_path: dict[tuple, int | None] = {}
         self._writer, self._materials, self._skinning, self._report = writer, materials, skinning, report
@@ -109,6 +147,19 @@ class MeshTable:
         own = self._materials.display_color(prim) if own == NO_MATERIAL else own
         return (own, *(self._materials.bound_index(p) for p in subsets))
 
+    def reads(self, prims: list[Usd.Prim]) -> frozenset[str]:
+        """The primvars the materials bound to these gprims read, and those primvar RenderVars
+        read: what their instances may carry."""
+        bound = {m for prim in prims for m in self.material_key(prim) if m != NO_MATERIAL}
+        return frozenset(self._aov_primvars).union(*(self._materials.primvars(m) for m in bound))
+
+    def lacking(self, prims: list[Usd.Prim]) -> tuple[tuple[str, str, str], ...]:
+        """(primvar, prim path, warning) for each primvar these gprims' meshes lack but their
+        materials read."""
+        indices = {self.index(prim) for prim in prims}
+        return tuple(found for index in sorted(i for i in indices if i is not None)
+                     for found in self.missing.get(index, ()))
+
     def signature(self, root: Usd.Prim) -> tuple:
         """Every material binding under `root`: equal for instances that can share parts."""
         return tuple(self.material_key(p) for p in Usd.PrimRange(root, PREDICATE) if p.IsA(UsdGeom.Gprim))
@@ -128,9 +179,15 @@ class MeshTable:
         if geometry is None or len(geometry.triangles) == 0:
             self._report.warn(f"{self._source}: {prim.GetTypeName()} {prim.GetPath()} has no triangles; skipped")
             return None
-        for name in sorted(set(primvars) - set(geometry.primvars)):
-            self._report.warn(f"{self._source}: mesh {prim.GetPath()} has no primvar {name} (read by material "
-                              f"{self._materials.materials[primvars[name]]['path']}); its fallback is used")
+        for name in sorted(set(wanted) - set(geometry.primvars)):
+            value = inherited_primvar(prim, name, self._time)
+            if value is not None:
+                geometry.primvars[name] = np.broadcast_to(value, (len(geometry.points), value.shape[1]))
+        self.missing[len(self.records)] = [
+            (name, str(prim.GetPath()), f"{self._source}: mesh {prim.GetPath()} has no primvar {name} (read by "
+                                        f"material {self._materials.materials[primvars[name]]['path']}); its "
+                                        f"fallback is used")
+            for name in sorted(set(primvars) - set(geometry.primvars))]
         self.records.append(self._record(prim, key, geometry, materials))
         self.sources.append((prim, uv_name, tuple(sorted(primvars))))
         self.boxes.append((geometry.points.min(axis=0), geometry.points.max(axis=0)))

@@ -57,6 +57,8 @@ pub struct SurfacePoint {
 pub struct MeshSite {
     /// Index of the mesh in the scene's meshes.
     pub mesh: u32,
+    /// Instance index: where a primvar the mesh lacks is read.
+    pub instance: u32,
     /// Triangle index within the mesh.
     pub triangle: u32,
     /// Barycentric weights of the triangle's second and third vertices.
@@ -70,6 +72,7 @@ impl SurfacePoint {
     pub fn site(&self) -> MeshSite {
         MeshSite {
             mesh: self.mesh,
+            instance: self.instance,
             triangle: self.triangle,
             barycentrics: self.barycentrics,
             uv: self.uv,

@@ -31,6 +31,8 @@ pub(crate) struct MeshLight {
     double_sided: bool,
     /// Index of the mesh in the scene's meshes (for its primvars).
     mesh: u32,
+    /// Index of the instance placing it (for the primvars the mesh lacks).
+    instance: u32,
     /// Luminance of the emitted power (see [`MeshLight::power`]).
     power: f32,
     /// Box and normal cone of the emissive triangles, for the light BVH.
@@ -107,6 +109,7 @@ impl MeshLight {
     fn site(&self, tri: &EmissiveTriangle, b: Vec2) -> MeshSite {
         MeshSite {
             mesh: self.mesh,
+            instance: self.instance,
             triangle: tri.index,
             barycentrics: b,
             uv: (1.0 - b.x - b.y) * tri.uv[0] + b.x * tri.uv[1] + b.y * tri.uv[2],
@@ -160,9 +163,8 @@ impl MeshLight {
                     continue;
                 }
                 let world_from_mesh = affine(world_from_prototype) * affine(&part.transform);
-                if let Some(light) =
-                    Self::build(scene, materials, part.mesh as usize, world_from_mesh)
-                {
+                let ids = [instance as u32, part.mesh];
+                if let Some(light) = Self::build(scene, materials, ids, world_from_mesh) {
                     lights.push(((instance as u32, part_index as u32), light));
                 }
             }
@@ -173,10 +175,10 @@ impl MeshLight {
     fn build(
         scene: &Scene,
         materials: &Materials,
-        mesh_index: usize,
+        [instance, mesh_index]: [u32; 2],
         world_from_mesh: Affine3A,
     ) -> Option<Self> {
-        let mesh = &scene.manifest.meshes[mesh_index];
+        let mesh = &scene.manifest.meshes[mesh_index as usize];
         let points = scene.view(&mesh.points);
         let uvs = mesh.uvs.as_ref().map(|uvs| scene.view(uvs));
         let flip = if world_from_mesh.matrix3.determinant() < 0.0 {
@@ -212,7 +214,8 @@ impl MeshLight {
                 None => [Vec2::ZERO; 3],
             };
             let centroid = MeshSite {
-                mesh: mesh_index as u32,
+                mesh: mesh_index,
+                instance,
                 triangle: index as u32,
                 barycentrics: Vec2::splat(1.0 / 3.0),
                 uv: (uv[0] + uv[1] + uv[2]) / 3.0,
@@ -255,7 +258,8 @@ impl MeshLight {
             area: areas.iter().map(|&a| f64::from(a)).sum::<f64>() as f32,
             triangles,
             double_sided: mesh.double_sided,
-            mesh: mesh_index as u32,
+            mesh: mesh_index,
+            instance,
             power,
             bounds,
         })

@@ -47,7 +47,7 @@ use crate::scene::{Model, Scene, NO_MATERIAL};
 use open_pbr_surface::OpenPbrSurface;
 use param::Lookups;
 use preview_surface::PreviewSurface;
-use primvars::{MeshPrimvars, PrimvarNames};
+use primvars::{InstancePrimvars, MeshPrimvars, PrimvarNames};
 use texture::Texture;
 
 /// Every material and texture of a scene, ready to build BSDFs at hits.
@@ -58,6 +58,8 @@ pub struct Materials {
     textures: Vec<Texture>,
     /// By scene mesh: the primvars material inputs and AOVs read.
     primvars: Vec<MeshPrimvars>,
+    /// By instance: the values a mesh without the primvar reads.
+    instance_primvars: InstancePrimvars,
     /// Their names' ids.
     primvar_names: PrimvarNames,
 }
@@ -118,6 +120,7 @@ impl Materials {
             unbound: Surface::Preview(PreviewSurface::default_surface()),
             textures: Texture::load_all(&m.textures),
             primvars: MeshPrimvars::build_all(scene, &names),
+            instance_primvars: InstancePrimvars::build(scene, &names),
             primvar_names: names,
         })
     }
@@ -129,10 +132,10 @@ impl Materials {
     }
 
     /// Primvar `id` at `site` as rgba (width 1 is grey, missing components
-    /// 0, alpha 1; see `MeshPrimvars::eval`); `None` where its mesh lacks it.
+    /// 0, alpha 1; see `MeshPrimvars::eval`): the mesh's, else its
+    /// instance's; `None` where neither has it.
     pub fn primvar(&self, id: u32, site: &MeshSite) -> Option<Vec4> {
-        let mesh = self.primvars.get(site.mesh as usize)?;
-        mesh.eval(id, site.triangle, site.barycentrics)
+        self.lookups().primvar(id, site)
     }
 
     /// The BSDF of `sp`'s material at `sp`, for the outgoing direction `wo`
@@ -184,6 +187,7 @@ impl Materials {
         Lookups {
             textures: &self.textures,
             primvars: &self.primvars,
+            instances: &self.instance_primvars,
         }
     }
 
@@ -207,6 +211,7 @@ mod tests {
 
     const SITE: MeshSite = MeshSite {
         mesh: 0,
+        instance: 0,
         triangle: 0,
         barycentrics: Vec2::ZERO,
         uv: Vec2::new(0.3, 0.4),
@@ -218,6 +223,7 @@ mod tests {
             unbound: Surface::Preview(PreviewSurface::default_surface()),
             textures: Vec::new(),
             primvars: Vec::new(),
+            instance_primvars: InstancePrimvars::default(),
             primvar_names: PrimvarNames::default(),
         }
     }

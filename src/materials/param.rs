@@ -1,5 +1,6 @@
 //! A material input as the renderer evaluates it at each hit: a constant, a
-//! texture lookup, a mesh primvar interpolated across the triangle, or an
+//! texture lookup, a mesh primvar interpolated across the triangle (else
+//! the hit instance's value of it, else the reader's fallback), or an
 //! operation on other inputs (MaterialX `multiply`, `add`, `subtract`,
 //! `mix`), the shapes `scenes/FORMAT.md` gives ("Input grammar"). Both
 //! UsdPreviewSurface and OpenPBR inputs are [`Param`]s; a constant costs one
@@ -9,7 +10,7 @@ use std::ops::{Add, Mul, Sub};
 
 use glam::{Vec3, Vec4};
 
-use super::primvars::{MeshPrimvars, PrimvarNames};
+use super::primvars::{InstancePrimvars, MeshPrimvars, PrimvarNames, NO_INSTANCE_PRIMVARS};
 use super::texture::Texture;
 use crate::geometry::MeshSite;
 use crate::scene::{Channel, Input, Op};
@@ -22,7 +23,7 @@ pub(crate) enum Param<T> {
     /// Index into [`Lookups::textures`] and the output read.
     Texture { texture: u32, channel: Channel },
     /// A primvar (its [`PrimvarNames`] id), the component(s) read, and the
-    /// value on meshes without it.
+    /// value where neither the mesh nor its instance has it.
     Primvar {
         primvar: u32,
         channel: Channel,
@@ -71,12 +72,14 @@ impl Value for Vec3 {
 }
 
 /// Everything inputs read besides their constants: the scene's textures
-/// and the primvars of its meshes.
+/// and the primvars of its meshes and instances.
 #[derive(Clone, Copy)]
 pub(crate) struct Lookups<'a> {
     pub(crate) textures: &'a [Texture],
     /// By scene mesh index.
     pub(crate) primvars: &'a [MeshPrimvars],
+    /// By instance index.
+    pub(crate) instances: &'a InstancePrimvars,
 }
 
 impl<'a> From<&'a [Texture]> for Lookups<'a> {
@@ -85,7 +88,21 @@ impl<'a> From<&'a [Texture]> for Lookups<'a> {
         Self {
             textures,
             primvars: &[],
+            instances: &NO_INSTANCE_PRIMVARS,
         }
+    }
+}
+
+impl Lookups<'_> {
+    /// Primvar `id` at `site` as rgba: the mesh's own, else its instance's
+    /// (a primvar authored on a prim overrides one it inherits, USD's rule,
+    /// the instancer counting as the ancestor of its prototypes' prims);
+    /// `None` when neither has it.
+    pub(crate) fn primvar(&self, id: u32, site: &MeshSite) -> Option<Vec4> {
+        self.primvars
+            .get(site.mesh as usize)
+            .and_then(|mesh| mesh.eval(id, site.triangle, site.barycentrics))
+            .or_else(|| self.instances.eval(id, site.instance))
     }
 }
 
@@ -113,9 +130,7 @@ impl<T: Value> Param<T> {
                 channel,
                 fallback,
             } => lookups
-                .primvars
-                .get(site.mesh as usize)
-                .and_then(|mesh| mesh.eval(*primvar, site.triangle, site.barycentrics))
+                .primvar(*primvar, site)
                 .map_or(*fallback, |v| T::pick(v, *channel)),
             Param::Op { op, args } => {
                 let arg = |i: usize| args[i].eval(lookups, site);
@@ -192,6 +207,7 @@ mod tests {
     fn site(mesh: u32) -> MeshSite {
         MeshSite {
             mesh,
+            instance: 0,
             triangle: 0,
             barycentrics: Vec2::new(0.25, 0.25),
             uv: Vec2::new(0.5, 0.5),
@@ -251,6 +267,7 @@ mod tests {
         let lookups = Lookups {
             textures: &[],
             primvars: &meshes,
+            instances: &NO_INSTANCE_PRIMVARS,
         };
         let at = |input: Input<[f32; 3]>, names: &mut PrimvarNames, mesh| {
             color(input, names).eval(&lookups, &site(mesh))
@@ -284,6 +301,37 @@ mod tests {
             at(primvar("w3", Channel::Rgb, fallback), names, 1),
             fallback_rgb
         );
+    }
+
+    #[test]
+    fn a_meshs_own_primvar_wins_over_its_instances_then_the_fallback() {
+        let names = &mut PrimvarNames::default();
+        let meshes = primvars(names);
+        // `w3` on instance 2 only, (0.5, 0.25, 0.125).
+        let w3 = names.id("w3") as usize;
+        let mut by_id = vec![Vec::new(); w3 + 1];
+        by_id[w3] = vec![(2, 3, vec![0.5, 0.25, 0.125])];
+        let instances = InstancePrimvars::from_runs(by_id);
+        let lookups = Lookups {
+            textures: &[],
+            primvars: &meshes,
+            instances: &instances,
+        };
+        let input = color(primvar("w3", Channel::Rgb, [9.0, 8.0, 7.0]), names);
+        let at = |mesh, instance| {
+            input.eval(
+                &lookups,
+                &MeshSite {
+                    instance,
+                    ..site(mesh)
+                },
+            )
+        };
+        // Mesh 0 has w3: its own value on every instance.
+        assert_eq!(at(0, 2), Vec3::new(1.75, 3.5, 5.25));
+        // Mesh 1 has none: instance 2's value, else the fallback.
+        assert_eq!(at(1, 2), Vec3::new(0.5, 0.25, 0.125));
+        assert_eq!(at(1, 3), Vec3::new(9.0, 8.0, 7.0));
     }
 
     #[test]

@@ -12,7 +12,9 @@ use serde::Deserialize;
 
 use super::material::{unit_scale, Material, Rgb, Texture};
 
+mod instance_primvars;
 mod names;
+pub use instance_primvars::InstancePrimvarRun;
 pub use names::{NamePattern, NameRun};
 
 /// The only manifest version this loader reads.
@@ -473,6 +475,10 @@ pub struct Instances {
     /// absent in files written before names.
     #[serde(default)]
     pub names: Option<Vec<NameRun>>,
+    /// Per-instance primvar values by name, in runs of consecutive
+    /// instances (increasing, not overlapping); default none.
+    #[serde(default)]
+    pub primvars: BTreeMap<String, Vec<InstancePrimvarRun>>,
 }
 
 /// World-from-prototype transforms of the moving instances at key times

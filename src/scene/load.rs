@@ -3,6 +3,7 @@
 //! `bytemuck`, never parsed element by element. Every array reference, index,
 //! enum and transform is validated here, so nothing downstream re-checks.
 
+mod instance_primvars;
 mod round_shapes;
 
 use std::fs::File;
@@ -661,6 +662,7 @@ impl Checker<'_> {
                 ));
             }
         }
+        self.instance_primvars()?;
         self.instance_motion()
     }
 

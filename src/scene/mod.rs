@@ -34,10 +34,10 @@ pub use export::{
 pub use format::Subdivision;
 pub use format::{
     affine, Array, Bounds, Camera, CameraMotion, Curves, CurvesPart, Element, InstanceMotion,
-    Instances, Light, LightShape, Manifest, Mesh, MeshMotion, MeshPart, NamePattern, NameRun,
-    PartNames, Points, PointsPart, Projection, Prototype, Render, RenderProduct, RenderVar, Scalar,
-    Source, Stage, Transform, UpAxis, Volume, VolumeField, VolumePart, FORMAT_NAME, FORMAT_VERSION,
-    NO_MATERIAL,
+    InstancePrimvarRun, Instances, Light, LightShape, Manifest, Mesh, MeshMotion, MeshPart,
+    NamePattern, NameRun, PartNames, Points, PointsPart, Projection, Prototype, Render,
+    RenderProduct, RenderVar, Scalar, Source, Stage, Transform, UpAxis, Volume, VolumeField,
+    VolumePart, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
 pub use material::{
@@ -298,7 +298,7 @@ impl Scene {
     }
 
     /// Bulk bytes by kind: meshes grow with unique geometry, instances by 60
-    /// bytes per instance.
+    /// bytes per instance (and their per-instance primvars).
     pub fn array_bytes(&self) -> ArrayBytes {
         let bytes = |b: Option<u64>| b.expect("validated array");
         let meshes = self
@@ -333,7 +333,12 @@ impl Scene {
         let instances = bytes(i.prototype.bytes())
             + bytes(i.transform.bytes())
             + bytes(i.source.bytes())
-            + bytes(i.source_index.bytes());
+            + bytes(i.source_index.bytes())
+            + i.primvars
+                .values()
+                .flatten()
+                .map(|run| bytes(run.values.bytes()))
+                .sum::<u64>();
         ArrayBytes { meshes, instances }
     }
 }
