@@ -10,11 +10,14 @@ curves are closed by repeating their first evaluated vertex; pinned bspline and 
 curves get USD's phantom end points (2 P0 - P1, 2 Pn - Pn-1).
 """
 
+from dataclasses import dataclass
+from typing import Callable
+
 import numpy as np
 from pxr import Usd, UsdGeom
 
 from .materials import NO_MATERIAL
-from .round_shapes import RoundTable
+from .round_shapes import RoundContext, RoundTable
 
 # UsdGeomCurves declares no fallback for `widths`; Hydra draws unauthored widths as 1.
 DEFAULT_WIDTH = 1.0
@@ -56,8 +59,28 @@ def _second_derivative(matrix: np.ndarray, t: float) -> np.ndarray:
     return np.array([6 * t, 2, 0, 0]) @ matrix
 
 
+@dataclass
+class CurveSource:
+    """What keying a curves record over the shutter needs (deforming.py): its prim, the
+    frame's curveVertexCounts, widths count and interpolation, its vertices and widths as
+    written (f32), and the frame's sampler, which evaluates control values at another time
+    into the same pieces (same piece count per segment), so keys correspond vertex for vertex."""
+
+    prim: Usd.Prim
+    counts: np.ndarray
+    widths: tuple[int, str]  # (count, interpolation); (0, "constant") when unauthored
+    vertices: np.ndarray
+    vertex_widths: np.ndarray
+    sample: Callable[[np.ndarray, str], np.ndarray]
+
+
 class CurvesTable(RoundTable):
-    """The manifest's curves records, each stored once per prototype path and material."""
+    """The manifest's curves records, each stored once per prototype path and material;
+    `sources` holds, per record, what deforming.py keys it with."""
+
+    def __init__(self, context: RoundContext) -> None:
+        super().__init__(context)
+        self.sources: list[CurveSource] = []
 
     def _add(self, prim: Usd.Prim, key: tuple[str, int]) -> int | None:
         c = self._c
@@ -75,7 +98,7 @@ class CurvesTable(RoundTable):
             c.report.warn(f"{name} has no bound material and no displayColor: drawn with the default hair "
                           f"look (dark brown rough dielectric)")
             material = c.materials.hair()
-        points, radii, vertex_counts, sample = polylines
+        points, radii, vertex_counts, sample, source = polylines
 
         def expand(values: np.ndarray, interpolation: str) -> np.ndarray | None:
             try:
@@ -84,19 +107,22 @@ class CurvesTable(RoundTable):
                 return None
 
         w = c.writer
+        vertices, widths = points.astype(np.float32), (2 * radii).astype(np.float32)
         record = {
             "path": key[0],
-            "points": w.add(points.astype(np.float32), "f32", 3),
-            "widths": w.add((2 * radii).astype(np.float32), "f32", 1),
+            "points": w.add(vertices, "f32", 3),
+            "widths": w.add(widths, "f32", 1),
             "vertex_counts": w.add(vertex_counts.astype(np.uint32), "u32", 1),
             "material": material,
             "primvars": c.primvars(prim, material, expand),
         }
+        self.sources.append(CurveSource(prim, *source, vertices, widths, sample))
         return c.add(record, points, radii)
 
     def _read(self, prim: Usd.Prim, name: str) -> tuple | None:
         """The curves with a segment as (vertices, radii, vertex count per curve, sampler of
-        per-vertex values); None when no curve has a segment."""
+        per-vertex values, (curveVertexCounts, (widths count, interpolation))); None when
+        no curve has a segment."""
         c, geom = self._c, UsdGeom.Curves(prim)
         points = np.asarray(geom.GetPointsAttr().Get(c.time) or [], dtype=np.float64).reshape(-1, 3)
         counts = np.asarray(geom.GetCurveVertexCountsAttr().Get(c.time) or [], dtype=np.int64)
@@ -118,6 +144,7 @@ class CurvesTable(RoundTable):
         segments = [segment_count(int(n), cubic, basis, wrap) for n in counts]
         widths = geom.GetWidthsAttr().Get(c.time)
         interpolation = str(geom.GetWidthsInterpolation())
+        authored = (0 if widths is None else len(widths), interpolation)
         if widths is None or len(widths) == 0:
             c.report.warn(f"{name} has no widths; drawn with USD's (Hydra's) default diameter {DEFAULT_WIDTH:g}")
             widths, interpolation = [DEFAULT_WIDTH], "constant"
@@ -135,7 +162,7 @@ class CurvesTable(RoundTable):
         if not any(s >= 1 for s in segments):
             return None
         vertices, widths, vertex_counts, sample = shape.polylines(points, widths, interpolation)
-        return vertices, 0.5 * widths[:, 0], vertex_counts, sample
+        return vertices, 0.5 * widths[:, 0], vertex_counts, sample, (counts, authored)
 
 
 class Shape:

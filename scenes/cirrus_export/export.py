@@ -175,7 +175,7 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     lo, hi = world_bounds(prototypes.boxes, prototype, matrices)
     camera, render = export_render(stage, time, (lo, hi), report, chosen, settings)
     add_motion(stage, time, shutter, replaying_walker(Walker, recorder, skinning, stage),
-               (camera, instances), (matrices, sink.arrays()["source"]), writer, report, (meshes, skinning, points),
+               (camera, instances), (matrices, sink.arrays()["source"]), writer, report, (meshes, skinning, points, curves),
                lights)
     manifest = {
         "format": "cirrus-scene",

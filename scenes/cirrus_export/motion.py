@@ -15,7 +15,7 @@ import math
 import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdLux
 
-from .deforming import mesh_motion, points_motion
+from .deforming import curves_motion, mesh_motion, points_motion
 from .lights import MOVING_LIGHT_TYPES, add_light_motion
 from .report import Report
 from .xforms import as_array, to_3x4, to_3x4_list
@@ -77,8 +77,8 @@ def scan(stage: Usd.Stage, frame_time: float, start: float, end: float, report: 
     transform key times (the interval's ends and every authored transform time sample
     strictly inside it, xformOps and PointInstancer positions/orientations/scales), and
     one warning per prim whose motion the export does not carry, so it renders as it is
-    at the frame: lights whose transform changes, and curves (point-based prims other than
-    meshes and points, which deforming.py keys) whose points are time-sampled inside the
+    at the frame: lights whose transform changes, and point-based prims other than the
+    meshes, points and curves deforming.py keys whose points are time-sampled inside the
     shutter or that author non-zero velocities or accelerations."""
     times = {start, end}
     interval = Gf.Interval(start, end)
@@ -110,13 +110,14 @@ def scan(stage: Usd.Stage, frame_time: float, start: float, end: float, report: 
                             f"where it is at the frame (moving distant and dome lights are not "
                             f"blurred yet)")
         points = UsdGeom.PointBased(prim)
-        if points and not prim.IsA(UsdGeom.Mesh) and not prim.IsA(UsdGeom.Points):
+        if points and not any(prim.IsA(t) for t in (UsdGeom.Mesh, UsdGeom.Points, UsdGeom.BasisCurves,
+                                                    UsdGeom.NurbsCurves)):
             moved = [a.GetName() for a in (points.GetPointsAttr(),) if samples_inside(a)]
             moved += [a.GetName() for a in (points.GetVelocitiesAttr(),
                                             points.GetAccelerationsAttr()) if non_zero(a)]
             if moved:
                 report.warn(f"{path}: {', '.join(moved)} deform it over the shutter; rendered "
-                            f"as it is at the frame (deforming curves are not blurred yet)")
+                            f"as it is at the frame ({prim.GetTypeName()} is not blurred)")
     return sorted(t for t in times if start <= t <= end)
 
 
@@ -240,8 +241,8 @@ def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, wal
 
     `walker_at(time_code)` walks the stage at another time and returns its TopSink;
     `frame` holds the instances' world matrices and source indices at the frame;
-    `deforming` the export's (MeshTable, Skinning, PointsTable), whose meshes may deform
-    and whose points may move."""
+    `deforming` the export's (MeshTable, Skinning, PointsTable, CurvesTable), whose
+    meshes and curves may deform and whose points may move."""
     camera, instances = records
     prim = stage.GetPrimAtPath(camera["path"]) if camera["path"] else None
     open_, close = shutter(prim, time, override)
@@ -259,10 +260,11 @@ def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, wal
     t0 = time.GetValue()
     transform_keys = scan(stage, t0, t0 + open_, t0 + close, report)
     if deforming is not None:
-        meshes, skinning, points = deforming
+        meshes, skinning, points, curves = deforming
         keys = (stage, t0, (t0 + open_, t0 + close), writer, (report, _Silent()))
         mesh_motion(meshes, skinning, *keys)
         points_motion(points, *keys)
+        curves_motion(curves, *keys)
     matrices, source = frame
     reference = walker_at(time)
 

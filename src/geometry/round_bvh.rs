@@ -10,9 +10,13 @@
 //! sphere lerped between the two keys around t (`crate::motion::Bracket`,
 //! end keys held), and the prim's BVH bounds each sphere by the union of
 //! its boxes at the keys (conservative: a lerped sphere lies in the hull
-//! of its key spheres). Resident per point: 16 bytes (centre and radius)
-//! plus 16 per key when it moves, a 4-byte primitive index and about 20
-//! bytes of BVH nodes; per curve vertex 16 bytes and per piece 4 + 4 + 20.
+//! of its key spheres). Deforming curves (`curves[i].motion`) keep their
+//! vertices the same way: a piece at time t is the round cone between its
+//! two lerped vertex spheres, bounded by the union of both vertices' key
+//! boxes (the cone is the hull of its spheres, inside that box). Resident
+//! per point: 16 bytes (centre and radius) plus 16 per key when it moves,
+//! a 4-byte primitive index and about 20 bytes of BVH nodes; per curve
+//! vertex 16 bytes (plus 16 per key) and per piece 4 + 4 + 20.
 
 use glam::{Affine3A, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
@@ -27,7 +31,7 @@ use super::round_surface::RoundShading;
 use super::surface::SurfacePoint;
 use super::top_level::{build_cwbvh, TopLevel};
 use crate::motion::{Bracket, TransformTrack};
-use crate::scene::{affine, Scene, Transform};
+use crate::scene::{affine, Array, PointsMotion, Scene, Transform};
 
 /// Per point (or curve piece), resident: 16 bytes of centre and radius
 /// (a curve's per vertex, about one per piece), 4 of primitive index, 4
@@ -66,11 +70,12 @@ pub(super) struct RoundBvh {
     /// Curves: per piece, its first vertex (the second follows it); empty
     /// for points.
     pieces: Vec<u32>,
-    /// Moving points: their spheres at the keys; `None` when still.
+    /// Moving points or deforming curves: their spheres (vertices) at the
+    /// keys; `None` when still.
     keys: Option<SphereKeys>,
 }
 
-/// Moving points' spheres at key times.
+/// Moving points' spheres (or deforming curves' vertices) at key times.
 struct SphereKeys {
     /// Key times, frames, strictly increasing.
     times: Vec<f32>,
@@ -114,7 +119,8 @@ impl RoundShapes {
 
     /// Builds every placed prim's BVH (in parallel) and the top level over
     /// the placements; `None` when the scene places no points or curves.
-    /// Without `motion` (a closed shutter) moving points stay at the frame.
+    /// Without `motion` (a closed shutter) moving points and deforming
+    /// curves stay at the frame.
     pub(super) fn build(scene: &Scene, moving: &MovingInstances, motion: bool) -> Option<Self> {
         let m = &scene.manifest;
         let mut placed = vec![false; m.points.len() + m.curves.len()];
@@ -128,29 +134,15 @@ impl RoundShapes {
         }
         let points = m.points.par_iter().map(|p| {
             let spheres = spheres(scene.view(&p.points), scene.view(&p.widths));
-            let keys = p.motion.as_ref().filter(|_| motion).map(|keys| {
-                let widths = keys
-                    .widths
-                    .as_ref()
-                    .map_or(scene.view(&p.widths), |w| scene.view(w));
-                let centres = scene.view(&keys.points);
-                let n = spheres.len().max(1);
-                let keyed = centres.chunks_exact(n).enumerate().flat_map(|(k, key)| {
-                    // Keyed widths are laid out like the centres.
-                    let keyed = widths.len() == centres.len();
-                    self::spheres(key, if keyed { &widths[k * n..][..n] } else { widths })
-                });
-                SphereKeys {
-                    times: keys.times.clone(),
-                    spheres: keyed.collect(),
-                }
-            });
+            let keys = p.motion.as_ref().filter(|_| motion);
+            let keys = keys.map(|keys| sphere_keys(scene, keys, &p.widths, spheres.len()));
             (spheres, Vec::new(), keys)
         });
         let curves = m.curves.par_iter().map(|c| {
-            let vertices = scene.view(&c.points).iter().zip(scene.view(&c.widths));
-            let spheres = vertices.map(|(p, w)| Vec3A::from_array(*p).extend(0.5 * w));
-            (spheres.collect(), scene.piece_starts(c), None)
+            let spheres = spheres(scene.view(&c.points), scene.view(&c.widths));
+            let keys = c.motion.as_ref().filter(|_| motion);
+            let keys = keys.map(|keys| sphere_keys(scene, keys, &c.widths, spheres.len()));
+            (spheres, scene.piece_starts(c), keys)
         });
         let shapes: Vec<Option<RoundBvh>> = points
             .chain(curves)
@@ -278,23 +270,27 @@ impl RoundShapes {
 impl RoundBvh {
     /// The BVH over `spheres` (points) or over the tube pieces starting at
     /// `pieces` (curves); `None` when there is nothing to hit.
-    /// Moving points' boxes are the union of their spheres' over `keys`.
+    /// A moving sphere's box (a curve vertex's) is the union of its boxes
+    /// at the `keys`; a piece's, the union of its two vertices' boxes.
     fn build(spheres: Vec<Vec4>, pieces: Vec<u32>, keys: Option<SphereKeys>) -> Option<Self> {
         let sphere_box = |s: Vec4| {
             let (c, r) = (Vec3A::from(s.truncate()), Vec3A::splat(s.w));
             Aabb::new(c - r, c + r)
         };
+        // Each sphere's (or curve vertex's) box over the keys.
+        let keyed = keys.as_ref().map_or(&[][..], |k| &k.spheres);
+        let vertex_boxes = spheres.iter().enumerate().map(|(i, &s)| {
+            let at_keys = keyed.iter().skip(i).step_by(spheres.len().max(1));
+            at_keys.fold(sphere_box(s), |b, &k| b.union(&sphere_box(k)))
+        });
+        let vertex_boxes: Vec<Aabb> = vertex_boxes.collect();
         let boxes: Vec<Aabb> = if pieces.is_empty() {
-            let keyed = keys.as_ref().map_or(&[][..], |k| &k.spheres);
-            let boxes = spheres.iter().enumerate().map(|(i, &s)| {
-                let at_keys = keyed.iter().skip(i).step_by(spheres.len().max(1));
-                at_keys.fold(sphere_box(s), |b, &k| b.union(&sphere_box(k)))
-            });
-            boxes.enumerate().map(|(i, b)| padded(b, i)).collect()
+            let boxes = vertex_boxes.into_iter().enumerate();
+            boxes.map(|(i, b)| padded(b, i)).collect()
         } else {
-            let boxes = pieces.iter().map(|&v| {
-                sphere_box(spheres[v as usize]).union(&sphere_box(spheres[v as usize + 1]))
-            });
+            let boxes = pieces
+                .iter()
+                .map(|&v| vertex_boxes[v as usize].union(&vertex_boxes[v as usize + 1]));
             boxes.enumerate().map(|(i, b)| padded(b, i)).collect()
         };
         (!boxes.is_empty()).then(|| Self {
@@ -358,10 +354,33 @@ impl RoundBvh {
         match self.pieces.get(element as usize) {
             None => ray.sphere(self.sphere(element, bracket), t_min, t_max),
             Some(&v) => {
-                let (a, b) = (self.spheres[v as usize], self.spheres[v as usize + 1]);
+                let (a, b) = (self.sphere(v, bracket), self.sphere(v + 1, bracket));
                 ray.round_cone(a, b, t_min, t_max)
             }
         }
+    }
+}
+
+/// The spheres of `count` moving points (or curve vertices) at the keys of
+/// `keys`, with their still `widths` where the keys hold none.
+fn sphere_keys(
+    scene: &Scene,
+    keys: &PointsMotion,
+    widths: &Array<f32>,
+    count: usize,
+) -> SphereKeys {
+    let widths = scene.view(keys.widths.as_ref().unwrap_or(widths));
+    let centres = scene.view(&keys.points);
+    let n = count.max(1);
+    // Keyed widths are laid out like the centres.
+    let keyed = widths.len() == centres.len();
+    let spheres = centres
+        .chunks_exact(n)
+        .enumerate()
+        .flat_map(|(k, key)| spheres(key, if keyed { &widths[k * n..][..n] } else { widths }));
+    SphereKeys {
+        times: keys.times.clone(),
+        spheres: spheres.collect(),
     }
 }
 

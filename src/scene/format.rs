@@ -328,8 +328,8 @@ pub struct Points {
     pub motion: Option<PointsMotion>,
 }
 
-/// Moving points' spheres at key times (docs/rendering.md, "Motion blur"):
-/// each centre (and diameter) moves linearly between neighbouring keys, the
+/// Moving points' spheres (or deforming curves' vertices) at key times
+/// (docs/rendering.md, "Motion blur"): each centre (and diameter) moves linearly between neighbouring keys, the
 /// end keys held outside them.
 #[derive(Clone, Debug, Deserialize)]
 pub struct PointsMotion {
@@ -364,6 +364,11 @@ pub struct Curves {
     /// `width` 1 to 4, one element per vertex.
     #[serde(default)]
     pub primvars: BTreeMap<String, Array<f32>>,
+    /// The vertices (and widths) at key times over the shutter, laid out as
+    /// a points record's (a vertex per point), when the curves deform
+    /// (time-sampled `points` or `widths`, `velocities`); absent otherwise.
+    #[serde(default)]
+    pub motion: Option<PointsMotion>,
 }
 
 /// `triangle_materials` entry for a triangle with no bound material (grey default).

@@ -3,6 +3,7 @@
 #![allow(dead_code)] // each test binary uses its own subset
 
 pub mod aovs;
+pub mod motion;
 pub mod render;
 
 use std::path::{Path, PathBuf};

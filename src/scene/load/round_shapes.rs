@@ -42,8 +42,9 @@ impl Checker<'_> {
         self.shape_primvars(&field("primvars"), &points.primvars, centres.len(), "point")
     }
 
-    /// Moving points' keys (`field` is `points[i].motion`): key times, a
-    /// finite centre (and width, when keyed) for every point at every key.
+    /// Moving points' or deforming curves' keys (`field` is `points[i].motion`
+    /// or `curves[i].motion`): key times, a finite centre (and width, when
+    /// keyed) for every point or vertex at every key.
     fn points_motion(
         &self,
         field: &str,
@@ -61,7 +62,7 @@ impl Checker<'_> {
     }
 
     /// Finite vertices, one width per vertex, curves of 2 or more vertices
-    /// covering every vertex.
+    /// covering every vertex; keys (when deforming) for every vertex.
     fn curves(&self, i: usize, curves: &Curves) -> Result<(), SceneError> {
         let field = |name: &str| format!("curves[{i}].{name}");
         let vertices = self.array(&field("points"), &curves.points)?;
@@ -83,6 +84,9 @@ impl Checker<'_> {
             return Err(self.invalid(&field("vertex_counts"), message));
         }
         self.shape_material(&field("material"), curves.material)?;
+        if let Some(motion) = &curves.motion {
+            self.points_motion(&field("motion"), motion, vertices.len())?;
+        }
         self.shape_primvars(
             &field("primvars"),
             &curves.primvars,
