@@ -13,10 +13,10 @@ scene with a closed shutter, exports byte-identical to one exported without this
 import math
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom, UsdLux
+from pxr import Gf, Usd, UsdGeom
 
 from .deforming import mesh_motion, points_motion
-from .lights import MOVING_LIGHT_TYPES, add_light_motion
+from .lights import add_light_motion
 from .report import Report
 from .xforms import as_array, to_3x4, to_3x4_list
 
@@ -77,13 +77,12 @@ def scan(stage: Usd.Stage, frame_time: float, start: float, end: float, report: 
     transform key times (the interval's ends and every authored transform time sample
     strictly inside it, xformOps and PointInstancer positions/orientations/scales), and
     one warning per prim whose motion the export does not carry, so it renders as it is
-    at the frame: lights whose transform changes, and curves (point-based prims other than
-    meshes and points, which deforming.py keys) whose points are time-sampled inside the
-    shutter or that author non-zero velocities or accelerations."""
+    at the frame: curves (point-based prims other than meshes and points, which
+    deforming.py keys) whose points are time-sampled inside the shutter or that author
+    non-zero velocities or accelerations. (Every exported light's motion is carried.)"""
     times = {start, end}
     interval = Gf.Interval(start, end)
     frame = Usd.TimeCode(frame_time)
-    caches = [UsdGeom.XformCache(Usd.TimeCode(t)) for t in (frame_time, start, end)]
 
     def samples_inside(attr: Usd.Attribute) -> bool:
         return bool(attr) and len(attr.GetTimeSamplesInInterval(interval)) > 0
@@ -102,13 +101,6 @@ def scan(stage: Usd.Stage, frame_time: float, start: float, end: float, report: 
             for attr in (instancer.GetPositionsAttr(), instancer.GetOrientationsAttr(),
                          instancer.GetScalesAttr()):
                 times.update(attr.GetTimeSamplesInInterval(interval))
-        if prim.HasAPI(UsdLux.LightAPI) and prim.GetTypeName() not in MOVING_LIGHT_TYPES:
-            at_frame = caches[0].GetLocalToWorldTransform(prim)
-            if any(c.GetLocalToWorldTransform(prim) != at_frame for c in caches[1:]) or \
-                    samples_inside_xform(prim, interval):
-                report.warn(f"{path}: the light's transform changes over the shutter; rendered "
-                            f"where it is at the frame (moving distant and dome lights are not "
-                            f"blurred yet)")
         points = UsdGeom.PointBased(prim)
         if points and not prim.IsA(UsdGeom.Mesh) and not prim.IsA(UsdGeom.Points):
             moved = [a.GetName() for a in (points.GetPointsAttr(),) if samples_inside(a)]
@@ -118,16 +110,6 @@ def scan(stage: Usd.Stage, frame_time: float, start: float, end: float, report: 
                 report.warn(f"{path}: {', '.join(moved)} deform it over the shutter; rendered "
                             f"as it is at the frame (deforming curves are not blurred yet)")
     return sorted(t for t in times if start <= t <= end)
-
-
-def samples_inside_xform(prim: Usd.Prim, interval: Gf.Interval) -> bool:
-    """Whether `prim` or an ancestor has transform time samples inside `interval`."""
-    while prim and not prim.IsPseudoRoot():
-        xformable = UsdGeom.Xformable(prim)
-        if xformable and xformable.GetTimeSamplesInInterval(interval):
-            return True
-        prim = prim.GetParent()
-    return False
 
 
 def _rotation_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
