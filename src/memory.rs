@@ -7,10 +7,15 @@
 //! bound: the scene is dropped before the film exists, so the true peak is
 //! lower than the sum when both are large). Each part's owner says what it
 //! will hold; this module only adds them up:
-//! - scene: the bulk arrays of `scene.bin`, held while the render state is built,
-//!   and the Cryptomatte names kept per instance (8 bytes);
+//! - scene: the bulk arrays of `scene.bin`, held while the render state is built
+//!   (motion keys included: deforming meshes' and moving points' keyed
+//!   points, normals and widths, moving instances' keyed transforms), and
+//!   the Cryptomatte names kept per instance (8 bytes);
 //! - geometry: [`Geometry::bytes_for`] (shading copies, BVHs, the build's
-//!   temporaries for the meshes built at once, the top level);
+//!   temporaries for the meshes built at once, the top level) and
+//!   [`Geometry::keyed_bytes_for`] (keyed triangles, vertices and spheres;
+//!   counted whatever the render's shutter, a conservative bound when a
+//!   closed shutter leaves the keys unused);
 //! - volumes: per density (and emitting temperature or emission) grid,
 //!   [`Media::field_bytes_for`] from the VDB grid table (sparse layout,
 //!   majorant grid, emission cells; no tree is read), plus what reading the
@@ -264,11 +269,13 @@ fn parts(scene: &Scene, planned: &[PlannedMesh]) -> Result<MemoryEstimate, Memor
         .iter()
         .map(|p| p.bytes)
         .fold(arrays.meshes, u64::saturating_add);
+    let keys = Keys::of(scene);
     Ok(MemoryEstimate {
         scene: mesh_bytes
             + arrays.instances
+            + keys.array_bytes
             + InstanceNames::bytes_for(scene.manifest.instances.count),
-        geometry: geometry_bytes(scene, mesh_bytes, planned),
+        geometry: geometry_bytes(scene, mesh_bytes, planned) + keys.geometry_bytes,
         volumes: volume_bytes(scene)?,
         film: 0,
         runtime: RUNTIME_BYTES,
@@ -309,6 +316,49 @@ fn geometry_bytes(scene: &Scene, mesh_bytes: u64, planned: &[PlannedMesh]) -> u6
     let round_building = round.iter().take(rayon::current_num_threads()).sum();
     let round = [round.iter().sum(), round_building];
     Geometry::bytes_for(mesh_bytes, total, building, placements, round)
+}
+
+/// What a scene's motion keys hold, bytes.
+struct Keys {
+    /// Their `scene.bin` arrays.
+    array_bytes: u64,
+    /// What geometry builds from them ([`Geometry::keyed_bytes_for`]).
+    geometry_bytes: u64,
+}
+
+impl Keys {
+    /// The keys of `scene`'s deforming meshes, moving points and moving
+    /// instances (a deforming subdivision cage counts at the cage's size).
+    fn of(scene: &Scene) -> Self {
+        let m = &scene.manifest;
+        let bytes = |b: Option<u64>| b.expect("validated array");
+        let (mut array_bytes, mut triangle_keys, mut vertex_keys, mut sphere_keys) = (0, 0, 0, 0);
+        for mesh in &m.meshes {
+            if let Some(motion) = &mesh.motion {
+                let keys = motion.times.len() as u64;
+                let normals = motion.normals.as_ref();
+                array_bytes +=
+                    bytes(motion.points.bytes()) + normals.map_or(0, |n| bytes(n.bytes()));
+                triangle_keys += keys * mesh.triangles.count;
+                vertex_keys += keys * mesh.points.count * if normals.is_some() { 2 } else { 1 };
+            }
+        }
+        for points in &m.points {
+            if let Some(motion) = &points.motion {
+                let widths = motion.widths.as_ref();
+                array_bytes +=
+                    bytes(motion.points.bytes()) + widths.map_or(0, |w| bytes(w.bytes()));
+                sphere_keys += motion.times.len() as u64 * points.points.count;
+            }
+        }
+        if let Some(motion) = &m.instances.motion {
+            array_bytes += bytes(motion.instance.bytes()) + bytes(motion.transform.bytes());
+        }
+        Self {
+            array_bytes,
+            geometry_bytes: Geometry::keyed_bytes_for(triangle_keys, vertex_keys, sphere_keys),
+        }
+    }
 }
 
 /// Volumes: every distinct grid `Media::build` reads (density fields, and

@@ -22,10 +22,6 @@ LIGHT_TYPES = {
     "DomeLight_1": ("dome", [("texture", "inputs:texture:file", "asset")]),
 }
 
-# USD types whose motion over the shutter is exported (the renderer moves them rigidly);
-# motion.warn_unblurred warns about the others (distant and dome lights).
-MOVING_LIGHT_TYPES = {"SphereLight", "RectLight", "DiskLight", "CylinderLight"}
-
 
 def _light_prims(stage: Usd.Stage, time: Usd.TimeCode, report: Report):
     """Visible UsdLux lights of the stage, instance proxies included.
@@ -85,13 +81,12 @@ def _light_input(prim: Usd.Prim, name: str, convert, time: Usd.TimeCode,
 def add_light_motion(stage: Usd.Stage, records: list[dict], times: list[float], frame_time: float,
                      report: Report) -> None:
     """Adds `motion` (world-from-light at every key time, frames relative to the frame) to
-    the records of the sphere, rect, disk and cylinder lights whose transform changes over
-    the shutter; a light with a non-finite transform at some key is warned about and left still."""
+    the records of the lights whose transform changes over the shutter (the renderer moves
+    bounded lights rigidly and turns distant and dome lights); a light with a non-finite
+    transform at some key is warned about and left still."""
     caches = [UsdGeom.XformCache(Usd.TimeCode(t)) for t in times]
     for record in records:
         prim = stage.GetPrimAtPath(record["path"])
-        if prim.GetTypeName() not in MOVING_LIGHT_TYPES:
-            continue
         keys = [to_3x4_list(as_array(c.GetLocalToWorldTransform(prim))) for c in caches]
         if all(k == record["transform"] for k in keys):
             continue

@@ -13,10 +13,10 @@ scene with a closed shutter, exports byte-identical to one exported without this
 import math
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom, UsdLux
+from pxr import Gf, Usd, UsdGeom
 
 from .deforming import curves_motion, mesh_motion, points_motion
-from .lights import MOVING_LIGHT_TYPES, add_light_motion
+from .lights import add_light_motion
 from .report import Report
 from .xforms import as_array, to_3x4, to_3x4_list
 
@@ -72,28 +72,14 @@ def shutter(camera_prim: Usd.Prim | None, time: Usd.TimeCode, override: tuple | 
     return float(camera.GetShutterOpenAttr().Get(time)), float(camera.GetShutterCloseAttr().Get(time))
 
 
-def scan(stage: Usd.Stage, frame_time: float, start: float, end: float, report: Report) -> list[float]:
+def scan(stage: Usd.Stage, start: float, end: float) -> list[float]:
     """One walk over the stage for the shutter [start, end] (absolute time codes): the
-    transform key times (the interval's ends and every authored transform time sample
-    strictly inside it, xformOps and PointInstancer positions/orientations/scales), and
-    one warning per prim whose motion the export does not carry, so it renders as it is
-    at the frame: lights whose transform changes, and point-based prims other than the
-    meshes, points and curves deforming.py keys whose points are time-sampled inside the
-    shutter or that author non-zero velocities or accelerations."""
+    transform key times, i.e. the interval's ends and every authored transform time sample
+    strictly inside it (xformOps and PointInstancer positions/orientations/scales). What
+    deforms is keyed by deforming.py, lights by lights.py."""
     times = {start, end}
     interval = Gf.Interval(start, end)
-    frame = Usd.TimeCode(frame_time)
-    caches = [UsdGeom.XformCache(Usd.TimeCode(t)) for t in (frame_time, start, end)]
-
-    def samples_inside(attr: Usd.Attribute) -> bool:
-        return bool(attr) and len(attr.GetTimeSamplesInInterval(interval)) > 0
-
-    def non_zero(attr: Usd.Attribute) -> bool:
-        value = attr.Get(frame) if attr and attr.HasAuthoredValue() else None
-        return value is not None and bool(np.any(np.asarray(value) != 0))
-
     for prim in Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()):
-        path = prim.GetPath()
         xformable = UsdGeom.Xformable(prim)
         if xformable:
             times.update(xformable.GetTimeSamplesInInterval(interval))
@@ -102,33 +88,7 @@ def scan(stage: Usd.Stage, frame_time: float, start: float, end: float, report: 
             for attr in (instancer.GetPositionsAttr(), instancer.GetOrientationsAttr(),
                          instancer.GetScalesAttr()):
                 times.update(attr.GetTimeSamplesInInterval(interval))
-        if prim.HasAPI(UsdLux.LightAPI) and prim.GetTypeName() not in MOVING_LIGHT_TYPES:
-            at_frame = caches[0].GetLocalToWorldTransform(prim)
-            if any(c.GetLocalToWorldTransform(prim) != at_frame for c in caches[1:]) or \
-                    samples_inside_xform(prim, interval):
-                report.warn(f"{path}: the light's transform changes over the shutter; rendered "
-                            f"where it is at the frame (moving distant and dome lights are not "
-                            f"blurred yet)")
-        points = UsdGeom.PointBased(prim)
-        if points and not any(prim.IsA(t) for t in (UsdGeom.Mesh, UsdGeom.Points, UsdGeom.BasisCurves,
-                                                    UsdGeom.NurbsCurves)):
-            moved = [a.GetName() for a in (points.GetPointsAttr(),) if samples_inside(a)]
-            moved += [a.GetName() for a in (points.GetVelocitiesAttr(),
-                                            points.GetAccelerationsAttr()) if non_zero(a)]
-            if moved:
-                report.warn(f"{path}: {', '.join(moved)} deform it over the shutter; rendered "
-                            f"as it is at the frame ({prim.GetTypeName()} is not blurred)")
     return sorted(t for t in times if start <= t <= end)
-
-
-def samples_inside_xform(prim: Usd.Prim, interval: Gf.Interval) -> bool:
-    """Whether `prim` or an ancestor has transform time samples inside `interval`."""
-    while prim and not prim.IsPseudoRoot():
-        xformable = UsdGeom.Xformable(prim)
-        if xformable and xformable.GetTimeSamplesInInterval(interval):
-            return True
-        prim = prim.GetParent()
-    return False
 
 
 def _rotation_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -258,7 +218,7 @@ def add_motion(stage: Usd.Stage, time: Usd.TimeCode, override: tuple | None, wal
                     f"blur around; exported without motion (pass --frame or author startTimeCode)")
         return
     t0 = time.GetValue()
-    transform_keys = scan(stage, t0, t0 + open_, t0 + close, report)
+    transform_keys = scan(stage, t0 + open_, t0 + close)
     if deforming is not None:
         meshes, skinning, points, curves = deforming
         keys = (stage, t0, (t0 + open_, t0 + close), writer, (report, _Silent()))

@@ -179,6 +179,16 @@ impl Geometry {
             + RoundShapes::bytes_for(elements, elements_building)
     }
 
+    /// Bytes [`Geometry::build`] adds for motion keys under an open shutter:
+    /// per triangle per key of a deforming mesh, its keyed BVH's copy and
+    /// the per-key list that copy is gathered from (three `Vec3A` each, 96
+    /// bytes); per vertex value per key (points, and normals where the mesh
+    /// has them) the shading keys (a `Vec3`, 12); per point per key of
+    /// moving points, its sphere (a `Vec4`, 16).
+    pub fn keyed_bytes_for(triangle_keys: u64, vertex_keys: u64, sphere_keys: u64) -> u64 {
+        triangle_keys * (48 + 48) + vertex_keys * 12 + sphere_keys * 16
+    }
+
     /// Builds the world-space BVH over the meshes placed once, one BVH per
     /// mesh placed more than once or moving (in parallel), and the
     /// top-level BVH over those meshes' placements. Placements whose

@@ -307,7 +307,7 @@ impl Path<'_, '_> {
             let (strategy, bounce, throughput) =
                 (self.settings.strategy, self.bounce, self.throughput);
             let gathered = &mut self.gathered;
-            lights.escaped(origin, direction, |le, pdf| {
+            lights.escaped(origin, direction, self.time, |le, pdf| {
                 gathered.add(
                     throughput * le * emission_weight(strategy, bounce, pdf, null_ratio),
                     depth,

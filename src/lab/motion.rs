@@ -13,6 +13,10 @@
 //! time-sampled points ripple and slide 0.5 units, 2.5 cells, over the
 //! shutter), its BVH built over each triangle's union of key boxes:
 //! build time and samples per second with the shutter closed and open.
+//! A fourth: one moving point cloud (a 200 x 200 grid of spheres whose
+//! time-sampled centres ripple and slide 0.5 units over the shutter), its
+//! sphere BVH built over each sphere's union of key boxes: build time, the
+//! keyed spheres' memory and samples per second, closed and open.
 
 use std::fmt::Write as _;
 use std::hint::black_box;
@@ -89,6 +93,7 @@ pub fn run(bench: &MotionBench) -> Result<()> {
         );
     }
     deforming_mesh(bench, &dir)?;
+    moving_points(bench, &dir)?;
     if let Some(vdb) = &bench.volume {
         advected_volume(bench, vdb, &dir)?;
     }
@@ -138,11 +143,7 @@ const GRID: usize = 100;
 
 /// The third table: the deforming grid, shutter closed and open.
 fn deforming_mesh(bench: &MotionBench, dir: &std::path::Path) -> Result<()> {
-    let usda = dir.join("deforming.usda");
-    let system = |e| LabError::system(usda.display().to_string(), e);
-    std::fs::write(&usda, grid_stage()).map_err(system)?;
-    crate::scene::export(&usda, &dir.join("deforming"), &Default::default())?;
-    let scene = Scene::load(&dir.join("deforming"))?;
+    let scene = exported(dir, "deforming", &grid_stage())?;
     let keys = scene.manifest.meshes[0]
         .motion
         .as_ref()
@@ -161,6 +162,80 @@ fn deforming_mesh(bench: &MotionBench, dir: &std::path::Path) -> Result<()> {
         println!("| {name} | {:.1} | {rate:.3} | {seconds:.2} |", build * 1e3);
     }
     Ok(())
+}
+
+/// `usda` written to `dir/NAME.usda`, exported to `dir/NAME` and loaded.
+fn exported(dir: &std::path::Path, name: &str, usda: &str) -> Result<Scene> {
+    let path = dir.join(format!("{name}.usda"));
+    let system = |e| LabError::system(path.display().to_string(), e);
+    std::fs::write(&path, usda).map_err(system)?;
+    crate::scene::export(&path, &dir.join(name), &Default::default())?;
+    Ok(Scene::load(&dir.join(name))?)
+}
+
+/// Spheres per side of the moving cloud.
+const CLOUD: usize = 200;
+
+/// The fourth table: the moving point cloud, shutter closed and open.
+fn moving_points(bench: &MotionBench, dir: &std::path::Path) -> Result<()> {
+    let scene = exported(dir, "points", &cloud_stage())?;
+    let keys = scene.manifest.points[0]
+        .motion
+        .as_ref()
+        .map_or(0, |m| m.times.len());
+    let spheres = CLOUD * CLOUD;
+    println!(
+        "\nOne moving point cloud: {spheres} spheres ({keys} keys); {}x{} pixels, {} spp.\n",
+        bench.resolution.x, bench.resolution.y, bench.spp
+    );
+    println!("| shutter | BVH build (ms) | keyed spheres (MB) | samples/s (M) | render (s) |");
+    println!("|---|---:|---:|---:|---:|");
+    for (name, shutter, keyed) in [
+        ("0,0 (still)", Shutter::CLOSED, 0),
+        ("0,1 (moving)", OPEN, spheres * keys),
+    ] {
+        let (build, rate, seconds) = timed(bench, &scene, shutter)?;
+        let bytes = Geometry::keyed_bytes_for(0, 0, keyed as u64);
+        println!(
+            "| {name} | {:.1} | {:.3} | {rate:.3} | {seconds:.2} |",
+            build * 1e3,
+            bytes as f64 / 1e6
+        );
+    }
+    Ok(())
+}
+
+/// A [`CLOUD`]-square grid of spheres 0.08 wide, 0.1 apart, in the y = 0
+/// plane at frame 0; at frame 1 slid 0.5 along +X and rippled up to 0.5 in
+/// y (as [`grid_stage`]'s mesh); seen from above at 45 degrees with the
+/// shutter open, under a dome.
+fn cloud_stage() -> String {
+    let point = |i: usize, frame: f64| {
+        let (x, z) = (
+            0.1 * (i % CLOUD) as f64 - 10.0,
+            0.1 * (i / CLOUD) as f64 - 10.0,
+        );
+        let y = frame * 0.5 * (x * 0.7).sin() * (z * 0.5).cos();
+        format!("({}, {y}, {z})", x + 0.5 * frame)
+    };
+    let points = |frame: f64| {
+        (0..CLOUD * CLOUD)
+            .map(|i| point(i, frame))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    format!(
+        "#usda 1.0\n(\n    defaultPrim = \"World\"\n    metersPerUnit = 1\n    upAxis = \"Y\"\n    \
+         startTimeCode = 0\n    endTimeCode = 1\n)\n\ndef Xform \"World\"\n{{\n    def Points \"Cloud\"\n    {{\n        \
+         float[] widths = [0.08] (interpolation = \"constant\")\n        \
+         point3f[] points.timeSamples = {{ 0: [{}], 1: [{}] }}\n    }}\n\n    \
+         def DomeLight \"Dome\"\n    {{\n    }}\n\n    def Camera \"Camera\"\n    {{\n        \
+         double3 xformOp:translate = (0, 14, 14)\n        float xformOp:rotateX = -45\n        \
+         uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateX\"]\n        \
+         float focalLength = 18\n        double shutter:open = 0\n        double shutter:close = 1\n    }}\n}}\n",
+        points(0.0),
+        points(1.0),
+    )
 }
 
 /// A [`GRID`]-square grid mesh 20 units wide in the y = 0 plane at frame 0;
@@ -209,11 +284,7 @@ fn advected_volume(
     vdb: &std::path::Path,
     dir: &std::path::Path,
 ) -> Result<()> {
-    let usda = dir.join("volume.usda");
-    let system = |e| LabError::system(usda.display().to_string(), e);
-    std::fs::write(&usda, volume_stage(vdb)).map_err(system)?;
-    crate::scene::export(&usda, &dir.join("volume"), &Default::default())?;
-    let scene = Scene::load(&dir.join("volume"))?;
+    let scene = exported(dir, "volume", &volume_stage(vdb))?;
     println!(
         "\nThe fireball of {} advected by its `vel` grid; {}x{} pixels, {} spp.\n",
         vdb.display(),

@@ -28,7 +28,8 @@ pub struct Lights {
     selection: Option<LightSelection>,
     /// Indices of the analytic area lights (sphere, rect, disk, cylinder).
     area: Vec<usize>,
-    /// Indices of the lights an escaping ray can see (dome, distant with a cone).
+    /// Indices of the lights an escaping ray can see (dome, distant with a
+    /// cone, still or turning).
     infinite: Vec<usize>,
     /// Light index of each emissive placed mesh, by (instance, prototype mesh).
     meshes: HashMap<(u32, u32), usize>,
@@ -108,7 +109,7 @@ impl Lights {
             Light::Sphere(l) => Some(l.centre()),
             Light::Rect(l) => Some(l.centre()),
             Light::Disk(l) => Some(l.centre()),
-            Light::Moving(l) => Some(l.centre()),
+            Light::Moving(l) => l.centre(),
             _ => None,
         }
     }
@@ -165,12 +166,19 @@ impl Lights {
     }
 
     /// Calls `radiance_pdf(radiance, pdf)` once for each infinite light a ray
-    /// from `origin` escaping the scene along unit `direction` sees: the dome, and distant
-    /// lights of non-zero angle whose cone holds `direction`. `pdf` is what
-    /// [`Lights::sample`] gives that direction, selection included.
-    pub fn escaped(&self, origin: Vec3, direction: Vec3, mut radiance_pdf: impl FnMut(Vec3, f32)) {
+    /// from `origin` escaping the scene along unit `direction` at `time`
+    /// (frames) sees: the dome, and distant lights of non-zero angle whose
+    /// cone holds `direction`, turning ones as they are at `time`. `pdf` is
+    /// what [`Lights::sample`] gives that direction, selection included.
+    pub fn escaped(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        time: f32,
+        mut radiance_pdf: impl FnMut(Vec3, f32),
+    ) {
         for &i in &self.infinite {
-            if let Some(hit) = self.lights[i].escaped(direction) {
+            if let Some(hit) = self.lights[i].escaped(direction, time) {
                 radiance_pdf(hit.radiance, hit.pdf * self.probability(origin, i));
             }
         }
@@ -309,21 +317,12 @@ impl Lights {
         let indices = |keep: fn(&Light) -> bool| -> Vec<usize> {
             (0..lights.len()).filter(|&i| keep(&lights[i])).collect()
         };
-        let area = indices(|l| {
-            matches!(
-                l,
-                Light::Sphere(_)
-                    | Light::Rect(_)
-                    | Light::Disk(_)
-                    | Light::Cylinder(_)
-                    | Light::Moving(_)
-            )
-        });
-        let infinite = indices(|l| match l {
-            Light::Dome(_) => true,
-            Light::Distant(d) => !d.is_delta(),
+        let area = indices(|l| match l {
+            Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_) => true,
+            Light::Moving(m) => m.bounds().is_some(),
             _ => false,
         });
+        let infinite = indices(seen_by_escaping_rays);
         let selection = (!lights.is_empty()).then(|| LightSelection::new(&lights, bounds));
         Self {
             lights,
@@ -377,9 +376,20 @@ fn default_dome() -> LightRecord {
     }
 }
 
+/// Whether a ray escaping the scene can see `light`: a dome, or a distant
+/// light with a cone, still or turning.
+fn seen_by_escaping_rays(light: &Light) -> bool {
+    match light {
+        Light::Dome(_) => true,
+        Light::Distant(d) => !d.is_delta(),
+        Light::Moving(m) => seen_by_escaping_rays(m.frame()),
+        _ => false,
+    }
+}
+
 /// `light` (of `record`) moving by the record's keys when `shutter` blurs
 /// and it has some; still, with a warning naming it, when its keys scale or
-/// shear it or it is a distant or dome light.
+/// shear it.
 fn moved(light: Light, record: &LightRecord, shutter: Shutter) -> Light {
     let Some(motion) = record.motion.as_ref().filter(|_| shutter.blurs()) else {
         return light;
@@ -391,8 +401,7 @@ fn moved(light: Light, record: &LightRecord, shutter: Shutter) -> Light {
             log::warn!(
                 target: LOG_TARGET,
                 "light {}: its keys over the shutter scale or shear it (only rigid motion of \
-                 sphere, rect, disk and cylinder lights is blurred); rendered where it is at \
-                 the frame",
+                 lights is blurred); rendered where it is at the frame",
                 record.path
             );
             still
@@ -570,6 +579,7 @@ mod tests {
         lights.escaped(
             Vec3::ZERO,
             Vec3::new(0.3, -0.2, 0.9).normalize(),
+            0.0,
             |radiance, pdf| seen.push((radiance, pdf)),
         );
         assert_eq!(seen.len(), 1);
@@ -618,7 +628,7 @@ mod tests {
             if s.distance.is_infinite() {
                 domes += 1;
                 let mut seen = 0;
-                lights.escaped(Vec3::ZERO, s.wi, |radiance, pdf| {
+                lights.escaped(Vec3::ZERO, s.wi, 0.0, |radiance, pdf| {
                     seen += 1;
                     assert_eq!(radiance, s.radiance);
                     assert!((pdf - s.pdf).abs() <= 1e-5 * s.pdf);

@@ -50,11 +50,13 @@ impl Light {
         }
     }
 
-    /// What an escaping ray sees of an infinite light, pdf without selection.
-    pub(super) fn escaped(&self, direction: Vec3) -> Option<LightHit> {
+    /// What an escaping ray sees of an infinite light (a turning one as it
+    /// is at `time`, frames), pdf without selection.
+    pub(super) fn escaped(&self, direction: Vec3, time: f32) -> Option<LightHit> {
         match self {
             Self::Distant(l) => l.escaped(direction),
             Self::Dome(l) => Some(l.escaped(direction)),
+            Self::Moving(l) => l.escaped(direction, time),
             _ => None,
         }
     }
@@ -69,12 +71,12 @@ impl Light {
             Self::Cylinder(l) => Some(l.bounds()),
             Self::Mesh(l) => Some(l.bounds()),
             Self::Volume(l) => Some(l.bounds()),
-            Self::Moving(l) => Some(l.bounds()),
+            Self::Moving(l) => l.bounds(),
             Self::Distant(_) | Self::Dome(_) => None,
         }
     }
 
-    /// Luminance of the irradiance an infinite light delivers to a surface
+    /// Luminance of the irradiance an infinite light (still or turning) delivers to a surface
     /// facing it, W/m^2 (its power is the flux through a disk of
     /// `scene_radius`, pi r^2 E, for a distant light, and 4 pi r^2 x pi L
     /// for a dome of mean radiance L, as pbrt-v4's `Phi`); 0 for bounded
@@ -84,6 +86,7 @@ impl Light {
         match self {
             Self::Distant(l) => l.power(scene_radius) / disk,
             Self::Dome(l) => l.power(scene_radius) / (4.0 * disk),
+            Self::Moving(l) => l.frame().irradiance(scene_radius),
             _ => 0.0,
         }
     }
@@ -100,7 +103,7 @@ impl Light {
             Self::Dome(l) => l.power(scene_radius),
             Self::Mesh(l) => l.power(),
             Self::Volume(l) => l.power(),
-            Self::Moving(l) => l.power(scene_radius),
+            Self::Moving(l) => l.frame().power(scene_radius),
         }
     }
 

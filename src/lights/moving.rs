@@ -1,6 +1,5 @@
-//! Lights moved by their keyed transforms over the shutter (sphere, rect,
-//! disk and cylinder lights with a `motion` record; docs/rendering.md,
-//! "Motion blur").
+//! Lights moved by their keyed transforms over the shutter (any UsdLux
+//! light with a `motion` record; docs/rendering.md, "Motion blur").
 //!
 //! A moving light is its still light at the frame moved rigidly: at time t
 //! (frames) it is turned by R(t) about a pivot (the centre of its box at
@@ -17,6 +16,15 @@
 //! rendered still, warned). Its box for the light BVH covers the whole
 //! motion: every point stays within the frame box's half diagonal of the
 //! pivot, which moves on the segments between its key positions.
+//!
+//! A distant or dome light is infinitely far: only its rotation matters
+//! (pivot at the origin, translation ignored as the still light ignores it).
+//! It has no box; a sample at time t is the frame light's sample turned by
+//! R(t), and a ray escaping along w at time t sees what the frame light
+//! shows along R(t)^-1 w (a dome's texture lookup turned with it). Its
+//! power and irradiance are the frame light's, so it is picked as the
+//! still light is. Still lights keep their own variants: no per-ray
+//! rotation where nothing moves.
 
 use glam::{Affine3A, Quat, Vec2, Vec3};
 
@@ -39,18 +47,17 @@ pub(crate) struct MovingLight {
     times: Vec<f32>,
     /// Per key, the rotation from the frame pose and where the pivot is.
     poses: Vec<(Quat, Vec3)>,
-    /// Its box over the whole motion, emitting in every direction.
-    bounds: LightBounds,
+    /// Its box over the whole motion, emitting in every direction; `None`
+    /// for a distant or dome light.
+    bounds: Option<LightBounds>,
 }
 
 impl MovingLight {
-    /// `frame` (a bounded light placed at `world_from_light`) moved by the
-    /// keyed `motion`; `None` when a key scales or shears it relative to the
-    /// frame, or `frame` is not a bounded light.
+    /// `frame` (a light placed at `world_from_light`) moved by the keyed
+    /// `motion`; `None` when a key scales or shears it relative to the frame.
     pub fn new(frame: Light, world_from_light: &Affine3A, motion: &CameraMotion) -> Option<Self> {
-        let box_ = frame.bounds()?;
-        let pivot = (box_.min + box_.max) / 2.0;
-        let reach = Vec3::splat((box_.max - box_.min).length() / 2.0);
+        let box_ = frame.bounds();
+        let pivot = box_.map_or(Vec3::ZERO, |b| (b.min + b.max) / 2.0);
         let light_from_world = world_from_light.inverse();
         let mut poses = Vec::with_capacity(motion.times.len());
         for key in &motion.transforms {
@@ -58,12 +65,16 @@ impl MovingLight {
             let rotation = rigid_rotation(&delta)?;
             poses.push((rotation, delta.transform_point3(pivot)));
         }
-        let (min, max) = poses.iter().fold(
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(min, max), &(_, c)| (min.min(c - reach), max.max(c + reach)),
-        );
+        let bounds = box_.map(|b| {
+            let reach = Vec3::splat((b.max - b.min).length() / 2.0);
+            let (min, max) = poses.iter().fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(min, max), &(_, c)| (min.min(c - reach), max.max(c + reach)),
+            );
+            LightBounds::omni(min, max, b.phi)
+        });
         Some(Self {
-            bounds: LightBounds::omni(min, max, box_.phi),
+            bounds,
             frame: Box::new(frame),
             pivot,
             times: motion.times.clone(),
@@ -115,19 +126,30 @@ impl MovingLight {
         self.frame.intersect(origin, direction, t_max, time)
     }
 
-    /// Its box over the whole motion, emitting in every direction.
-    pub fn bounds(&self) -> LightBounds {
+    /// What a ray escaping along unit `direction` at `time` sees of a
+    /// turning distant or dome light: the frame light's answer for the
+    /// direction turned back (`None` for a bounded light).
+    pub fn escaped(&self, direction: Vec3, time: f32) -> Option<LightHit> {
+        let (rotation, _) = self.pose(time);
+        self.frame.escaped(rotation.inverse() * direction, time)
+    }
+
+    /// Its box over the whole motion, emitting in every direction; `None`
+    /// for a distant or dome light.
+    pub fn bounds(&self) -> Option<LightBounds> {
         self.bounds
     }
 
-    /// Luminance of the emitted power: the frame light's (rigid motion).
-    pub fn power(&self, scene_radius: f32) -> f32 {
-        self.frame.power(scene_radius)
+    /// The light as it is at the frame (its power, irradiance and whether
+    /// escaping rays see it are those of the moving light).
+    pub fn frame(&self) -> &Light {
+        &self.frame
     }
 
-    /// Where equiangular sampling aims: the centre of its motion's box.
-    pub fn centre(&self) -> Vec3 {
-        (self.bounds.min + self.bounds.max) / 2.0
+    /// Where equiangular sampling aims: the centre of its motion's box;
+    /// `None` for a distant or dome light.
+    pub fn centre(&self) -> Option<Vec3> {
+        self.bounds.map(|b| (b.min + b.max) / 2.0)
     }
 }
 
@@ -149,8 +171,10 @@ fn rigid_rotation(delta: &Affine3A) -> Option<Quat> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lights::test_support::{record, translated};
+    use crate::lights::test_support::{record, scene_with, translated};
+    use crate::materials::Materials;
     use crate::scene::LightShape;
+    use crate::volumes::Media;
 
     fn sphere_moving(keys: Vec<[f32; 12]>) -> Option<MovingLight> {
         let record = record(
@@ -184,10 +208,47 @@ mod tests {
         let hit = light.intersect(from, Vec3::Y, 10.0, 0.5).unwrap();
         assert!((hit.t - 4.5).abs() < 1e-5, "{}", hit.t);
         assert!(light.intersect(from, Vec3::Y, 10.0, 0.0).is_none());
-        let bounds = light.bounds();
+        let bounds = light.bounds().unwrap();
         assert!(bounds.min.x <= -0.5 && bounds.max.x >= 4.5, "{bounds:?}");
         let mut scaled = translated(Vec3::ZERO);
         scaled[0] = 2.0;
         assert!(sphere_moving(vec![translated(Vec3::ZERO), scaled]).is_none());
+    }
+
+    /// A distant light of 5 degrees turning a quarter turn about Y over
+    /// [0, 1] (its axis from +Z to +X) and carried off by a translation
+    /// that does not matter: at t = 0.5 its samples lie around the axis
+    /// halfway and escaping rays see it there with the samples' pdf, at
+    /// t = 0 it is where the frame light is; it has no box.
+    #[test]
+    fn a_turning_distant_light_points_where_its_keys_turn_it_at_the_ray_time() {
+        let record = record(LightShape::Distant { angle_deg: 5.0 }, true, 1.0);
+        let frame = Light::from_record(&record).unwrap();
+        let mut quarter = translated(Vec3::new(7.0, 0.0, -3.0));
+        [quarter[0], quarter[2], quarter[8], quarter[10]] = [0.0, 1.0, -1.0, 0.0];
+        let motion = CameraMotion {
+            times: vec![0.0, 1.0],
+            transforms: vec![translated(Vec3::ZERO), quarter],
+        };
+        let light = MovingLight::new(frame, &Affine3A::IDENTITY, &motion).unwrap();
+        assert!(light.bounds().is_none() && light.centre().is_none());
+        let halfway = Vec3::new(1.0, 0.0, 1.0).normalize();
+        let scene = scene_with("turning", serde_json::json!([]), [0.0; 3], &[]);
+        let (materials, media) = (Materials::build(&scene).unwrap(), Media::default());
+        let emitters = Emitters {
+            materials: &materials,
+            media: &media,
+            time: 0.5,
+        };
+        for i in 0..64 {
+            let u = Vec2::new((i % 8) as f32 / 8.0 + 0.06, (i / 8) as f32 / 8.0 + 0.06);
+            let sample = light.sample(emitters, Vec3::ZERO, u).unwrap();
+            assert!(sample.wi.dot(halfway) > (2.5f32 + 1e-3).to_radians().cos());
+            let hit = light.escaped(sample.wi, 0.5).unwrap();
+            assert!((hit.pdf - sample.pdf).abs() <= 1e-3 * sample.pdf);
+        }
+        assert!(light.escaped(halfway, 0.0).is_none());
+        assert!(light.escaped(Vec3::Z, 0.0).is_some());
+        assert!(light.escaped(Vec3::X, 1.0).is_some());
     }
 }
