@@ -93,7 +93,11 @@ pub(crate) fn reference_path(out: &Path, key: &str, resolution: UVec2, spp: u32)
 
 /// The reference image at `path`, read back when it exists with the right
 /// size, else rendered with `settings` (a sample budget) and written there.
-fn reference(state: &RenderState, settings: &RenderSettings, path: &Path) -> Result<Vec<f32>> {
+pub(crate) fn reference(
+    state: &RenderState,
+    settings: &RenderSettings,
+    path: &Path,
+) -> Result<Vec<f32>> {
     if let Some(rgb) = read_rgb(path, state.resolution) {
         return Ok(rgb);
     }

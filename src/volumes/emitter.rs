@@ -34,7 +34,7 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use super::majorant::{MajorantGrid, OccupiedCell};
-use crate::sampling::Distribution1D;
+use crate::sampling::AliasTable;
 
 /// The smallest share of its emission bound a cell's weight is given.
 const FLOOR: f32 = 1e-3;
@@ -62,7 +62,7 @@ pub(crate) struct EmissionCells {
     /// In slot order (the majorant grid's), for lookups by binary search.
     cells: Vec<EmittingCell>,
     /// Over `cells`, by estimated power.
-    distribution: Distribution1D,
+    distribution: AliasTable,
     /// Estimated luminance of the power that escapes the volume, over 4 pi,
     /// per unit of index-space volume (a world volume is |det| times it).
     escaping: f32,
@@ -82,7 +82,7 @@ struct EmittingCell {
     extent: Vec3,
     /// Over the unit cubes of the box (x slowest, z fastest), by their
     /// corners' mean source; `None`: uniform over the box.
-    cubes: Option<Distribution1D>,
+    cubes: Option<AliasTable>,
 }
 
 impl EmittingCell {
@@ -128,8 +128,8 @@ impl EmissionCells {
     pub(crate) fn bytes_for(cells: u64, active_voxels: u64) -> u64 {
         let per_cell = std::mem::size_of::<EmittingCell>() + std::mem::size_of::<(u32, f32)>();
         cells * per_cell as u64
-            + Distribution1D::bytes_for(cells)
-            + Distribution1D::bytes_for(active_voxels)
+            + AliasTable::bytes_for(cells)
+            + AliasTable::bytes_for(active_voxels)
     }
 
     /// Bytes held.
@@ -137,7 +137,7 @@ impl EmissionCells {
         let cubes: usize = self
             .cells
             .iter()
-            .filter_map(|c| c.cubes.as_ref().map(Distribution1D::memory_bytes))
+            .filter_map(|c| c.cubes.as_ref().map(AliasTable::memory_bytes))
             .sum();
         self.cells.capacity() * std::mem::size_of::<EmittingCell>()
             + self.floors.capacity() * std::mem::size_of::<(u32, f32)>()
@@ -249,7 +249,7 @@ impl EmissionCells {
                 slot: cell.slot,
                 lo: cell.lo,
                 extent,
-                cubes: cubes.map(|c| Distribution1D::new(c)),
+                cubes: cubes.map(|c| AliasTable::new(c)),
             });
             weights.push(weight);
             escaping += f64::from(volume * sample.source_mean * escape);
@@ -263,7 +263,7 @@ impl EmissionCells {
             return None;
         }
         Some(Self {
-            distribution: Distribution1D::new(&weights),
+            distribution: AliasTable::new(&weights),
             cells,
             escaping: escaping as f32,
             floors,
