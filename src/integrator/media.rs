@@ -57,15 +57,21 @@ pub(super) struct FreeFlight {
 /// `throughput`: at each tentative collision the emission
 /// throughput x sigma_a Le / sigma_maj is added (unbiased: tentative
 /// collisions have rate sigma_maj, and each is reached with probability T),
-/// then one uniform number picks absorption, scattering or a null
-/// collision with probabilities proportional to mean(throughput x sigma_a),
-/// mean(throughput x sigma_s) and mean(throughput x sigma_n), and the
-/// throughput takes sigma_x / (sigma_maj P_x) per channel. This is spectral
-/// tracking (Kutz et al. 2017, history-aware averaged probabilities): the
-/// one-sample spectral MIS of a random hero channel with the balance
-/// heuristic, its choice averaged out. The majorant is grey, so the
+/// then one uniform number picks a real or a null collision with
+/// probabilities proportional to mean(throughput x sigma_t) and
+/// mean(throughput x sigma_n). A real collision scatters, its throughput
+/// taking sigma_s / (sigma_maj P_real) per channel (the albedo when grey):
+/// absorption weights the path rather than ending it, and Russian roulette
+/// ends it later (ending it here as well, as analog absorption did, cost a
+/// roulette kill on top of each absorption: 1.3-1.6x the variance per
+/// sample on the benchmark clouds, docs/benchmarks.md "Volumes"); only
+/// where nothing scatters (sigma_s = 0) is it absorbed. A null collision
+/// takes sigma_n / (sigma_maj P_null). This is spectral tracking (Kutz et
+/// al. 2017, history-aware averaged probabilities): the one-sample spectral
+/// MIS of a random hero channel with the balance heuristic, its choice
+/// averaged out. The majorant is grey, so across a null collision the
 /// throughput's channel mean is kept and no channel's weight can grow past
-/// 3 times it; with grey extinction and albedo the weights are 1.
+/// 3 times it; with grey extinction the null weights are 1.
 ///
 /// With `pass_through` (camera rays, `--camera-ray-transmittance on`) the
 /// walk goes on past the real collision to the end of the ray, and the same
@@ -162,8 +168,9 @@ fn delta_step(
     let u = rng.next_f32() * total;
     if u < ws + wa || total <= 0.0 {
         stats.real_collisions += 1;
-        flight.end = if u < ws {
-            flight.throughput = beta * sigma_s * (total / (sigma_maj * ws));
+        // Absorption as a weight (see `free_flight`): E = P_real x weight = sigma_s / sigma_maj.
+        flight.end = if ws > 0.0 {
+            flight.throughput = beta * sigma_s * (total / (sigma_maj * (ws + wa)));
             FlightEnd::Scattered {
                 t,
                 albedo: sigma_s / point.sigma_t.max(Vec3::splat(f32::MIN_POSITIVE)),

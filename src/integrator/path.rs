@@ -404,6 +404,10 @@ impl Path<'_, '_> {
                 None
             }
             FlightEnd::Scattered { t, albedo, sigma_s } => {
+                // Alpha as when absorption ended camera paths: opaque with
+                // the absorption probability (1 - albedo when grey).
+                let absorbed = 1.0 - albedo.element_sum() / 3.0;
+                self.gathered.aovs.opaque |= depth == 0 && self.rng.next_f32() < absorbed;
                 let event = (t, albedo, sigma_s, flight.null_ratio);
                 self.scatter(
                     &along,

@@ -35,6 +35,9 @@ pub struct MajorantSegments<'a> {
     grid: &'a MajorantGrid,
     origin: Vec3,
     direction: Vec3,
+    /// 1 / `direction` per axis (infinite where it is 0): cell crossings
+    /// and support-box clips multiply by it instead of dividing.
+    inv_direction: Vec3,
     /// The cell the ray is in at `t`.
     cell: IVec3,
     /// -1, 0 or +1 per axis: the sign of `direction`.
@@ -89,7 +92,7 @@ impl Iterator for MajorantSegments<'_> {
             } else {
                 self.t_next[axis] = self.grid.crossing(
                     self.origin[axis],
-                    self.direction[axis],
+                    self.inv_direction[axis],
                     self.cell[axis],
                     self.step[axis],
                     axis,
@@ -133,7 +136,7 @@ impl MajorantSegments<'_> {
                 corner[a],
                 size[a],
                 self.origin[a],
-                self.direction[a],
+                self.inv_direction[a],
                 sub[a],
                 self.step[a],
             )
@@ -170,7 +173,7 @@ impl MajorantSegments<'_> {
                     walk.corner[axis],
                     walk.size[axis],
                     self.origin[axis],
-                    self.direction[axis],
+                    self.inv_direction[axis],
                     walk.cell[axis],
                     self.step[axis],
                 );
@@ -195,7 +198,7 @@ impl MajorantSegments<'_> {
             return (t_min, t_max);
         }
         let (lo, hi) = self.grid.support_box(cell, support);
-        clip_to_box(self.origin, self.direction, lo, hi, t_min, t_max)
+        clip_to_box(self.origin, self.inv_direction, lo, hi, t_min, t_max)
     }
 }
 
@@ -211,36 +214,39 @@ fn nearest_axis(t_next: Vec3) -> usize {
     }
 }
 
-/// Where the ray (`o` and `d` on one axis) leaves cell `cell` of a row of
-/// cells `size` wide from `lo`, stepping by `step`; infinity if it never does.
+/// Where the ray (`o` and `inv_d` = 1 / d on one axis) leaves cell `cell`
+/// of a row of cells `size` wide from `lo`, stepping by `step`; infinity if
+/// it never does.
 #[inline]
-fn crossing(lo: f32, size: f32, o: f32, d: f32, cell: i32, step: i32) -> f32 {
+fn crossing(lo: f32, size: f32, o: f32, inv_d: f32, cell: i32, step: i32) -> f32 {
     if step == 0 {
         return f32::INFINITY;
     }
     let plane = lo + (cell + i32::from(step > 0)) as f32 * size;
-    (plane - o) / d
+    (plane - o) * inv_d
 }
 
 /// The part of `[t_min, t_max)` where the ray `origin + t direction` lies in
-/// the box `[lo, hi)` (slab test); empty, with `t_max` = -infinity, when the
-/// ray runs parallel to an axis outside the box's extent on it.
+/// the box `[lo, hi)` (slab test), given `inv_direction` = 1 / direction;
+/// empty, with `t_max` = -infinity, when the ray runs parallel to an axis
+/// (infinite `inv_direction` there) outside the box's extent on it.
+#[inline]
 fn clip_to_box(
     origin: Vec3,
-    direction: Vec3,
+    inv_direction: Vec3,
     lo: Vec3,
     hi: Vec3,
     mut t_min: f32,
     mut t_max: f32,
 ) -> (f32, f32) {
     for a in 0..3 {
-        if direction[a] == 0.0 {
+        if inv_direction[a].is_infinite() {
             if !(lo[a] <= origin[a] && origin[a] < hi[a]) {
                 t_max = f32::NEG_INFINITY;
             }
         } else {
-            let t0 = (lo[a] - origin[a]) / direction[a];
-            let t1 = (hi[a] - origin[a]) / direction[a];
+            let t0 = (lo[a] - origin[a]) * inv_direction[a];
+            let t1 = (hi[a] - origin[a]) * inv_direction[a];
             t_min = t_min.max(t0.min(t1));
             t_max = t_max.min(t0.max(t1));
         }
@@ -268,7 +274,8 @@ impl MajorantGrid {
         scale: Vec3,
     ) -> MajorantSegments<'_> {
         let hi = self.lo + self.dims.as_vec3() * self.cell_size;
-        let (t_enter, t_exit) = clip_to_box(origin, direction, self.lo, hi, t_min, t_max);
+        let inv_direction = direction.recip();
+        let (t_enter, t_exit) = clip_to_box(origin, inv_direction, self.lo, hi, t_min, t_max);
         let p = if t_enter.is_finite() {
             origin + direction * t_enter
         } else {
@@ -278,18 +285,22 @@ impl MajorantGrid {
             .floor()
             .as_ivec3()
             .clamp(IVec3::ZERO, (self.dims - IVec3::ONE).max(IVec3::ZERO));
-        let step = IVec3::new(
-            Self::sign(direction.x),
-            Self::sign(direction.y),
-            Self::sign(direction.z),
-        );
+        // A component so small that its reciprocal overflows runs parallel.
+        let step = IVec3::from_array(std::array::from_fn(|a| {
+            if inv_direction[a].is_infinite() {
+                0
+            } else {
+                Self::sign(direction[a])
+            }
+        }));
         let t_next = Vec3::from_array(std::array::from_fn(|a| {
-            self.crossing(origin[a], direction[a], cell[a], step[a], a)
+            self.crossing(origin[a], inv_direction[a], cell[a], step[a], a)
         }));
         MajorantSegments {
             grid: self,
             origin,
             direction,
+            inv_direction,
             cell,
             step,
             t_next,
@@ -301,11 +312,12 @@ impl MajorantGrid {
         }
     }
 
-    /// Where the ray leaves cell `cell` along `axis` (of the ray's `o` and `d`
-    /// on that axis, stepping by `step`), or infinity if it never does.
+    /// Where the ray leaves cell `cell` along `axis` (of the ray's `o` and
+    /// `inv_d` = 1 / d on that axis, stepping by `step`), or infinity if it
+    /// never does.
     #[inline]
-    fn crossing(&self, o: f32, d: f32, cell: i32, step: i32, axis: usize) -> f32 {
-        crossing(self.lo[axis], self.cell_size[axis], o, d, cell, step)
+    fn crossing(&self, o: f32, inv_d: f32, cell: i32, step: i32, axis: usize) -> f32 {
+        crossing(self.lo[axis], self.cell_size[axis], o, inv_d, cell, step)
     }
 
     fn sign(d: f32) -> i32 {

@@ -235,9 +235,12 @@ struct FreePath {
 }
 
 impl FreePath {
+    /// A fresh depth -ln(1 - u). `next_f32` is a multiple of 2^-24 in
+    /// [0, 1), so 1 - u is exact in f32 and `ln` loses nothing against
+    /// `ln_1p(-u)`, at a quarter of glibc's `log1pf` cost (profiled).
     fn new(rng: &mut Pcg32) -> Self {
         Self {
-            remaining: -(-rng.next_f32()).ln_1p(),
+            remaining: -(1.0 - rng.next_f32()).ln(),
         }
     }
 
