@@ -2,11 +2,10 @@
 //! a blurred render equals the average of still renders at stratified
 //! times over the shutter within 4 sigma per band of columns (a linear and
 //! a cubic curve deforming, their widths keyed; a quad rigidly skinned to
-//! an animated joint); curve velocities render as their time-sampled
-//! equivalent; a closed shutter renders the still frame bit for bit; a
-//! curve whose vertex count changes over the shutter is warned about and
-//! left still.
-
+//! an animated joint, and one whose SkelRoot moves); curve velocities
+//! render as their time-sampled equivalent; a closed shutter renders the
+//! still frame bit for bit; a curve whose vertex count changes over the
+//! shutter is warned about and left still.
 mod common;
 
 use common::motion::{
@@ -23,6 +22,13 @@ fn deforming_curves_blur_to_the_average_of_still_frames() {
 #[test]
 fn a_rigidly_skinned_mesh_blurs_to_the_average_of_still_frames() {
     blurred_equals_average_of_stills("motion_rigid_skin");
+}
+
+/// A skinned mesh is placed by its skeleton: a SkelRoot moving by its
+/// transform (the joint still) moves it over the shutter.
+#[test]
+fn a_skinned_mesh_moved_by_its_skel_root_blurs_to_the_average_of_still_frames() {
+    blurred_equals_average_of_stills("motion_skel_root");
 }
 
 /// Curves moved by `velocities` (a linear and a cubic curve) render as the

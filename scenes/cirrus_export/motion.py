@@ -256,5 +256,5 @@ def replaying_walker(walker_type, recorder: Recorder, skinning, stage: Usd.Stage
     """`walker_at(time_code)` for add_motion: a walk of `stage` at another time that
     replays the frame's prototypes and reports nothing."""
     def walker_at(at: Usd.TimeCode):
-        return walker_type(_Replay(recorder), skinning, _Silent(), at).walk_stage(stage)
+        return walker_type(_Replay(recorder), skinning.placed_at(at), _Silent(), at).walk_stage(stage)
     return walker_at

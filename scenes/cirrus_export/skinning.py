@@ -17,6 +17,7 @@ restTransforms, the animation's joints, the influence primvars), is one warning 
 prim and attribute, and its meshes are exported as authored (bind pose): never half posed.
 """
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
@@ -95,6 +96,14 @@ class Skinning:
             self._poses[str(prim.GetPath())] = None
             return matrix
         return pose.skel_from_points @ holder_from_skel
+
+    def placed_at(self, time: Usd.TimeCode) -> "Skinning":
+        """These poses (still the frame's: motion keys pose them at other times), placed by
+        the skeletons' transforms at `time`: the walks at the shutter's keys use it, so a
+        SkelRoot or Skeleton moving by its transform moves its meshes."""
+        moved = copy.copy(self)
+        moved._xforms = UsdGeom.XformCache(time)
+        return moved
 
     def pose(self, prim: Usd.Prim) -> Pose | None:
         """The prim posed by UsdSkel, or None when it is not skinned or cannot be (warned)."""
