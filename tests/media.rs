@@ -250,6 +250,34 @@ fn emitting_volume_adds_its_blackbody_radiance() {
     }
 }
 
+/// An emitting furnace (scenes/tests/volume_emission_furnace.usda): the
+/// emission-field box with Le = 1 grey, a chromatic albedo (0.2, 0.5, 0.9),
+/// g = 0.5 and optical depth 4, in the dome of radiance 1. L = Le solves the
+/// RTE everywhere inside (-sigma_t Le + sigma_a Le + sigma_s Le = 0) and
+/// meets the dome at the boundary, so every pixel reads 1 in every channel
+/// whatever the albedo: real collisions weighted by the albedo (not ended by
+/// absorption), emission collected at tentative collisions and the fire's
+/// light samples must add up, with volume light sampling on and off.
+#[test]
+fn an_emitting_furnace_of_any_albedo_reads_its_emission() {
+    let dir = common::scratch("render_volume_emission_furnace");
+    for (seed, mode) in [(6, "on"), (7, "off")] {
+        let image = Render {
+            scene: "volume_emission_furnace",
+            res: (32, 32),
+            spp: 64,
+            seed,
+            extra: &["--volume-light-sampling", mode],
+        }
+        .run(&dir);
+        assert_rgb_image(
+            &format!("emitting furnace, light sampling {mode}"),
+            &image,
+            [1.0; 3],
+        );
+    }
+}
+
 /// Per-block means of one channel over `block` x `block` pixel blocks, with
 /// the block order mirrored left to right when `mirror` is set.
 fn block_estimates(image: &Image, block: usize, mirror: bool) -> Vec<Estimate> {
