@@ -176,3 +176,175 @@ fn nested_instancers_give_the_nearest_value_and_masked_copies_none() {
         [0.25, 0.25, 0.75, 0.75]
     );
 }
+
+/// A stage of three unbound 10 x 10 quads in a row, seen straight down by an
+/// orthographic camera they fill, under a white dome of radiance 1: the
+/// first two are PointInstancer `Coloured`'s copies, the third
+/// `Plain`'s. `coloured` is that instancer's prototypes and primvars.
+fn unbound_quads(coloured: &str) -> String {
+    let quad = "uniform token subdivisionScheme = \"none\"
+                point3f[] points = [(-5, 0, -5), (-5, 0, 5), (5, 0, 5), (5, 0, -5)]
+                int[] faceVertexCounts = [4]
+                int[] faceVertexIndices = [0, 1, 2, 3]";
+    format!(
+        "#usda 1.0
+(
+    defaultPrim = \"World\"
+    metersPerUnit = 1
+    upAxis = \"Y\"
+)
+
+def Xform \"World\"
+{{
+    def Camera \"Camera\"
+    {{
+        double3 xformOp:translate = (0, 1, 0)
+        float xformOp:rotateX = -90
+        uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateX\"]
+        token projection = \"orthographic\"
+        float horizontalAperture = 300
+        float verticalAperture = 100
+        float2 clippingRange = (0.01, 100)
+    }}
+
+    def DomeLight \"Dome\"
+    {{
+        color3f inputs:color = (1, 1, 1)
+        float inputs:intensity = 1
+    }}
+
+    def PointInstancer \"Coloured\"
+    {{
+        point3f[] positions = [(-10, 0, 0), (0, 0, 0)]
+        {coloured}
+    }}
+
+    def PointInstancer \"Plain\"
+    {{
+        point3f[] positions = [(10, 0, 0)]
+        int[] protoIndices = [0]
+        rel prototypes = [</World/Plain/Prototypes/Quad>]
+
+        def Scope \"Prototypes\"
+        {{
+            def Mesh \"Quad\"
+            {{
+                {quad}
+            }}
+        }}
+    }}
+}}
+",
+        coloured = coloured.replace("QUAD", quad)
+    )
+}
+
+/// The three cells' red, green and blue pixel estimates (the 6 x 6 pixels
+/// clear of each cell's edges) of `stage`, rendered from its export, whose
+/// warnings must be none.
+fn unbound_cells(test: &str, stage: &str) -> Vec<[common::Estimate; 3]> {
+    let dir = common::scratch(test);
+    let scene = common::export_usda(&dir, stage);
+    let warnings = &manifest(&scene)["warnings"];
+    assert_eq!(warnings.as_array().map(Vec::len), Some(0), "{warnings}");
+    let image = Render {
+        scene: scene.to_str().unwrap(),
+        res: (30, 10),
+        spp: 16,
+        seed: 5,
+        extra: &[],
+    }
+    .run(&dir);
+    (0..3)
+        .map(|cell| {
+            let inside = |x: usize, y: usize| {
+                (cell * 10 + 2..cell * 10 + 8).contains(&x) && (2..8).contains(&y)
+            };
+            [0, 1, 2].map(|c| estimate(image.pixels(c, inside)))
+        })
+        .collect()
+}
+
+#[test]
+fn an_instancers_display_colour_colours_its_unbound_copies_as_their_own_would() {
+    // Per instance: each copy reads its instancer's displayColor (Hydra's
+    // fallback material); the Plain instancer's copy, given none, silently
+    // keeps the unbound look.
+    let per_instance = unbound_quads(
+        "int[] protoIndices = [0, 0]
+        rel prototypes = [</World/Coloured/Prototypes/Quad>]
+        color3f[] primvars:displayColor = [(0.8, 0.2, 0.1), (0.1, 0.7, 0.2)] (
+            interpolation = \"vertex\"
+        )
+
+        def Scope \"Prototypes\"
+        {
+            def Mesh \"Quad\"
+            {
+                QUAD
+            }
+        }",
+    );
+    // The reference: each prototype's mesh carries the colour itself.
+    let own = unbound_quads(
+        "int[] protoIndices = [0, 1]
+        rel prototypes = [</World/Coloured/Prototypes/Red>, </World/Coloured/Prototypes/Green>]
+
+        def Scope \"Prototypes\"
+        {
+            def Mesh \"Red\"
+            {
+                QUAD
+                color3f[] primvars:displayColor = [(0.8, 0.2, 0.1)]
+            }
+
+            def Mesh \"Green\"
+            {
+                QUAD
+                color3f[] primvars:displayColor = [(0.1, 0.7, 0.2)]
+            }
+        }",
+    );
+    let measured = unbound_cells("instance_display_colour", &per_instance);
+    let reference = unbound_cells("instance_display_colour_own", &own);
+    for (cell, (a, b)) in measured.iter().zip(&reference).enumerate() {
+        for (c, (a, b)) in a.iter().zip(b).enumerate() {
+            let sigma = a.sigma.hypot(b.sigma).max(PIXEL_ROUNDING * b.mean);
+            eprintln!(
+                "cell {cell} channel {c}: {:.5} vs {:.5}, sigma {sigma:.1e}",
+                a.mean, b.mean
+            );
+            assert!(
+                (a.mean - b.mean).abs() <= 4.0 * sigma,
+                "cell {cell} channel {c}: {} vs its own colour's {} (sigma {sigma})",
+                a.mean,
+                b.mean
+            );
+        }
+    }
+    // The colours are seen: the first copy is redder than the second.
+    assert!(measured[0][0].mean > measured[1][0].mean + 0.2);
+}
+
+#[test]
+fn unbound_instanced_meshes_without_display_colour_keep_the_default_look_unwarned() {
+    let dir = common::scratch("instance_display_colour_none");
+    let stage = unbound_quads(
+        "int[] protoIndices = [0, 0]
+        rel prototypes = [</World/Coloured/Prototypes/Quad>]
+
+        def Scope \"Prototypes\"
+        {
+            def Mesh \"Quad\"
+            {
+                QUAD
+            }
+        }",
+    );
+    let manifest = manifest(&common::export_usda(&dir, &stage));
+    assert_eq!(manifest["warnings"], serde_json::json!([]));
+    // No material at all: the renderer's unbound look, as before instances
+    // could colour them.
+    assert_eq!(manifest["materials"], serde_json::json!([]));
+    assert!(manifest["instances"].get("primvars").is_none());
+}

@@ -20,6 +20,8 @@ from .usd_nodes import UsdNode, input_value, shader_id, upstream
 
 NO_MATERIAL = 0xFFFFFFFF
 FALLBACK_GREY = [0.18, 0.18, 0.18]
+# The display primvars of a gprim with no bound material: primvar, record key, width.
+DISPLAY_INPUTS = (("displayColor", "diffuse_color", 3), ("displayOpacity", "opacity", 1))
 
 # Manifest key, USD input, UsdPreviewSurface default; a list default means a colour.
 SURFACE_INPUTS = [
@@ -55,6 +57,8 @@ class MaterialTable:
         self._texture_keys: dict[str, int] = {}
         self._uv_names: dict[int, str] = {}
         self._primvars: dict[int, set[str]] = {}
+        # Records whose primvar inputs fall back to the unbound look silently.
+        self.silent: set[int] = set()
         self._resolver, self._mtlx, self._report, self._time = resolver, mtlx, report, time
 
     def bound_index(self, prim: Usd.Prim) -> int:
@@ -120,7 +124,7 @@ class MaterialTable:
         displayOpacity, as Hydra's fallback material reads them; NO_MATERIAL when neither is
         authored. Per mesh (its path + `.displayColor`)."""
         api = UsdGeom.PrimvarsAPI(prim)
-        found = {name: api.FindPrimvarWithInheritance(name) for name in ("displayColor", "displayOpacity")}
+        found = {name: api.FindPrimvarWithInheritance(name) for name, _, _ in DISPLAY_INPUTS}
         found = {name: primvar for name, primvar in found.items() if primvar and primvar.HasValue()}
         if not found:
             return NO_MATERIAL
@@ -128,9 +132,29 @@ class MaterialTable:
         if path not in self._by_path:
             index = self._by_path[path] = len(self.materials)
             record = {**self._fallback(path), "fallback": False, "shader": "displayColor"}
-            for name, key, width in (("displayColor", "diffuse_color", 3), ("displayOpacity", "opacity", 1)):
+            for name, key, width in DISPLAY_INPUTS:
                 if name in found:
                     record[key] = self._display_input(found[name], index, record[key], width)
+            self.materials.append(record)
+        return self._by_path[path]
+
+    def instance_display(self, names: frozenset[str]) -> int:
+        """For a mesh with no bound material and no displayColor / displayOpacity of its own (or
+        inherited within its copy) whose instances may give it `names` (among those two): one
+        preview_surface record reading them as primvars, so each copy takes its instance's
+        value, as Hydra's fallback material reads the instancer's. Their fallbacks are the
+        unbound look, so a copy no instance colours renders exactly as NO_MATERIAL, and it is
+        not warned about (`silent`)."""
+        path = "cirrus:instanceDisplay:" + ",".join(sorted(names))
+        if path not in self._by_path:
+            index = self._by_path[path] = len(self.materials)
+            record = {**self._fallback(path), "fallback": False, "shader": "displayColor"}
+            for name, key, width in DISPLAY_INPUTS:
+                if name in names:
+                    record[key] = {"primvar": name, "channel": "rgb" if width == 3 else "r",
+                                   "fallback": record[key]}
+                    self.note_primvar(index, name)
+            self.silent.add(index)
             self.materials.append(record)
         return self._by_path[path]
 

@@ -8,7 +8,8 @@ A primvar a mesh's material reads and the mesh lacks is inherited, as USD inheri
 primvars, from the nearest ancestor with a constant one, up to the nearest native instance
 or PointInstancer (`inherited_primvar`); above that it differs per copy and is carried per
 instance (instancing.py). A primvar still missing is warned about once the walk knows
-whether every copy's instance carries it (`missing`).
+whether every copy's instance carries it (`missing`), unless the material reading it falls
+back to the unbound look (an unbound mesh's instance displayColor, `holders_display`).
 """
 
 from typing import TYPE_CHECKING
@@ -17,7 +18,7 @@ import numpy as np
 from pxr import Kind, Usd, UsdGeom, UsdShade
 
 from .binfile import BinWriter
-from .materials import NO_MATERIAL, MaterialTable
+from .materials import DISPLAY_INPUTS, NO_MATERIAL, MaterialTable
 from .meshes import BadMesh, MeshGeometry, read_mesh
 from .report import Report
 from .shapes import tessellate
@@ -85,6 +86,21 @@ def inherited_primvar(prim: Usd.Prim, name: str, time: Usd.TimeCode) -> np.ndarr
     return None
 
 
+def holders_display(stage: Usd.Stage) -> frozenset[str]:
+    """The display primvars (displayColor, displayOpacity) that some PointInstancer or native
+    instance root, or an ancestor of one, authors: those the copies of unbound meshes may get
+    from their instances (docs/materials.md, "Primvars")."""
+    found = set()
+    for root in (stage.GetPseudoRoot(), *stage.GetPrototypes()):
+        for prim in Usd.PrimRange(root):
+            at = prim if prim.IsInstance() or prim.IsA(UsdGeom.PointInstancer) else None
+            while at and not at.IsPseudoRoot():
+                api = UsdGeom.PrimvarsAPI(at)
+                found.update(name for name, _, _ in DISPLAY_INPUTS if api.GetPrimvar(name).HasValue())
+                at = at.GetParent()
+    return frozenset(found)
+
+
 def numeric(values) -> np.ndarray | None:
     """Primvar values as an (n, width) float64 array (width 1 to 4), or None for strings,
     tokens, matrices and other values no material input can read."""
@@ -116,6 +132,8 @@ class MeshTable:
         # Per record index: (primvar, prim path, warning) for each primvar its materials read
         # and it lacks.
         self.missing: dict[int, list[tuple[str, str, str]]] = {}
+        # The display primvars instances may give unbound meshes (holders_display), found once.
+        self._holders_display: frozenset[str] | None = None
         self._cages = CageWriter(writer, report, time, source)
         self._by_path: dict[tuple, int | None] = {}
         self._writer, self._materials, self._skinning, self._report = writer, materials, skinning, report
@@ -145,6 +163,10 @@ class MeshTable:
         subsets = [s.GetPrim() for s in self._subsets(prim)]
         own = self._materials.bound_index(prim)
         own = self._materials.display_color(prim) if own == NO_MATERIAL else own
+        if own == NO_MATERIAL:
+            if self._holders_display is None:
+                self._holders_display = holders_display(prim.GetStage())
+            own = self._materials.instance_display(self._holders_display) if self._holders_display else own
         return (own, *(self._materials.bound_index(p) for p in subsets))
 
     def reads(self, prims: list[Usd.Prim]) -> frozenset[str]:
@@ -168,7 +190,9 @@ class MeshTable:
         """Reads, validates and stores one mesh; a bad one is warned about and skipped."""
         bound = [m for m in materials if m != NO_MATERIAL]
         uv_name = self._materials.uv_primvar(bound[0]) if bound else "st"
-        primvars = {name: m for m in bound for name in self._materials.primvars(m)}
+        # A primvar some warned-about material reads names that one (silent ones come first).
+        loud_last = sorted(bound, key=lambda m: m not in self._materials.silent)
+        primvars = {name: m for m in loud_last for name in self._materials.primvars(m)}
         wanted = tuple(sorted(set(primvars) | set(self._aov_primvars)))
         try:
             geometry = read_mesh(prim, self._time, self._report, uv_name, self._skinning.pose(prim),
@@ -187,7 +211,8 @@ class MeshTable:
             (name, str(prim.GetPath()), f"{self._source}: mesh {prim.GetPath()} has no primvar {name} (read by "
                                         f"material {self._materials.materials[primvars[name]]['path']}); its "
                                         f"fallback is used")
-            for name in sorted(set(primvars) - set(geometry.primvars))]
+            for name in sorted(set(primvars) - set(geometry.primvars))
+            if primvars[name] not in self._materials.silent]
         self.records.append(self._record(prim, key, geometry, materials))
         self.sources.append((prim, uv_name, tuple(sorted(primvars))))
         self.boxes.append((geometry.points.min(axis=0), geometry.points.max(axis=0)))
