@@ -422,13 +422,7 @@ fn a_render_time_shutter_reaches_the_exporter() {
 fn a_shutter_the_export_did_not_key_is_refused() {
     let dir = common::scratch("motion_unkeyed");
     let still = dir.join("still");
-    let usda = stage("motion_sphere");
-    let args = [usda.to_str().unwrap(), still.to_str().unwrap(), "0,0", "0"];
-    common::run_python(
-        &common::venv_python(),
-        &common::python_script("export_frames.py"),
-        &args,
-    );
+    common::motion::export_frames(&stage("motion_sphere"), &still, "0,0", &["0".into()]);
     let frame = still.join("frame0");
     let out = dir.join("refused.exr");
     let refused = cirrus(&[

@@ -9,43 +9,11 @@
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
-/// Image size of the renders.
-const WIDTH: usize = 64;
-const HEIGHT: usize = 32;
-/// Still frames averaged, at the midpoints of K equal parts of the shutter.
-const K: usize = 16;
-/// Columns per band compared.
-const BAND: usize = 4;
-
-/// Renders `scene` to `out` (box filter, beauty and variance, one thread,
-/// `spp` samples, `seed`) with `extra` flags; the G channel and its
-/// variance per pixel, and every channel's bits.
-fn render(scene: &Path, out: &Path, spp: u32, seed: usize, extra: &[&str]) -> Rendered {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_cirrus"));
-    c.arg("render").arg(scene).arg("-o").arg(out);
-    c.args(["--res", &format!("{WIDTH}x{HEIGHT}"), "--filter", "box"]);
-    c.args(["--aovs", "variance", "--threads", "1"]);
-    c.args(["--spp", &spp.to_string(), "--seed", &seed.to_string()]);
-    c.args(extra);
-    common::succeeds(c);
-    let bits = common::channel_bits(out);
-    let plane = |name: &str| -> Vec<f64> {
-        let (_, b) = bits.iter().find(|(n, _)| n == name).unwrap();
-        b.iter().map(|&b| f64::from(f32::from_bits(b))).collect()
-    };
-    Rendered {
-        plane: (plane("G"), plane("variance.G")),
-        bits,
-    }
-}
-
-/// A render's G channel with its variance, and every channel's bits.
-struct Rendered {
-    plane: (Vec<f64>, Vec<f64>),
-    bits: Vec<(String, Vec<u32>)>,
-}
+use common::motion::{
+    assert_blur_is_average, export_frames, render_with_bits, still_frames, BLURRED_SPP, K,
+    STILL_SPP,
+};
 
 /// Exports `usda` at frame 0 with the shutter open over the frame, and at
 /// the midpoints of the shutter's [`K`] parts and at frame 0 with it
@@ -54,53 +22,32 @@ struct Rendered {
 /// and the blurred export rendered with `--shutter 0,0` is the still frame
 /// 0, bit for bit.
 fn blurred_equals_average_of_stills(name: &str, usda: &Path, dir: &Path) {
-    let export = |out: &str, shutter: &str, frames: &[String]| {
-        let mut args = vec![usda.to_str().unwrap(), out, shutter];
-        args.extend(frames.iter().map(String::as_str));
-        let script = common::python_script("export_frames.py");
-        common::run_python(&common::venv_python(), &script, &args);
-    };
     let blurred_dir = dir.join("blurred");
-    export(blurred_dir.to_str().unwrap(), "0,1", &["0".into()]);
+    export_frames(usda, &blurred_dir, "0,1", &["0".into()]);
     let stills_dir = dir.join("stills");
-    let frames: Vec<String> = (0..K)
-        .map(|k| format!("{}", (k as f64 + 0.5) / K as f64))
-        .chain(["0".into()])
-        .collect();
-    export(stills_dir.to_str().unwrap(), "0,0", &frames);
+    export_frames(usda, &stills_dir, "0,0", &still_frames());
     let moving = blurred_dir.join("frame0");
-    let blurred = render(&moving, &dir.join("blurred.exr"), 64, 1, &[]);
+    let render = |scene: &Path, out: &str, spp: &str, seed: usize, extra: &[&str]| {
+        let seed = seed.to_string();
+        let mut flags = vec!["--spp", spp, "--seed", &seed];
+        flags.extend(extra);
+        render_with_bits(scene, &dir.join(out), &flags)
+    };
+    let (blurred, _) = render(&moving, "blurred.exr", BLURRED_SPP, 1, &[]);
     let stills: Vec<_> = (0..K)
         .map(|k| {
             let scene = stills_dir.join(format!("frame{k}"));
-            render(&scene, &dir.join(format!("still{k}.exr")), 16, 100 + k, &[]).plane
+            render(&scene, &format!("still{k}.exr"), STILL_SPP, 100 + k, &[]).0
         })
         .collect();
     let frame_0 = stills_dir.join(format!("frame{K}"));
-    let frame_0 = render(&frame_0, &dir.join("frame0.exr"), 16, 7, &[]);
-    let closed = render(
-        &moving,
-        &dir.join("closed.exr"),
-        16,
-        7,
-        &["--shutter", "0,0"],
-    );
+    let (frame_0, frame_0_bits) = render(&frame_0, "frame0.exr", STILL_SPP, 7, &[]);
+    let (_, closed_bits) = render(&moving, "closed.exr", STILL_SPP, 7, &["--shutter", "0,0"]);
     assert!(
-        closed.bits == frame_0.bits,
+        closed_bits == frame_0_bits,
         "{name}: --shutter 0,0 differs from the still export"
     );
-    let bands =
-        |images: &[(Vec<f64>, Vec<f64>)]| common::column_bands(images, (WIDTH, HEIGHT), BAND);
-    let (blurred, stills, frame_0) = (
-        bands(std::slice::from_ref(&blurred.plane)),
-        bands(&stills),
-        bands(std::slice::from_ref(&frame_0.plane)),
-    );
-    common::assert_bands_agree(&format!("{name}: blurred vs stills"), &blurred, &stills);
-    assert!(
-        common::widest_gap(&blurred, &frame_0) > 20.0,
-        "{name}: the blurred render looks like frame 0"
-    );
+    assert_blur_is_average(name, &blurred, &stills, &frame_0);
 }
 
 /// A distant light turning 100 degrees over the shutter lights the sphere

@@ -12,14 +12,11 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-/// Image size: an orthographic camera 8 x 4 scene units wide, 8 pixels per unit.
-const RES: &str = "64x32";
-const WIDTH: usize = 64;
-const HEIGHT: usize = 32;
-/// Still frames averaged, at the midpoints of K equal parts of the shutter.
-const K: usize = 16;
-/// Columns per band compared.
-const BAND: usize = 4;
+// Image size: an orthographic camera 8 x 4 scene units wide, 8 pixels per
+// unit (RES); K still frames; bands of BAND columns.
+use common::motion::{
+    assert_blur_is_average, export_frames, still_frames, BAND, HEIGHT, K, RES, WIDTH,
+};
 
 /// Writes `dir/blob.vdb`: `density`, a ball of radius 0.6 around (-1, 0, 0)
 /// (voxels of 0.05), and velocity grids. `vel` (vec3s, voxels of 0.2 and
@@ -236,21 +233,12 @@ fn a_blob_moved_by_a_uniform_velocity_is_the_average_of_translated_stills() {
         None,
         "double3 xformOp:translate.timeSamples = { 0: (0, 0, 0), 1: (2, 0, 0) }",
     );
-    let frames: Vec<String> = (0..K)
-        .map(|k| format!("{}", (k as f64 + 0.5) / K as f64))
-        .chain(["0".into()])
-        .collect();
-    let mut args = vec![translated.to_str().unwrap().to_owned()];
-    args.extend([dir.join("stills").to_str().unwrap().into(), "0,0".into()]);
-    args.extend(frames.iter().cloned());
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let script = common::python_script("export_frames.py");
-    common::run_python(&common::venv_python(), &script, &args);
+    export_frames(&translated, &dir.join("stills"), "0,0", &still_frames());
 
     let scene = export(&moving, dir.join("moving"));
     let out = dir.join("blurred.exr");
     render(&scene, &out, &["--spp", "64", "--seed", "1"]);
-    let blurred = common::column_bands(&[planes(&out)], (WIDTH, HEIGHT), BAND);
+    let blurred = planes(&out);
     let still = |k: usize, seed: usize| {
         let out = dir.join(format!("still{k}.exr"));
         let scene = dir.join(format!("stills/frame{k}"));
@@ -258,13 +246,7 @@ fn a_blob_moved_by_a_uniform_velocity_is_the_average_of_translated_stills() {
         planes(&out)
     };
     let stills: Vec<_> = (0..K).map(|k| still(k, 100 + k)).collect();
-    let stills = common::column_bands(&stills, (WIDTH, HEIGHT), BAND);
-    let frame_0 = common::column_bands(&[still(K, 7)], (WIDTH, HEIGHT), BAND);
-    common::assert_bands_agree("blurred vs stills", &blurred, &stills);
-    assert!(
-        common::widest_gap(&blurred, &frame_0) > 20.0,
-        "the blurred blob looks like frame 0"
-    );
+    assert_blur_is_average("advected blob", &blurred, &stills, &still(K, 7));
 }
 
 /// With the shutter closed at the frame the velocity field is not read:

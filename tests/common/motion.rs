@@ -1,8 +1,8 @@
-//! Motion-blur checks shared by tests/motion.rs and tests/motion_curves.rs:
-//! a blurred render against the average of still frames, velocities
-//! against their time-sampled equivalent, a closed shutter against the
-//! still export, on `scenes/tests` stages seen by an orthographic camera
-//! at 8 pixels per scene unit.
+//! Motion-blur checks shared by the motion tests (motion, motion_curves,
+//! motion_lights, volume_motion): a blurred render against the average of
+//! still frames, velocities against their time-sampled equivalent, a closed
+//! shutter against the still export, on `scenes/tests` stages seen by an
+//! orthographic camera at 8 pixels per scene unit.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -19,6 +19,9 @@ pub const STILL_SPP: &str = "16";
 /// Columns per band compared.
 pub const BAND: usize = 4;
 
+/// A render's G channel and its variance, per pixel.
+pub type Plane = (Vec<f64>, Vec<f64>);
+
 /// `scenes/tests/NAME.usda` exported once per test process, as its camera
 /// sees it (shutter open, with motion).
 pub fn exported(name: &str) -> PathBuf {
@@ -32,7 +35,16 @@ pub fn stage(name: &str) -> PathBuf {
 
 /// Renders `scene` to `out` (box filter, beauty and variance, one thread)
 /// with `extra` flags; the G channel and its variance, per pixel.
-pub fn render(scene: &Path, out: &Path, extra: &[&str]) -> (Vec<f64>, Vec<f64>) {
+pub fn render(scene: &Path, out: &Path, extra: &[&str]) -> Plane {
+    render_with_bits(scene, out, extra).0
+}
+
+/// [`render`], and every channel's bits.
+pub fn render_with_bits(
+    scene: &Path,
+    out: &Path,
+    extra: &[&str],
+) -> (Plane, Vec<(String, Vec<u32>)>) {
     super::succeeds(render_command(scene, out, extra));
     let channels = super::channel_bits(out);
     let plane = |name: &str| -> Vec<f64> {
@@ -42,7 +54,43 @@ pub fn render(scene: &Path, out: &Path, extra: &[&str]) -> (Vec<f64>, Vec<f64>) 
             .unwrap_or_else(|| panic!("{}: no channel {name}", out.display()));
         bits.iter().map(|&b| f64::from(f32::from_bits(b))).collect()
     };
-    (plane("G"), plane("variance.G"))
+    ((plane("G"), plane("variance.G")), channels)
+}
+
+/// The frames a blur is compared with: the midpoints of the shutter's
+/// [`K`] equal parts, then frame 0.
+pub fn still_frames() -> Vec<String> {
+    (0..K)
+        .map(|k| format!("{}", (k as f64 + 0.5) / K as f64))
+        .chain(["0".into()])
+        .collect()
+}
+
+/// Exports `usda` at each of `frames` to `out/frameI` (I its position in
+/// `frames`) with the shutter `shutter` ("0,0": closed), by
+/// `export_frames.py`.
+pub fn export_frames(usda: &Path, out: &Path, shutter: &str, frames: &[String]) {
+    let mut args = vec![usda.to_str().unwrap(), out.to_str().unwrap(), shutter];
+    args.extend(frames.iter().map(String::as_str));
+    let script = super::python_script("export_frames.py");
+    super::run_python(&super::venv_python(), &script, &args);
+}
+
+/// `blurred` agrees with the average of `stills` in every band of columns
+/// within 4 sigma, and the blur is visible: some band differs from
+/// `frame_0` by far more (20 sigma).
+pub fn assert_blur_is_average(what: &str, blurred: &Plane, stills: &[Plane], frame_0: &Plane) {
+    let bands = |images: &[Plane]| super::column_bands(images, (WIDTH, HEIGHT), BAND);
+    let (blurred, stills, frame_0) = (
+        bands(std::slice::from_ref(blurred)),
+        bands(stills),
+        bands(std::slice::from_ref(frame_0)),
+    );
+    super::assert_bands_agree(&format!("{what}: blurred vs stills"), &blurred, &stills);
+    assert!(
+        super::widest_gap(&blurred, &frame_0) > 20.0,
+        "{what}: the blurred render looks like frame 0"
+    );
 }
 
 /// The `cirrus render` command of [`render`].
@@ -65,19 +113,7 @@ pub fn render_command(scene: &Path, out: &Path, extra: &[&str]) -> Command {
 /// visible (some band differs from frame 0 by far more).
 pub fn blurred_equals_average_of_stills(name: &str) {
     let dir = super::scratch(&format!("motion_{name}"));
-    let frames: Vec<String> = (0..K)
-        .map(|k| format!("{}", (k as f64 + 0.5) / K as f64))
-        .chain(["0".into()])
-        .collect();
-    let mut args = vec![stage(name).to_str().unwrap().to_owned()];
-    args.extend([dir.join("stills").to_str().unwrap().into(), "0,0".into()]);
-    args.extend(frames.iter().cloned());
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    super::run_python(
-        &super::venv_python(),
-        &super::python_script("export_frames.py"),
-        &args,
-    );
+    export_frames(&stage(name), &dir.join("stills"), "0,0", &still_frames());
     let blurred = render(
         &exported(name),
         &dir.join("blurred.exr"),
@@ -96,16 +132,7 @@ pub fn blurred_equals_average_of_stills(name: &str) {
         &dir.join("frame0.exr"),
         &["--spp", STILL_SPP, "--seed", "7"],
     );
-    let (blurred, stills, frame_0) = (
-        super::column_bands(std::slice::from_ref(&blurred), (WIDTH, HEIGHT), BAND),
-        super::column_bands(&stills, (WIDTH, HEIGHT), BAND),
-        super::column_bands(std::slice::from_ref(&frame_0), (WIDTH, HEIGHT), BAND),
-    );
-    super::assert_bands_agree(&format!("{name}: blurred vs stills"), &blurred, &stills);
-    assert!(
-        super::widest_gap(&blurred, &frame_0) > 20.0,
-        "{name}: the blurred render looks like frame 0"
-    );
+    assert_blur_is_average(name, &blurred, &stills, &frame_0);
 }
 
 /// `sampled` (time-sampled points) and `driven` (the same motion by
@@ -131,10 +158,7 @@ pub fn velocities_blur_as_their_time_sampled_equivalent(
 pub fn closed_shutter_renders_the_still_frame(name: &str) {
     let dir = super::scratch(&format!("motion_closed_{name}"));
     let still = dir.join("still");
-    let usda = stage(name);
-    let args = [usda.to_str().unwrap(), still.to_str().unwrap(), "0,0", "0"];
-    let script = super::python_script("export_frames.py");
-    super::run_python(&super::venv_python(), &script, &args);
+    export_frames(&stage(name), &still, "0,0", &["0".into()]);
     let (a, b) = (dir.join("closed.exr"), dir.join("still.exr"));
     let flags = ["--spp", "8", "--seed", "3"];
     render(
