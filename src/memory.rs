@@ -8,8 +8,8 @@
 //! lower than the sum when both are large). Each part's owner says what it
 //! will hold; this module only adds them up:
 //! - scene: the bulk arrays of `scene.bin`, held while the render state is built
-//!   (motion keys included: deforming meshes' and moving points' keyed
-//!   points, normals and widths, moving instances' keyed transforms), and
+//!   (motion keys included: deforming meshes', moving points' and
+//!   deforming curves' keyed points, normals and widths, moving instances' keyed transforms), and
 //!   the Cryptomatte names kept per instance (8 bytes);
 //! - geometry: [`Geometry::bytes_for`] (shading copies, BVHs, the build's
 //!   temporaries for the meshes built at once, the top level) and
@@ -327,8 +327,9 @@ struct Keys {
 }
 
 impl Keys {
-    /// The keys of `scene`'s deforming meshes, moving points and moving
-    /// instances (a deforming subdivision cage counts at the cage's size).
+    /// The keys of `scene`'s deforming meshes, moving points, deforming
+    /// curves and moving instances (a deforming subdivision cage counts at
+    /// the cage's size).
     fn of(scene: &Scene) -> Self {
         let m = &scene.manifest;
         let bytes = |b: Option<u64>| b.expect("validated array");
@@ -343,12 +344,16 @@ impl Keys {
                 vertex_keys += keys * mesh.points.count * if normals.is_some() { 2 } else { 1 };
             }
         }
-        for points in &m.points {
-            if let Some(motion) = &points.motion {
+        // Moving points and deforming curves key one sphere per point or
+        // vertex (`round_bvh.rs`).
+        let points = m.points.iter().map(|p| (&p.motion, p.points.count));
+        let curves = m.curves.iter().map(|c| (&c.motion, c.points.count));
+        for (motion, count) in points.chain(curves) {
+            if let Some(motion) = motion {
                 let widths = motion.widths.as_ref();
                 array_bytes +=
                     bytes(motion.points.bytes()) + widths.map_or(0, |w| bytes(w.bytes()));
-                sphere_keys += motion.times.len() as u64 * points.points.count;
+                sphere_keys += motion.times.len() as u64 * count;
             }
         }
         if let Some(motion) = &m.instances.motion {

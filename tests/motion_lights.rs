@@ -84,14 +84,16 @@ fn a_turning_textured_dome_blurs_to_the_average_of_still_frames() {
 }
 
 /// The memory estimate (`--memory-limit`) counts motion keys: a cloud of
-/// 1,000 points and a 20 x 20 quad grid whose points are time-sampled at 2
-/// and then at 5 frames over the shutter; the 3 keys more add exactly their
-/// arrays (12 bytes per point, and per normal) and what geometry builds
-/// from them (16 per sphere, 12 per vertex point or normal, 96 per
-/// triangle) to the estimate.
+/// 1,000 points, a linear curve of 50 vertices and a 20 x 20 quad grid
+/// whose points are time-sampled at 2 and then at 5 frames over the
+/// shutter; the 3 keys more add exactly their arrays (12 bytes per point,
+/// curve vertex and normal) and what geometry builds from them (16 per
+/// sphere or curve vertex, 12 per vertex point or normal, 96 per triangle)
+/// to the estimate.
 #[test]
 fn the_memory_estimate_grows_with_the_number_of_keys() {
     let n = 1_000;
+    let curve = 50; // vertices
     let grid = 21; // vertices per side
     let stage = |keys: usize| {
         let frames = (0..keys).map(|k| k as f64 / (keys - 1) as f64);
@@ -103,6 +105,7 @@ fn the_memory_estimate_grows_with_the_number_of_keys() {
             samples.join(",\n")
         };
         let cloud = sampled(&|t| (0..n).map(|i| format!("({i}, {t}, 0)")).collect());
+        let hair = sampled(&|t| (0..curve).map(|i| format!("({t}, {i}, 1)")).collect());
         let sheet = sampled(&|t| {
             let vertex = |i: usize| format!("({}, {}, {t})", i % grid, i / grid);
             (0..grid * grid).map(vertex).collect()
@@ -121,6 +124,9 @@ fn the_memory_estimate_grows_with_the_number_of_keys() {
              def Camera \"Camera\"\n{{\n double shutter:open = 0\n double shutter:close = 1\n}}\n\
              def DistantLight \"Sun\"\n{{\n}}\n\
              def Points \"Cloud\"\n{{\n float[] widths = [0.1]\n point3f[] points.timeSamples = {{\n{cloud}\n}}\n}}\n\
+             def BasisCurves \"Hair\"\n{{\n uniform token type = \"linear\"\n\
+             int[] curveVertexCounts = [{curve}]\n float[] widths = [0.1] (interpolation = \"constant\")\n\
+             point3f[] points.timeSamples = {{\n{hair}\n}}\n}}\n\
              def Mesh \"Sheet\"\n{{\n uniform token subdivisionScheme = \"none\"\n\
              int[] faceVertexCounts = [{}]\n int[] faceVertexIndices = [{}]\n\
              point3f[] points.timeSamples = {{\n{sheet}\n}}\n}}\n}}\n",
@@ -136,6 +142,7 @@ fn the_memory_estimate_grows_with_the_number_of_keys() {
         let keyed = |times: Option<usize>| times == Some(keys);
         assert!(keyed(m.points[0].motion.as_ref().map(|k| k.times.len())));
         assert!(keyed(m.meshes[0].motion.as_ref().map(|k| k.times.len())));
+        assert!(keyed(m.curves[0].motion.as_ref().map(|k| k.times.len())));
         let mesh = &m.meshes[0];
         // Vertex values keyed: points, and normals where the mesh has them.
         let normals = mesh.motion.as_ref().unwrap().normals.is_some();
@@ -148,7 +155,8 @@ fn the_memory_estimate_grows_with_the_number_of_keys() {
     let (scene_2, geometry_2, vertices, triangles) = estimate(2);
     let (scene_5, geometry_5, ..) = estimate(5);
     let more = 3;
-    assert_eq!(scene_5 - scene_2, more * 12 * (n as u64 + vertices));
-    let built = more * (16 * n as u64 + 12 * vertices + 96 * triangles);
+    let spheres = (n + curve) as u64;
+    assert_eq!(scene_5 - scene_2, more * 12 * (spheres + vertices));
+    let built = more * (16 * spheres + 12 * vertices + 96 * triangles);
     assert_eq!(geometry_5 - geometry_2, built);
 }

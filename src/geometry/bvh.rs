@@ -184,7 +184,8 @@ impl Geometry {
     /// the per-key list that copy is gathered from (three `Vec3A` each, 96
     /// bytes); per vertex value per key (points, and normals where the mesh
     /// has them) the shading keys (a `Vec3`, 12); per point per key of
-    /// moving points, its sphere (a `Vec4`, 16).
+    /// moving points and per vertex per key of deforming curves, its sphere
+    /// (a `Vec4`, 16).
     pub fn keyed_bytes_for(triangle_keys: u64, vertex_keys: u64, sphere_keys: u64) -> u64 {
         triangle_keys * (48 + 48) + vertex_keys * 12 + sphere_keys * 16
     }
