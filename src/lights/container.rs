@@ -569,7 +569,9 @@ mod tests {
     }
 
     /// A scene without lights is lit by a white dome of radiance 1: every
-    /// escaping direction sees radiance 1, and light sampling finds it.
+    /// escaping direction sees radiance 1. Being constant, it is left to
+    /// BSDF and phase sampling: light sampling never picks it, and the pdf
+    /// escaping rays report for it is 0 (their MIS weight 1).
     #[test]
     fn a_scene_without_lights_gets_the_default_dome() {
         let empty = scene_with("empty", serde_json::json!([]), [0.0; 3], &[]);
@@ -582,31 +584,39 @@ mod tests {
             0.0,
             |radiance, pdf| seen.push((radiance, pdf)),
         );
-        assert_eq!(seen.len(), 1);
-        assert_eq!(seen[0].0, Vec3::ONE);
-        let (_, sample) = lights
+        assert_eq!(seen, [(Vec3::ONE, 0.0)]);
+        assert!(lights
             .sample(emitters(&materials), Vec3::ZERO, 0.5, Vec2::splat(0.3))
-            .expect("the default dome is sampled");
-        assert_eq!(sample.radiance, Vec3::ONE);
-        // A constant dome is sampled uniformly over the sphere, both ways.
-        let uniform = 1.0 / (4.0 * std::f32::consts::PI);
-        assert!((sample.pdf - uniform).abs() < 1e-6 && (seen[0].1 - uniform).abs() < 1e-6);
+            .is_none());
     }
 
-    /// A dome and a sphere: dome samples have the pdf `escaped` reports for
-    /// their direction, sphere samples the one `intersect` reports, and the
-    /// dome's share of samples is its selection probability.
+    /// A constant dome, a distant light with a cone and a sphere: the dome
+    /// is never picked (its escaping rays report pdf 0), distant samples
+    /// have the pdf `escaped` reports for their direction, sphere samples
+    /// the one `intersect` reports, and the distant light's share of samples
+    /// is its selection probability.
     #[test]
     fn infinite_and_bounded_lights_share_the_selection() {
-        let dome = serde_json::json!({
-            "type": "dome", "path": "/Sky", "transform": translated(Vec3::ZERO),
-            "color": [1, 1, 1], "intensity": 0.2, "exposure": 0.0, "normalize": false,
-            "color_temperature": null, "texture": null
-        });
+        let infinite = |shape: serde_json::Value, intensity: f32| {
+            let mut light = serde_json::json!({
+                "path": "/Sky", "transform": translated(Vec3::ZERO),
+                "color": [1, 1, 1], "intensity": intensity, "exposure": 0.0,
+                "normalize": false, "color_temperature": null
+            });
+            light
+                .as_object_mut()
+                .unwrap()
+                .extend(shape.as_object().unwrap().clone());
+            light
+        };
         let scene = scene_with(
-            "dome",
+            "infinite",
             serde_json::json!([
-                dome,
+                infinite(serde_json::json!({"type": "dome", "texture": null}), 0.2),
+                infinite(
+                    serde_json::json!({"type": "distant", "angle_deg": 20.0}),
+                    50.0
+                ),
                 sphere_json("/Bulb", Vec3::new(0.0, 0.0, 4.0), 0.5, 5.0)
             ]),
             [0.0; 3],
@@ -614,26 +624,30 @@ mod tests {
         );
         let materials = Materials::build(&scene).unwrap();
         let lights = Lights::build(&scene, &materials, &NO_MEDIA, true, Shutter::CLOSED).unwrap();
-        let p_dome = lights.probability(Vec3::ZERO, 0);
-        assert!(p_dome > 0.0 && p_dome < 1.0);
-        assert!((p_dome + lights.probability(Vec3::ZERO, 1) - 1.0).abs() < 1e-6);
+        assert_eq!(lights.probability(Vec3::ZERO, 0), 0.0);
+        let p_distant = lights.probability(Vec3::ZERO, 1);
+        assert!(p_distant > 0.0 && p_distant < 1.0);
+        assert!((p_distant + lights.probability(Vec3::ZERO, 2) - 1.0).abs() < 1e-6);
         let mut rng = Pcg32::new(23, 0);
         let n = 20_000;
-        let mut domes = 0u32;
+        let mut distants = 0u32;
         for _ in 0..n {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
-            let (_, s) = lights
+            let (light, s) = lights
                 .sample(emitters(&materials), Vec3::ZERO, rng.next_f32(), u)
                 .unwrap();
+            assert_ne!(light, 0, "the constant dome is never picked");
             if s.distance.is_infinite() {
-                domes += 1;
-                let mut seen = 0;
+                distants += 1;
+                let mut seen = Vec::new();
                 lights.escaped(Vec3::ZERO, s.wi, 0.0, |radiance, pdf| {
-                    seen += 1;
-                    assert_eq!(radiance, s.radiance);
-                    assert!((pdf - s.pdf).abs() <= 1e-5 * s.pdf);
+                    seen.push((radiance, pdf))
                 });
-                assert_eq!(seen, 1);
+                // The dome (pdf 0) and the distant light.
+                assert_eq!(seen.len(), 2);
+                assert_eq!(seen[0], (Vec3::splat(0.2), 0.0));
+                assert_eq!(seen[1].0, s.radiance);
+                assert!((seen[1].1 - s.pdf).abs() <= 1e-5 * s.pdf);
             } else {
                 let hit = lights
                     .intersect(Vec3::ZERO, s.wi, f32::INFINITY, 0.0)
@@ -641,11 +655,11 @@ mod tests {
                 assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
             }
         }
-        let q = f64::from(p_dome);
+        let q = f64::from(p_distant);
         let sigma = (f64::from(n) * q * (1.0 - q)).sqrt();
         assert!(
-            (f64::from(domes) - f64::from(n) * q).abs() < 4.0 * sigma,
-            "{domes} of {n}"
+            (f64::from(distants) - f64::from(n) * q).abs() < 4.0 * sigma,
+            "{distants} of {n}"
         );
     }
 }

@@ -102,6 +102,12 @@ impl DomeLight {
         }
     }
 
+    /// Whether the dome is one colour everywhere (no image): light sampling
+    /// gains nothing over BSDF and phase sampling there (see `select.rs`).
+    pub fn is_constant(&self) -> bool {
+        self.map.is_none()
+    }
+
     /// Luminance of the power through a disk of radius `scene_radius`
     /// (pbrt-v4's `ImageInfiniteLight::Phi`): 4 pi x pi r^2 x mean radiance
     /// over the sphere.
