@@ -44,7 +44,9 @@ pub enum Strategy {
     /// (point-like lights are never found).
     Bsdf,
     /// Light sampling only (next-event estimation): emission found by BSDF
-    /// sampling counts only after the camera or a Dirac lobe.
+    /// sampling counts only after the camera or a Dirac lobe, or where light
+    /// sampling never looks (a constant dome, left to BSDF and phase
+    /// sampling: `lights/select.rs`).
     Nee,
 }
 
