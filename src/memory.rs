@@ -9,7 +9,8 @@
 //! will hold; this module only adds them up:
 //! - scene: the bulk arrays of `scene.bin`, held while the render state is built
 //!   (motion keys included: deforming meshes', moving points' and
-//!   deforming curves' keyed points, normals and widths, moving instances' keyed transforms), and
+//!   deforming curves' keyed points, normals and widths, moving instances'
+//!   keyed transforms), and
 //!   the Cryptomatte names kept per instance (8 bytes);
 //! - geometry: [`Geometry::bytes_for`] (shading copies, BVHs, the build's
 //!   temporaries for the meshes built at once, the top level) and

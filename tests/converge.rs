@@ -24,8 +24,9 @@ const SEEDS: u32 = 3;
 /// Owen-scrambled Sobol more; the 256-spp reference's own noise adds a floor
 /// of about relMSE(1 spp) / 256, which lowers the 8 -> 16 factor to
 /// (1/8 + 1/256) / (1/16 + 1/256) = 1.94 at worst. Over 10 disjoint groups
-/// of 3 seeds (30 seeds, 64x64, 2026-11-24) the smallest factor seen was
-/// 1.92 (independent) and 2.24 (Sobol), so 1.5 has wide margin, yet fails
+/// of 3 seeds (30 seeds, 64x64, `cirrus converge` on [`SCENE`] with these
+/// methods and budgets, 2026-12-02) the smallest factor seen was 1.82
+/// (independent) and 2.17 (Sobol), so 1.5 has margin, yet fails
 /// an error that stalls (repeated samples) or falls only as 1/sqrt(spp)
 /// (factor 1.41).
 const MIN_FACTOR_PER_DOUBLING: f64 = 1.5;
