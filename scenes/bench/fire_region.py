@@ -11,7 +11,9 @@ half of the reference, and, as a second region, the same without the pixels wher
 flame seen directly (the `emission` AOV, which both methods estimate by tracking alone) is
 more than half. relMSE per pixel is (x - ref)^2 / (ref^2 + 0.01) on the channel mean, as in
 src/lab/metrics.rs, averaged over a region; medians over seeds. Equal time multiplies the
-equal-spp ratio by the median time per render, off over on. Prints a markdown table.
+equal-spp ratio by the median time per render, off over on. Prints two markdown tables: the
+ratios per region, and, in the fire-lit region, the relMSE of every AOV the renders hold
+(each against the reference's same AOV, over the beauty's denominator).
 """
 import re
 import sys
@@ -47,9 +49,11 @@ def main() -> None:
         "fire-lit, the flame seen directly left out": lit & ~(ref["emission"] > 0.5 * beauty),
     }
     seeds = sorted(int(p.stem.split("-")[1]) for p in folder.glob("on-*.exr"))
-    renders = {m: [layers(folder / f"{m}-{s}.exr")["RGBA"] for s in seeds] for m in ("on", "off")}
+    renders = {m: [layers(folder / f"{m}-{s}.exr") for s in seeds] for m in ("on", "off")}
     time = {m: float(np.median([seconds(folder / f"{m}-{s}.log") for s in seeds])) for m in ("on", "off")}
-    error = (lambda img, region: float(((img - beauty) ** 2 / (beauty**2 + 0.01))[region].mean()))
+    def error(img: dict, region: np.ndarray, layer: str = "RGBA") -> float:
+        return float(((img[layer] - ref[layer]) ** 2 / (beauty**2 + 0.01))[region].mean())
+
     print(f"{len(seeds)} seeds; median seconds per render: on {time['on']:.2f}, off {time['off']:.2f} "
           f"(on costs {time['on'] / time['off']:.2f}x)\n")
     print("| region | share of the frame | relMSE on | relMSE off | off / on, equal spp | off / on, equal time |")
@@ -59,6 +63,12 @@ def main() -> None:
         ratio = off / on
         print(f"| {name} | {100 * region.mean():.0f}% | {on:.3e} | {off:.3e} | {ratio:.2f}x | "
               f"{ratio * time['off'] / time['on']:.2f}x |")
+    names = [n for n in ref if n != "RGBA"]
+    print("\n| in the fire-lit region | beauty | " + " | ".join(names) + " |")
+    print("|---|---:|" + "---:|" * len(names))
+    for m in ("on", "off"):
+        cells = [float(np.median([error(i, lit, n) for i in renders[m]])) for n in ["RGBA", *names]]
+        print(f"| light sampling {m} | " + " | ".join(f"{c:.2e}" for c in cells) + " |")
 
 
 if __name__ == "__main__":
