@@ -349,11 +349,10 @@ impl VolumeLightsFrom<'_> {
     /// is `sigma_maj` (see `volume.rs` for the measure); summed over the
     /// volumes whose emission may hold it.
     pub fn pdf(&self, media: &Media, point: Vec3, sigma_maj: f32) -> f32 {
-        let distance = point.distance(self.origin);
         self.picks
             .iter()
             .map(|&(i, p)| match &self.lights.lights[i] {
-                Light::Volume(l) => p * l.pdf(media, point, distance, sigma_maj),
+                Light::Volume(l) => p * l.pdf(media, self.origin, point, sigma_maj),
                 _ => unreachable!("the volume list holds volume lights only"),
             })
             .sum()

@@ -15,7 +15,7 @@
 //! - `moving.rs`: a bounded light moving rigidly over the shutter, asked
 //!   at the sample's time through its still pose at the frame;
 //! - `volume.rs`: each placed volume that emits (fire), a point by power
-//!   (Villemin & Hery 2013), in the measure of free-flight tracking so that
+//!   or, near it, by what it delivers (Villemin & Hery 2013), in the measure of free-flight tracking so that
 //!   emission found by tracking and by light sampling combine by MIS.
 //!
 //! One light is picked per sample (`select.rs`): infinite against bounded

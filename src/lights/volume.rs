@@ -2,7 +2,8 @@
 //! Illumination from Flames", JCGT 2(2)): each placed volume that emits is
 //! one light, with its emitting cells' world box, its power and emission in
 //! every direction for the light BVH; a sample is a point of the volume
-//! picked by power (`volumes/emitter.rs`).
+//! picked by power, or near the volume by what it delivers to the shading
+//! point (`volumes/emitter.rs`, `volumes/near_picks.rs`).
 //!
 //! A sampled point stands for a tentative collision of free-flight tracking
 //! there: its radiance is sigma_a Le / sigma_maj, what tracking adds at a
@@ -35,7 +36,7 @@ pub(crate) struct VolumeLight {
 }
 
 impl VolumeLight {
-    /// A point of the volume's emission by power, as seen from `p`; `None`
+    /// A point of the volume's emission picked for shading point `p`; `None`
     /// where the picked point emits nothing. The cell and its first axis
     /// come from `u.x`, the other two axes from `u.y` and its fraction at
     /// 1/4096 resolution (finer than a voxel per cell edge by 500x).
@@ -45,7 +46,7 @@ impl VolumeLight {
     /// emission wherever it has moved, keeps the sum unbiased).
     pub fn sample(&self, media: &Media, p: Vec3, u: Vec2, time: f32) -> Option<LightSample> {
         let u3 = Vec3::new(u.x, u.y, (u.y * SPLIT).fract());
-        let (point, pdf_volume) = media.sample_emission(self.medium, u3)?;
+        let (point, pdf_volume) = media.sample_emission(self.medium, p, u3)?;
         let offset = point - p;
         let distance = offset.length();
         let source = media.source(point, time);
@@ -63,11 +64,12 @@ impl VolumeLight {
         })
     }
 
-    /// The density [`Self::sample`] gives `point` (at `distance` from the
-    /// shading point, where tracking's majorant is `sigma_maj`), in its
-    /// measure; without selection.
-    pub fn pdf(&self, media: &Media, point: Vec3, distance: f32, sigma_maj: f32) -> f32 {
-        media.emission_pdf(self.medium, point) * distance * distance / sigma_maj
+    /// The density [`Self::sample`] from shading point `from` gives `point`
+    /// (where tracking's majorant is `sigma_maj`), in its measure; without
+    /// selection.
+    pub fn pdf(&self, media: &Media, from: Vec3, point: Vec3, sigma_maj: f32) -> f32 {
+        let distance = point.distance(from);
+        media.emission_pdf(self.medium, from, point) * distance * distance / sigma_maj
     }
 
     /// Where and how much it emits, for the light BVH: in every direction.

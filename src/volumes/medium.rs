@@ -302,12 +302,14 @@ impl Media {
             })
     }
 
-    /// A world point of `medium`'s emission picked by power with `u` in
-    /// [0, 1)^3, and the density of that pick per cubic scene unit; `None`
-    /// for a medium that does not emit.
-    pub fn sample_emission(&self, medium: usize, u: Vec3) -> Option<(Vec3, f32)> {
+    /// A world point of `medium`'s emission picked for world shading point
+    /// `from` (by power, or near the emission by what it delivers there)
+    /// with `u` in [0, 1)^3, and the density of that pick per cubic scene
+    /// unit; `None` for a medium that does not emit.
+    pub fn sample_emission(&self, medium: usize, from: Vec3, u: Vec3) -> Option<(Vec3, f32)> {
         let m = &self.media[medium];
-        let (p_index, pdf_index) = m.emitter.as_ref()?.sample(u);
+        let from = m.index_from_world.transform_point3(from);
+        let (p_index, pdf_index) = m.emitter.as_ref()?.sample(from, u);
         Some((
             m.world_from_index.transform_point3(p_index),
             pdf_index / m.voxel_volume,
@@ -315,11 +317,12 @@ impl Media {
     }
 
     /// The density per cubic scene unit with which [`Self::sample_emission`]
-    /// picks world point `p` of `medium`.
-    pub fn emission_pdf(&self, medium: usize, p: Vec3) -> f32 {
+    /// for world shading point `from` picks world point `p` of `medium`.
+    pub fn emission_pdf(&self, medium: usize, from: Vec3, p: Vec3) -> f32 {
         let m = &self.media[medium];
         m.emitter.as_ref().map_or(0.0, |cells| {
-            cells.pdf(&m.majorant, m.index_from_world.transform_point3(p)) / m.voxel_volume
+            let to_index = |p| m.index_from_world.transform_point3(p);
+            cells.pdf(&m.majorant, to_index(from), to_index(p)) / m.voxel_volume
         })
     }
 

@@ -31,6 +31,7 @@ mod lookup;
 mod majorant;
 mod medium;
 mod moving;
+mod near_picks;
 mod overlap;
 mod pass_through;
 mod phase;
