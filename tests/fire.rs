@@ -255,8 +255,12 @@ fn light_sampling_on_and_off_render_the_same_explosion() {
 /// emission cells of its light, from the VDB grid table alone) against what
 /// the built media hold: never less, and within 2.5x (measured 2.1x: on so
 /// small a grid the leaf bound from OpenVDB's tree size, mostly internal
-/// nodes, counts every leaf the active box touches); and the whole volume
-/// estimate, which adds reading the largest grid, covers them too.
+/// nodes, counts every leaf the active box touches) once the near picks'
+/// region tables are set aside: they are counted at their bound, 12^3
+/// regions x 512 clusters x 12-byte alias bins (`src/volumes/near_picks.rs`),
+/// since how many clusters a fire has is known only once its cells are
+/// weighed (this one holds fewer); and the whole volume estimate, which
+/// adds reading the largest grid, covers them too.
 #[test]
 fn the_memory_estimate_covers_the_built_explosion() {
     let (dir, usda) = explosion_stage("fire_memory");
@@ -273,8 +277,9 @@ fn the_memory_estimate_covers_the_built_explosion() {
     assert_eq!(state.media.emitters().count(), 1, "the fireball emits");
     let held = state.media.memory_bytes();
     println!("grids: estimate {estimated} B, held {held} B");
+    let region_tables = 12u64.pow(3) * 512 * 12;
     assert!(
-        estimated >= held && 2 * estimated <= 5 * held,
+        estimated >= held && 2 * estimated.saturating_sub(region_tables) <= 5 * held,
         "grids: estimate {estimated} B, held {held} B"
     );
     let aovs = "beauty".parse().unwrap();

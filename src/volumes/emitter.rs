@@ -18,12 +18,11 @@
 //! wrapped in dense smoke mostly lights the smoke; weighed by its emitted
 //! power it would take the samples of the sun and the sky and waste them on
 //! blocked shadow rays (measured: 12x the noise under the sun beside a shell
-//! of optical depth 87, tests/stability.rs). Within the volume, cells are
-//! still picked by emitted power: weighing them by escape as well measured
-//! 2.4x more variance on the boulder the canyon's fire lights.
-//!
-//! Where the shading point lies near the emission, cells are picked by
-//! what they deliver there rather than by power (`near_picks.rs`).
+//! of optical depth 87, tests/stability.rs). Far from the volume, cells are
+//! picked by emitted power (weighing them by their escape as well measured
+//! 2.4x more variance on the boulder the canyon's fire lights); near it, by
+//! what they deliver to the shading point's region, the transmittance from
+//! there included (`near_picks.rs`).
 //!
 //! Unbiased whatever the estimate: a cell's weight never falls below
 //! [`FLOOR`] times a bound on its emission, so every cell that may emit
@@ -437,12 +436,13 @@ impl<'a> Extinction<'a> {
     }
 
     /// Optical depth between index-space points `a` and `b` through the
-    /// cells' mean extinctions, read at midpoints of steps of half a cell.
+    /// cells' mean extinctions, read at the midpoints of steps of one cell
+    /// along the dominant axis.
     fn optical_depth(&self, a: Vec3, b: Vec3) -> f32 {
         let (dims, cell_size) = self.majorant.cell_layout();
         let lo = self.majorant.index_box().0;
         let d = b - a;
-        let steps = (2.0 * (d / cell_size).abs().max_element()).ceil().max(1.0);
+        let steps = (d / cell_size).abs().max_element().ceil().max(1.0);
         let world_step = (d * self.axis_length).length() / steps;
         (0..steps as u32)
             .map(|i| {

@@ -34,7 +34,8 @@ const REGIONS_PER_AXIS: i32 = 12;
 
 /// Most clusters a region's distribution spans: neighbouring cells are
 /// merged (2^3, 4^3, ...) until there are no more, so the tables hold at
-/// most 12^3 x 512 bins (10.6 MB) however large the fire.
+/// most 12^3 x 512 bins (10.6 MB) however large the fire (the memory
+/// preflight counts that bound; tests/fire.rs sets it aside).
 const MAX_CLUSTERS: usize = 512;
 
 /// Share of a region's picks made by power alone (defensive mixture).
@@ -127,7 +128,7 @@ impl NearPicks {
     /// Bytes the picks over `cells` emitting cells hold at most.
     pub(super) fn bytes_for(cells: u64) -> u64 {
         let regions = REGIONS_PER_AXIS.pow(3) as u64;
-        regions * AliasTable::bytes_for(MAX_CLUSTERS as u64)
+        regions * AliasTable::bytes_for(cells.min(MAX_CLUSTERS as u64))
             + AliasTable::bytes_for(cells)
             + cells * (4 + 8)
     }
