@@ -19,10 +19,10 @@
 //! outside the regions picks by power alone. Sample and density read the
 //! same region, so the pdf that MIS uses is the one that sampled.
 //!
-//! Measured (docs/benchmarks.md, "Fire", 2026-12-03): 1.16-1.2x lower
+//! Measured (docs/benchmarks.md, "Fire", 2026-12-03): 1.17x lower
 //! relMSE at equal spp on both fire benchmarks, within the timing noise of
 //! the same cost per sample; 16 regions per axis without merging cells did
-//! within 2% of this, 128 clusters lost a third of the gain.
+//! within 2% of this, 128 clusters lost a sixth of the gain.
 
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
