@@ -15,8 +15,9 @@
 //! - `moving.rs`: a bounded light moving rigidly over the shutter, asked
 //!   at the sample's time through its still pose at the frame;
 //! - `volume.rs`: each placed volume that emits (fire), a point by power
-//!   or, near it, by what it delivers (Villemin & Hery 2013), in the measure of free-flight tracking so that
-//!   emission found by tracking and by light sampling combine by MIS.
+//!   or, near it, by what it delivers (Villemin & Hery 2013), in the
+//!   measure of free-flight tracking so that emission found by tracking
+//!   and by light sampling combine by MIS.
 //!
 //! One light is picked per sample (`select.rs`): infinite against bounded
 //! lights by what each can deliver at the shading point, infinite lights

@@ -241,7 +241,6 @@ impl EmissionCells {
         }
         let brightest = sampled.iter().map(|s| s.source_mean).fold(0.0f32, f32::max);
         let mut cells = Vec::new();
-        let mut weights = Vec::new();
         let mut weighed = Vec::new();
         let mut floors = Vec::new();
         let mut escaping = 0.0f64;
@@ -269,7 +268,6 @@ impl EmissionCells {
                 extent,
                 cubes: cubes.map(|c| AliasTable::new(c)),
             });
-            weights.push(weight);
             weighed.push(WeighedCell {
                 cell: cell.cell,
                 centre: cell.lo + 0.5 * extent,
@@ -286,6 +284,7 @@ impl EmissionCells {
         if cells.is_empty() {
             return None;
         }
+        let weights: Vec<f32> = weighed.iter().map(|c| c.weight).collect();
         let near = NearPicks::build(&weighed, cells_box(&cells), |a, b| {
             extinction.optical_depth(a, b)
         });

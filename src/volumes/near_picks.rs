@@ -177,31 +177,31 @@ impl NearPicks {
         let extent = hi - lo;
         let region = 3.0 * extent / REGIONS_PER_AXIS as f32;
         let lo = lo - extent;
+        let floor = (0.25 * region.length()).powi(2);
         let n = REGIONS_PER_AXIS;
         let tables = (0..n * n * n)
             .into_par_iter()
             .map(|k| {
                 let at = IVec3::new(k / (n * n), k / n % n, k % n);
                 let centre = lo + (at.as_vec3() + 0.5) * region;
-                let floor = (0.25 * region.length()).powi(2);
-                let near: Vec<f32> = summaries
+                let delivered: Vec<f32> = summaries
                     .iter()
                     .map(|&(power, c, radius)| {
                         let d2 = c.distance_squared(centre).max(floor + radius * radius);
                         power * (-optical_depth(centre, c)).exp() / d2
                     })
                     .collect();
-                let near_total: f32 = near.iter().sum();
-                let weights: Vec<f32> = near
+                let delivered_total: f32 = delivered.iter().sum();
+                let weights: Vec<f32> = delivered
                     .iter()
                     .zip(&summaries)
                     .map(|(&w, s)| {
-                        let near = if near_total > 0.0 {
-                            w / near_total
+                        let share = if delivered_total > 0.0 {
+                            w / delivered_total
                         } else {
                             0.0
                         };
-                        (1.0 - GLOBAL_SHARE) * near + GLOBAL_SHARE * s.0 / total
+                        (1.0 - GLOBAL_SHARE) * share + GLOBAL_SHARE * s.0 / total
                     })
                     .collect();
                 AliasTable::new(&weights)
