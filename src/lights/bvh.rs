@@ -240,6 +240,11 @@ impl LightBounds {
         }
     }
 
+    /// Its importance at `p` (see [`ImportanceBounds::importance`]).
+    pub fn importance(&self, p: Vec3) -> f32 {
+        ImportanceBounds::new(self).importance(p)
+    }
+
     /// Bounds emitting in every direction from a box (spheres, cylinders).
     pub fn omni(min: Vec3, max: Vec3, phi: f32) -> Self {
         Self {

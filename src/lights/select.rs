@@ -1,18 +1,26 @@
-//! Picking one light per sample. Infinite lights (dome, distant) and bounded
-//! ones (everything with a position) share the probability by their
-//! importance at the shading point, in one unit: 4 pi x the irradiance a
-//! light can deliver there. For the bounded lights that is the light BVH
-//! root's importance (power x orientation / distance^2, `bvh.rs`; an
-//! isotropic point of power P gives P / d^2 = 4 pi E); for an infinite light
-//! its irradiance on a surface facing it (a distant light's own, pi L for a
-//! dome of mean radiance L) times 4 pi. So a fire lights the ground beside
-//! it as often as the sky does there, however large the scene (a share by
-//! total power would weigh the sky by the flux through a disk of the
-//! scene's radius, and starve every small light of a large scene). Among
-//! infinite lights the choice is by power; among bounded lights the BVH
-//! walk. Every light with power keeps a non-zero probability wherever it
-//! can contribute, so the estimator stays unbiased, with one exception: a
-//! constant dome (no image) is never picked. BSDF and phase sampling find it
+//! Picking one light per sample. Infinite lights (dome, distant), each
+//! emitting volume, and the other bounded lights (everything with a
+//! position) share the probability by their importance at the shading
+//! point, in one unit: 4 pi x the irradiance a light can deliver there. For
+//! the bounded lights that is the light BVH root's importance (power x
+//! orientation / distance^2, `bvh.rs`; an isotropic point of power P gives
+//! P / d^2 = 4 pi E); for an infinite light its irradiance on a surface
+//! facing it (a distant light's own, pi L for a dome of mean radiance L)
+//! times 4 pi; for an emitting volume, near its emission, what its parts
+//! deliver to the shading point's region (`volume.rs`), since a fire's
+//! box-centred bound reads a flame's base as lit from the box's centre: on
+//! the canyon it gave the fireball at most 16% of the light samples
+//! anywhere, where it gives most of the light (measured: docs/benchmarks.md,
+//! "Fire", 2026-12-03). So a fire lights the ground beside it as often as
+//! the sky does there, however large the scene (a share by total power
+//! would weigh the sky by the flux through a disk of the scene's radius,
+//! and starve every small light of a large scene). Among infinite lights
+//! the choice is by power; among the other bounded lights the BVH walk.
+//! Every light with power keeps a non-zero probability wherever it can
+//! contribute, so the estimator stays unbiased, with one exception: a
+//! constant dome (no image) is never picked. (An emitting volume's estimate
+//! may read 0 behind dense smoke: tracking, which MIS then weighs 1, still
+//! finds all of its emission.) BSDF and phase sampling find it
 //! with full weight (its light pdf is 0, so the MIS weight of what they find
 //! is 1); light sampling could only draw it uniformly over the sphere, which
 //! cosine-weighted, microfacet and phase sampling match or beat almost
@@ -26,7 +34,10 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
+use smallvec::SmallVec;
+
 use super::bvh::{LightBvh, Pick};
+use super::volume::VolumeLight;
 use super::Light;
 use crate::sampling::Distribution1D;
 use crate::scene::Bounds;
@@ -40,62 +51,114 @@ pub(crate) struct LightSelection {
     infinite: Vec<usize>,
     /// Over `infinite`, by power; `None` when there are none.
     infinite_by_power: Option<Distribution1D>,
-    /// Per light index: its position in `infinite`, if infinite.
-    infinite_slot: Vec<Option<usize>>,
-    /// Over the bounded lights; `None` when there are none.
+    /// Per light index: where the selection holds it.
+    slots: Vec<Slot>,
+    /// The emitting volumes' lights, with their light indices.
+    volumes: Vec<(usize, VolumeLight)>,
+    /// Over the other bounded lights; `None` when there are none.
     bvh: Option<LightBvh>,
+}
+
+/// Where [`LightSelection`] holds a light.
+#[derive(Clone, Copy, Debug)]
+enum Slot {
+    /// Position in `infinite`.
+    Infinite(usize),
+    /// Position in `volumes`.
+    Volume(usize),
+    /// In the BVH.
+    Bounded,
+    /// Never picked (a constant dome).
+    Unpicked,
+}
+
+/// The probabilities of picking the infinite lights, each emitting volume
+/// and the BVH's lights at one shading point; they sum to 1.
+struct Shares {
+    infinite: f32,
+    volumes: SmallVec<[f32; 2]>,
+    bounded: f32,
 }
 
 impl LightSelection {
     /// Picks a light for shading point `p` with `u` in [0, 1); `None` when
     /// no light can reach `p`.
     pub fn pick(&self, p: Vec3, u: f32) -> Option<Pick> {
-        let p_infinite = self.p_infinite(p);
-        if u < p_infinite {
+        let shares = self.shares(p);
+        if u < shares.infinite {
             let s = self
                 .infinite_by_power
                 .as_ref()?
-                .sample_discrete(u / p_infinite);
-            Some(Pick {
+                .sample_discrete(u / shares.infinite);
+            return Some(Pick {
                 light: self.infinite[s.index],
-                probability: p_infinite * s.probability,
-            })
-        } else {
-            let u = ((u - p_infinite) / (1.0 - p_infinite)).min(1.0 - f32::EPSILON / 2.0);
-            let mut pick = self.bvh.as_ref()?.pick(p, u)?;
-            pick.probability *= 1.0 - p_infinite;
-            Some(pick)
+                probability: shares.infinite * s.probability,
+            });
         }
+        let mut u = u - shares.infinite;
+        for (&(light, _), &probability) in self.volumes.iter().zip(&shares.volumes) {
+            if u < probability {
+                return Some(Pick { light, probability });
+            }
+            u -= probability;
+        }
+        let u = (u / shares.bounded).min(1.0 - f32::EPSILON / 2.0);
+        let mut pick = self.bvh.as_ref()?.pick(p, u)?;
+        pick.probability *= shares.bounded;
+        Some(pick)
     }
 
-    /// Probability of picking an infinite light (rather than a bounded one)
-    /// at `p`: their share of the importance there.
-    fn p_infinite(&self, p: Vec3) -> f32 {
-        match &self.bvh {
-            None => 1.0,
-            Some(_) if self.infinite.is_empty() => 0.0,
-            Some(bvh) => {
-                let bounded = bvh.importance(p);
-                let total = self.infinite_importance + bounded;
-                if total > 0.0 && total.is_finite() {
-                    self.infinite_importance / total
-                } else {
-                    0.5
-                }
-            }
+    /// The shares of the infinite lights, each volume and the BVH at `p`:
+    /// their importance there (equal shares where those sum to 0 or
+    /// overflow).
+    fn shares(&self, p: Vec3) -> Shares {
+        let infinite = if self.infinite.is_empty() {
+            0.0
+        } else {
+            self.infinite_importance
+        };
+        let volumes: SmallVec<[f32; 2]> =
+            self.volumes.iter().map(|(_, v)| v.importance(p)).collect();
+        let bounded = self.bvh.as_ref().map_or(0.0, |bvh| bvh.importance(p));
+        let total = infinite + volumes.iter().sum::<f32>() + bounded;
+        let (scale, present) = if total > 0.0 && total.is_finite() {
+            (1.0 / total, None)
+        } else {
+            let classes = usize::from(!self.infinite.is_empty())
+                + self.volumes.len()
+                + usize::from(self.bvh.is_some());
+            (0.0, Some(1.0 / classes as f32))
+        };
+        let share = |importance: f32, there: bool| match present {
+            None => importance * scale,
+            Some(equal) if there => equal,
+            Some(_) => 0.0,
+        };
+        let mut shares = Shares {
+            infinite: share(infinite, !self.infinite.is_empty()),
+            volumes: volumes.iter().map(|&v| share(v, true)).collect(),
+            bounded: 0.0,
+        };
+        // The last class present takes what rounding left, so a pick never
+        // falls past it.
+        let rest = 1.0 - shares.infinite - shares.volumes.iter().sum::<f32>();
+        if self.bvh.is_some() {
+            shares.bounded = rest;
+        } else if let Some(last) = shares.volumes.last_mut() {
+            *last += rest;
+        } else {
+            shares.infinite += rest;
         }
+        shares
     }
 
     /// Probability that [`Self::pick`] returns `light` at `p` (`p` does not
     /// matter for infinite lights).
     pub fn probability(&self, p: Vec3, light: usize) -> f32 {
-        match (
-            self.infinite_slot[light],
-            &self.infinite_by_power,
-            &self.bvh,
-        ) {
-            (Some(slot), Some(d), _) => self.p_infinite(p) * d.probability(slot),
-            (None, _, Some(bvh)) => (1.0 - self.p_infinite(p)) * bvh.probability(p, light),
+        match (self.slots[light], &self.infinite_by_power, &self.bvh) {
+            (Slot::Infinite(slot), Some(d), _) => self.shares(p).infinite * d.probability(slot),
+            (Slot::Volume(slot), _, _) => self.shares(p).volumes[slot],
+            (Slot::Bounded, _, Some(bvh)) => self.shares(p).bounded * bvh.probability(p, light),
             _ => 0.0,
         }
     }
@@ -106,15 +169,23 @@ impl LightSelection {
         let radius = scene_radius(bounds);
         let powers: Vec<f32> = lights.iter().map(|l| l.power(radius)).collect();
         let mut infinite = Vec::new();
-        let mut infinite_slot = vec![None; lights.len()];
+        let mut slots = vec![Slot::Unpicked; lights.len()];
+        let mut volumes = Vec::new();
         let mut bounded = Vec::new();
         let mut infinite_importance = 0.0f32;
         for (i, light) in lights.iter().enumerate() {
-            match light.bounds() {
-                Some(b) => bounded.push((i, b)),
-                None if is_constant_dome(light) => {}
-                None => {
-                    infinite_slot[i] = Some(infinite.len());
+            match (light, light.bounds()) {
+                (Light::Volume(v), _) => {
+                    slots[i] = Slot::Volume(volumes.len());
+                    volumes.push((i, v.clone()));
+                }
+                (_, Some(b)) => {
+                    slots[i] = Slot::Bounded;
+                    bounded.push((i, b));
+                }
+                (_, None) if is_constant_dome(light) => {}
+                (_, None) => {
+                    slots[i] = Slot::Infinite(infinite.len());
                     infinite.push(i);
                     infinite_importance += 4.0 * PI * light.irradiance(radius);
                 }
@@ -126,7 +197,8 @@ impl LightSelection {
             infinite_by_power: (!infinite.is_empty())
                 .then(|| Distribution1D::new(&infinite_powers)),
             infinite,
-            infinite_slot,
+            slots,
+            volumes,
             bvh: (!bounded.is_empty()).then(|| LightBvh::build(bounded, lights.len())),
         }
     }
@@ -151,5 +223,82 @@ pub(crate) fn scene_radius(bounds: &Bounds) -> f32 {
         r
     } else {
         1.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lights::test_support::record;
+    use crate::sampling::Pcg32;
+    use crate::scene::LightShape;
+    use crate::volumes::{Emitter, NearImportance};
+
+    /// A sun, a sphere light (the BVH's) and a fire whose near estimate is
+    /// 300 within 2 units of its box: beside the fire the selection weighs
+    /// it by that estimate, farther by its power over the squared distance
+    /// (as the BVH weighs a light); everywhere the probabilities sum to 1
+    /// and every pick reports the probability `probability` gives, with the
+    /// frequency it says (4 sigma).
+    #[test]
+    fn a_fire_is_picked_by_what_it_delivers_near_it() {
+        let sun = record(LightShape::Distant { angle_deg: 1.0 }, true, 4.0);
+        let bulb = LightShape::Sphere {
+            radius: 0.1,
+            treat_as_point: false,
+        };
+        let (fire_min, fire_max) = (Vec3::splat(4.0), Vec3::splat(6.0));
+        let fire = VolumeLight::new(&Emitter {
+            medium: 0,
+            world_min: fire_min,
+            world_max: fire_max,
+            power: 20.0,
+            near: NearImportance::constant((fire_min - 2.0, fire_max + 2.0), 300.0),
+        });
+        let lights = [
+            Light::from_record(&sun).unwrap(),
+            Light::from_record(&record(bulb, false, 10.0)).unwrap(),
+            Light::Volume(fire.clone()),
+        ];
+        let bounds = Bounds {
+            min: [-10.0; 3],
+            max: [10.0; 3],
+        };
+        let selection = LightSelection::new(&lights, &bounds);
+        let bvh = selection.bvh.as_ref().unwrap();
+        for (p, fire_importance) in [
+            (Vec3::splat(3.0), 300.0),
+            (
+                Vec3::new(-9.0, 0.0, 0.0),
+                fire.bounds().importance(Vec3::new(-9.0, 0.0, 0.0)),
+            ),
+        ] {
+            let total = selection.infinite_importance + fire_importance + bvh.importance(p);
+            let probabilities: Vec<f32> = (0..3).map(|i| selection.probability(p, i)).collect();
+            assert!(
+                (probabilities[2] - fire_importance / total).abs() < 1e-6,
+                "at {p}: {probabilities:?}"
+            );
+            assert!(
+                (probabilities.iter().sum::<f32>() - 1.0).abs() < 1e-6,
+                "at {p}"
+            );
+            let mut rng = Pcg32::new(7, 0);
+            let n = 20_000;
+            let mut counts = [0u32; 3];
+            for _ in 0..n {
+                let pick = selection.pick(p, rng.next_f32()).unwrap();
+                assert_eq!(pick.probability, probabilities[pick.light], "at {p}");
+                counts[pick.light] += 1;
+            }
+            for (count, &q) in counts.iter().zip(&probabilities) {
+                let q = f64::from(q);
+                let sigma = (f64::from(n) * q * (1.0 - q)).sqrt();
+                assert!(
+                    (f64::from(*count) - f64::from(n) * q).abs() <= 4.0 * sigma,
+                    "at {p}: {counts:?}"
+                );
+            }
+        }
     }
 }

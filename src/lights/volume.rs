@@ -19,7 +19,7 @@ use glam::{Vec2, Vec3};
 
 use super::bvh::LightBounds;
 use super::LightSample;
-use crate::volumes::{Emitter, Media};
+use crate::volumes::{Emitter, Media, NearImportance};
 
 /// Resolution of the split of one uniform number into two (see
 /// [`VolumeLight::sample`]).
@@ -33,6 +33,8 @@ pub(crate) struct VolumeLight {
     /// Its emitting box, and the luminance of the power that leaves it
     /// (W) as `phi`.
     bounds: LightBounds,
+    /// What it delivers near its emission, by region.
+    near: NearImportance,
 }
 
 impl VolumeLight {
@@ -72,9 +74,20 @@ impl VolumeLight {
         media.emission_pdf(self.medium, from, point) * distance * distance / sigma_maj
     }
 
-    /// Where and how much it emits, for the light BVH: in every direction.
+    /// Where and how much it emits, in every direction.
     pub fn bounds(&self) -> LightBounds {
         self.bounds
+    }
+
+    /// 4 pi x an estimate of the irradiance it delivers at `p`, in the unit
+    /// of the light BVH's importance (`bvh.rs`), for the light selection:
+    /// near its emission, the near picks' estimate for `p`'s region (the
+    /// power of its parts x their transmittance to the region / their
+    /// squared distance); farther, its escaping power over the squared
+    /// distance to its box's centre (at least its box's half diagonal), as
+    /// the BVH weighs a light.
+    pub fn importance(&self, p: Vec3) -> f32 {
+        self.near.at(p).unwrap_or_else(|| self.bounds.importance(p))
     }
 
     /// Luminance of the power that leaves the volume, W.
@@ -87,6 +100,7 @@ impl VolumeLight {
         Self {
             medium: emitter.medium,
             bounds: LightBounds::omni(emitter.world_min, emitter.world_max, emitter.power),
+            near: emitter.near.clone(),
         }
     }
 }

@@ -32,11 +32,11 @@
 //! nothing anywhere, and gets weight 0. Otherwise every occupied cell may
 //! emit (the bound uses the largest emission seen anywhere).
 
-use glam::{IVec3, Vec3};
+use glam::{Affine3A, IVec3, Vec3};
 use rayon::prelude::*;
 
 use super::majorant::{MajorantGrid, OccupiedCell};
-use super::near_picks::{NearPicks, WeighedCell};
+use super::near_picks::{NearImportance, NearPicks, WeighedCell};
 use crate::sampling::AliasTable;
 
 /// The smallest share of its emission bound a cell's weight is given.
@@ -205,6 +205,20 @@ impl EmissionCells {
         &self.floors
     }
 
+    /// What the emission delivers around it by region, for the light
+    /// selection of a grid placed by `index_from_world` whose index-space
+    /// unit cube has world volume `voxel_volume`.
+    pub(crate) fn near_importance(
+        &self,
+        index_from_world: Affine3A,
+        voxel_volume: f32,
+    ) -> NearImportance {
+        // A cell's weight is its integral of sigma_a Le over index space:
+        // x the voxel volume, W/sr; x 4 pi, W.
+        self.near
+            .importance(index_from_world, 4.0 * std::f32::consts::PI * voxel_volume)
+    }
+
     /// Estimated luminance of the integral of sigma_a Le times its escape
     /// transmittance, per unit of index-space volume: W/sr after scaling by
     /// the index-to-world volume (see the module doc).
@@ -285,7 +299,7 @@ impl EmissionCells {
             return None;
         }
         let weights: Vec<f32> = weighed.iter().map(|c| c.weight).collect();
-        let near = NearPicks::build(&weighed, cells_box(&cells), |a, b| {
+        let near = NearPicks::build(&weighed, cells_box(&cells), axis_length, |a, b| {
             extinction.optical_depth(a, b)
         });
         Some(Self {

@@ -26,6 +26,7 @@ use super::checks::{check_emission_scales, warn_bad_values};
 use super::emitter::{EmissionCells, SourceSample};
 use super::fields::{field_key, read_field, read_velocities, FieldKey};
 use super::moving::PlacementMotion;
+use super::near_picks::NearImportance;
 use super::overlap::{box_hit, merge};
 use super::placement::{longest_axis, to_f32, to_f64, world_box};
 use super::tracking::channel_mean;
@@ -265,7 +266,7 @@ pub struct MediumPoint {
 }
 
 /// A medium that emits, as the lights see it.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Emitter {
     /// Which medium ([`Media::sample_emission`] takes it).
     pub medium: usize,
@@ -277,6 +278,8 @@ pub struct Emitter {
     /// same in every direction) x the integral of sigma_a Le times an
     /// estimate of its escape transmittance (`emitter.rs`).
     pub power: f32,
+    /// What it delivers near its emission, by region (`near_picks.rs`).
+    pub(crate) near: NearImportance,
 }
 
 impl Media {
@@ -298,6 +301,7 @@ impl Media {
                     world_min,
                     world_max,
                     power: 4.0 * PI * cells.escaping() * m.voxel_volume,
+                    near: cells.near_importance(m.index_from_world, m.voxel_volume),
                 })
             })
     }

@@ -49,6 +49,7 @@ pub use grid_table::grid_table;
 pub use lookup::GridAccessor;
 pub use majorant::{MajorantGrid, MajorantKind};
 pub use medium::{Emitter, Media, MediaRay, MediumPoint, RaySegments};
+pub(crate) use near_picks::NearImportance;
 pub use pass_through::PassThrough;
 pub use phase::{HenyeyGreenstein, PhaseSample};
 pub use stats::TrackingStats;

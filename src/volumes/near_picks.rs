@@ -24,7 +24,7 @@
 //! the same cost per sample; 16 regions per axis without merging cells did
 //! within 2% of this, 128 clusters lost a sixth of the gain.
 
-use glam::{IVec3, Vec3};
+use glam::{Affine3A, IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::sampling::AliasTable;
@@ -63,18 +63,82 @@ struct Cluster {
     by_power: AliasTable,
 }
 
+/// The [`REGIONS_PER_AXIS`]^3 boxes the space around an emission is cut
+/// into, in the density grid's index space.
+#[derive(Clone, Copy, Debug)]
+struct Regions {
+    /// Min corner of the regions' box.
+    lo: Vec3,
+    /// Edge lengths of one region, index units.
+    size: Vec3,
+}
+
+impl Regions {
+    /// Number of the region holding `p` (x slowest, z fastest); `None`
+    /// outside them.
+    fn of(&self, p: Vec3) -> Option<usize> {
+        let c = ((p - self.lo) / self.size).floor();
+        let n = REGIONS_PER_AXIS as f32;
+        if c.cmplt(Vec3::ZERO).any() || c.cmpge(Vec3::splat(n)).any() {
+            return None;
+        }
+        let c = c.as_ivec3();
+        let n = REGIONS_PER_AXIS;
+        Some(((c.x * n + c.y) * n + c.z) as usize)
+    }
+}
+
 /// The regions' distributions (see the module doc).
 #[derive(Debug)]
 pub(super) struct NearPicks {
-    /// Index-space min corner of the regions' box.
-    lo: Vec3,
-    /// Edge lengths of one region, index units.
-    region: Vec3,
+    regions: Regions,
     clusters: Vec<Cluster>,
     /// Per cell: its cluster and its position there.
     cell_slots: Vec<(u32, u32)>,
-    /// Per region (x slowest, z fastest), over `clusters`.
+    /// Per region, over `clusters`.
     tables: Vec<AliasTable>,
+    /// Per region, the estimate its distribution is drawn from, summed over
+    /// the clusters: power x transmittance / squared world distance, in the
+    /// cells' weight unit per world unit squared.
+    delivered: Vec<f32>,
+}
+
+/// What an emitting volume delivers around it by region, for the light
+/// selection: 4 pi x the irradiance the near picks' estimate gives each
+/// region's centre (power x transmittance / distance^2, summed over the
+/// clusters), the unit of `lights/bvh.rs`'s importance. Plain data, so a
+/// light can hold it.
+#[derive(Clone, Debug)]
+pub(crate) struct NearImportance {
+    /// World to the density grid's index space.
+    index_from_world: Affine3A,
+    regions: Regions,
+    /// Per region.
+    importance: Vec<f32>,
+}
+
+impl NearImportance {
+    /// The importance at world point `p`; `None` outside the regions.
+    pub(crate) fn at(&self, p: Vec3) -> Option<f32> {
+        let region = self.regions.of(self.index_from_world.transform_point3(p))?;
+        Some(self.importance[region])
+    }
+}
+
+#[cfg(test)]
+impl NearImportance {
+    /// `importance` throughout the world box `(lo, hi)` (cut into the
+    /// regions), for the light selection's tests.
+    pub(crate) fn constant((lo, hi): (Vec3, Vec3), importance: f32) -> Self {
+        Self {
+            index_from_world: Affine3A::IDENTITY,
+            regions: Regions {
+                lo,
+                size: (hi - lo) / REGIONS_PER_AXIS as f32,
+            },
+            importance: vec![importance; REGIONS_PER_AXIS.pow(3) as usize],
+        }
+    }
 }
 
 /// A cell picked with a region's distribution.
@@ -115,14 +179,18 @@ impl NearPicks {
 
     /// The distribution of the region holding `p`.
     fn table(&self, p: Vec3) -> Option<&AliasTable> {
-        let c = ((p - self.lo) / self.region).floor();
-        let n = REGIONS_PER_AXIS as f32;
-        if c.cmplt(Vec3::ZERO).any() || c.cmpge(Vec3::splat(n)).any() {
-            return None;
+        self.regions.of(p).map(|r| &self.tables[r])
+    }
+
+    /// The regions' importance for the light selection, for a grid placed
+    /// by `index_from_world` whose cells' weights are `scale` x 4 pi times
+    /// the unit of [`NearImportance`] (see `emitter.rs`).
+    pub(super) fn importance(&self, index_from_world: Affine3A, scale: f32) -> NearImportance {
+        NearImportance {
+            index_from_world,
+            regions: self.regions,
+            importance: self.delivered.iter().map(|d| scale * d).collect(),
         }
-        let c = c.as_ivec3();
-        let n = REGIONS_PER_AXIS;
-        Some(&self.tables[((c.x * n + c.y) * n + c.z) as usize])
     }
 
     /// Bytes the picks over `cells` emitting cells hold at most.
@@ -131,6 +199,7 @@ impl NearPicks {
         regions * AliasTable::bytes_for(cells.min(MAX_CLUSTERS as u64))
             + AliasTable::bytes_for(cells)
             + cells * (4 + 8)
+            + 2 * regions * 4
     }
 
     /// Bytes held.
@@ -141,15 +210,18 @@ impl NearPicks {
             .iter()
             .map(|c| c.by_power.memory_bytes() + c.cells.capacity() * 4)
             .sum();
-        tables + clusters + self.cell_slots.capacity() * 8
+        tables + clusters + self.cell_slots.capacity() * 8 + self.delivered.capacity() * 4
     }
 
     /// The regions over `cells` (not empty), within the index-space box
-    /// `(lo, hi)` around them; `optical_depth(a, b)` estimates the optical
-    /// depth between two index-space points.
+    /// `(lo, hi)` around them, whose index axes are `axis_length` world
+    /// units long (distances are weighed in world units);
+    /// `optical_depth(a, b)` estimates the optical depth between two
+    /// index-space points.
     pub(super) fn build(
         cells: &[WeighedCell],
         (lo, hi): (Vec3, Vec3),
+        axis_length: Vec3,
         optical_depth: impl Fn(Vec3, Vec3) -> f32 + Sync,
     ) -> Self {
         let (clusters, cell_slots) = clusters(cells);
@@ -170,24 +242,28 @@ impl NearPicks {
                 } else {
                     0.5 * (lo + hi)
                 };
-                (power, centre, 0.5 * (hi - lo).length())
+                (power, centre, 0.5 * ((hi - lo) * axis_length).length())
             })
             .collect();
         let total: f32 = summaries.iter().map(|s| s.0).sum();
         let extent = hi - lo;
-        let region = 3.0 * extent / REGIONS_PER_AXIS as f32;
-        let lo = lo - extent;
-        let floor = (0.25 * region.length()).powi(2);
+        let regions = Regions {
+            lo: lo - extent,
+            size: 3.0 * extent / REGIONS_PER_AXIS as f32,
+        };
+        let floor = (0.25 * (regions.size * axis_length).length()).powi(2);
         let n = REGIONS_PER_AXIS;
-        let tables = (0..n * n * n)
+        let (tables, delivered) = (0..n * n * n)
             .into_par_iter()
             .map(|k| {
                 let at = IVec3::new(k / (n * n), k / n % n, k % n);
-                let centre = lo + (at.as_vec3() + 0.5) * region;
+                let centre = regions.lo + (at.as_vec3() + 0.5) * regions.size;
                 let delivered: Vec<f32> = summaries
                     .iter()
                     .map(|&(power, c, radius)| {
-                        let d2 = c.distance_squared(centre).max(floor + radius * radius);
+                        let d2 = ((c - centre) * axis_length)
+                            .length_squared()
+                            .max(floor + radius * radius);
                         power * (-optical_depth(centre, c)).exp() / d2
                     })
                     .collect();
@@ -204,15 +280,15 @@ impl NearPicks {
                         (1.0 - GLOBAL_SHARE) * share + GLOBAL_SHARE * s.0 / total
                     })
                     .collect();
-                AliasTable::new(&weights)
+                (AliasTable::new(&weights), delivered_total)
             })
-            .collect();
+            .unzip();
         Self {
-            lo,
-            region,
+            regions,
             clusters,
             cell_slots,
             tables,
+            delivered,
         }
     }
 }
@@ -281,7 +357,7 @@ mod tests {
                 0.0
             }
         };
-        let picks = NearPicks::build(&cells, (Vec3::ZERO, Vec3::splat(80.0)), wall);
+        let picks = NearPicks::build(&cells, (Vec3::ZERO, Vec3::splat(80.0)), Vec3::ONE, wall);
         assert!(picks.clusters.len() <= MAX_CLUSTERS);
         for from in [
             Vec3::new(-20.0, 5.0, 5.0),
