@@ -12,7 +12,8 @@
 //! lit. Everything here is in the density grid's index space; the medium
 //! places it in the world.
 //!
-//! The power the light selection weighs the volume by is what escapes it:
+//! Far from the volume, the power the light selection weighs it by is what
+//! escapes it (near it, what the near picks estimate it delivers there):
 //! each cell's emission times its mean transmittance to the grid's edge
 //! along the six axes, marched through the cells' mean extinctions. Fire
 //! wrapped in dense smoke mostly lights the smoke; weighed by its emitted

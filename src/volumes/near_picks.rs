@@ -11,7 +11,9 @@
 //! region's and the cluster's sizes), the many-light estimate of what the
 //! cluster delivers there (Conty Estevez & Kulla 2018 weigh lights the same
 //! way, without the transmittance). Within a cluster a cell is picked by
-//! power.
+//! power. Summed over the clusters, the same estimate is what the light
+//! selection weighs the volume by against the other lights from a shading
+//! point in the region ([`NearImportance`]).
 //!
 //! Unbiased whatever the estimate: [`GLOBAL_SHARE`] of every region's
 //! distribution is the clusters' power share, so every cell that may emit
