@@ -112,21 +112,31 @@ impl LightSelection {
     /// their importance there (equal shares where those sum to 0 or
     /// overflow).
     fn shares(&self, p: Vec3) -> Shares {
-        let infinite = if self.infinite.is_empty() {
-            0.0
-        } else {
-            self.infinite_importance
+        let classes = usize::from(!self.infinite.is_empty())
+            + self.volumes.len()
+            + usize::from(self.bvh.is_some());
+        // One class takes every pick: its importance need not be known
+        // (fire_lit's flame, under a constant dome, spent 2% of its
+        // render time weighing itself against nothing).
+        let weighed = classes > 1;
+        let infinite = match (self.infinite.is_empty(), weighed) {
+            (true, _) => 0.0,
+            (false, true) => self.infinite_importance,
+            (false, false) => 1.0,
         };
-        let volumes: SmallVec<[f32; 2]> =
-            self.volumes.iter().map(|(_, v)| v.importance(p)).collect();
-        let bounded = self.bvh.as_ref().map_or(0.0, |bvh| bvh.importance(p));
+        let volumes: SmallVec<[f32; 2]> = self
+            .volumes
+            .iter()
+            .map(|(_, v)| if weighed { v.importance(p) } else { 1.0 })
+            .collect();
+        let bounded =
+            self.bvh
+                .as_ref()
+                .map_or(0.0, |bvh| if weighed { bvh.importance(p) } else { 1.0 });
         let total = infinite + volumes.iter().sum::<f32>() + bounded;
         let (scale, present) = if total > 0.0 && total.is_finite() {
             (1.0 / total, None)
         } else {
-            let classes = usize::from(!self.infinite.is_empty())
-                + self.volumes.len()
-                + usize::from(self.bvh.is_some());
             (0.0, Some(1.0 / classes as f32))
         };
         let share = |importance: f32, there: bool| match present {
