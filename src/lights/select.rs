@@ -57,6 +57,9 @@ pub(crate) struct LightSelection {
     volumes: Vec<(usize, VolumeLight)>,
     /// Over the other bounded lights; `None` when there are none.
     bvh: Option<LightBvh>,
+    /// How many classes share the picks: the infinite lights (when there
+    /// are some), each volume, the BVH (when there is one).
+    classes: usize,
 }
 
 /// Where [`LightSelection`] holds a light.
@@ -112,32 +115,29 @@ impl LightSelection {
     /// their importance there (equal shares where those sum to 0 or
     /// overflow).
     fn shares(&self, p: Vec3) -> Shares {
-        let classes = usize::from(!self.infinite.is_empty())
-            + self.volumes.len()
-            + usize::from(self.bvh.is_some());
-        // One class takes every pick: its importance need not be known
-        // (fire_lit's flame, under a constant dome, spent 2% of its
-        // render time weighing itself against nothing).
-        let weighed = classes > 1;
-        let infinite = match (self.infinite.is_empty(), weighed) {
-            (true, _) => 0.0,
-            (false, true) => self.infinite_importance,
-            (false, false) => 1.0,
+        if self.classes <= 1 {
+            // One class (or none) takes every pick: nothing to weigh
+            // (fire_lit's flame under a constant dome spent 2% of its
+            // render time weighing itself against nothing).
+            return Shares {
+                infinite: f32::from(u8::from(!self.infinite.is_empty())),
+                volumes: self.volumes.iter().map(|_| 1.0).collect(),
+                bounded: f32::from(u8::from(self.bvh.is_some())),
+            };
+        }
+        let infinite = if self.infinite.is_empty() {
+            0.0
+        } else {
+            self.infinite_importance
         };
-        let volumes: SmallVec<[f32; 2]> = self
-            .volumes
-            .iter()
-            .map(|(_, v)| if weighed { v.importance(p) } else { 1.0 })
-            .collect();
-        let bounded =
-            self.bvh
-                .as_ref()
-                .map_or(0.0, |bvh| if weighed { bvh.importance(p) } else { 1.0 });
+        let volumes: SmallVec<[f32; 2]> =
+            self.volumes.iter().map(|(_, v)| v.importance(p)).collect();
+        let bounded = self.bvh.as_ref().map_or(0.0, |bvh| bvh.importance(p));
         let total = infinite + volumes.iter().sum::<f32>() + bounded;
         let (scale, present) = if total > 0.0 && total.is_finite() {
             (1.0 / total, None)
         } else {
-            (0.0, Some(1.0 / classes as f32))
+            (0.0, Some(1.0 / self.classes as f32))
         };
         let share = |importance: f32, there: bool| match present {
             None => importance * scale,
@@ -202,7 +202,10 @@ impl LightSelection {
             }
         }
         let infinite_powers: Vec<f32> = infinite.iter().map(|&i| powers[i]).collect();
+        let classes =
+            usize::from(!infinite.is_empty()) + volumes.len() + usize::from(!bounded.is_empty());
         Self {
+            classes,
             infinite_importance,
             infinite_by_power: (!infinite.is_empty())
                 .then(|| Distribution1D::new(&infinite_powers)),
