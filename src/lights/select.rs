@@ -147,17 +147,15 @@ impl LightSelection {
         let mut shares = Shares {
             infinite: share(infinite, !self.infinite.is_empty()),
             volumes: volumes.iter().map(|&v| share(v, true)).collect(),
-            bounded: 0.0,
+            bounded: share(bounded, self.bvh.is_some()),
         };
-        // The last class present takes what rounding left, so a pick never
-        // falls past it.
-        let rest = 1.0 - shares.infinite - shares.volumes.iter().sum::<f32>();
-        if self.bvh.is_some() {
-            shares.bounded = rest;
-        } else if let Some(last) = shares.volumes.last_mut() {
-            *last += rest;
-        } else {
-            shares.infinite += rest;
+        // Without a BVH (whose walk takes any u past the others), the last
+        // volume takes what rounding left, so a pick never falls past it.
+        if self.bvh.is_none() {
+            let rest = 1.0 - shares.infinite - shares.volumes.iter().sum::<f32>();
+            if let Some(last) = shares.volumes.last_mut() {
+                *last = (*last + rest).max(0.0);
+            }
         }
         shares
     }

@@ -207,17 +207,21 @@ impl EmissionCells {
     }
 
     /// What the emission delivers around it by region, for the light
-    /// selection of a grid placed by `index_from_world` whose index-space
-    /// unit cube has world volume `voxel_volume`.
+    /// selection of a placement of the grid by `index_from_world` whose
+    /// index-space unit cube has world volume `voxel_volume`. The cells
+    /// (shared by every placement of a Volume prim) weigh distances in
+    /// index units; each placement converts them by its voxel's mean edge,
+    /// the cube root of its volume (exact for voxels of equal sides).
     pub(crate) fn near_importance(
         &self,
         index_from_world: Affine3A,
         voxel_volume: f32,
     ) -> NearImportance {
         // A cell's weight is its integral of sigma_a Le over index space:
-        // x the voxel volume, W/sr; x 4 pi, W.
-        self.near
-            .importance(index_from_world, 4.0 * std::f32::consts::PI * voxel_volume)
+        // x the voxel volume, W/sr; x 4 pi, W; over (edge x index distance)^2.
+        let edge_squared = voxel_volume.cbrt().powi(2);
+        let scale = 4.0 * std::f32::consts::PI * voxel_volume / edge_squared;
+        self.near.importance(index_from_world, scale)
     }
 
     /// Estimated luminance of the integral of sigma_a Le times its escape
@@ -300,7 +304,7 @@ impl EmissionCells {
             return None;
         }
         let weights: Vec<f32> = weighed.iter().map(|c| c.weight).collect();
-        let near = NearPicks::build(&weighed, cells_box(&cells), axis_length, |a, b| {
+        let near = NearPicks::build(&weighed, cells_box(&cells), |a, b| {
             extinction.optical_depth(a, b)
         });
         Some(Self {
@@ -505,6 +509,25 @@ mod tests {
         };
         let cells = EmissionCells::build(&majorant, (1.0, Vec3::ONE), true, source).unwrap();
         (majorant, cells)
+    }
+
+    /// A placement twice as large (8x the voxel volume) reads twice the
+    /// near importance at the same index-space point: power grows as the
+    /// volume, squared distances as the area.
+    #[test]
+    fn near_importance_scales_with_the_placement() {
+        let (_, cells) = cells();
+        let p = Vec3::new(8.0, 8.0, -3.0);
+        let unit = cells
+            .near_importance(Affine3A::IDENTITY, 1.0)
+            .at(p)
+            .unwrap();
+        let doubled = cells
+            .near_importance(Affine3A::from_scale(Vec3::splat(0.5)), 8.0)
+            .at(2.0 * p)
+            .unwrap();
+        assert!(unit > 0.0);
+        assert!((doubled / unit - 2.0).abs() < 1e-5, "{doubled} vs {unit}");
     }
 
     /// From a shading point far away (picks by power) and from one beside

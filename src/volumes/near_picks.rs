@@ -100,8 +100,8 @@ pub(super) struct NearPicks {
     /// Per region, over `clusters`.
     tables: Vec<AliasTable>,
     /// Per region, the estimate its distribution is drawn from, summed over
-    /// the clusters: power x transmittance / squared world distance, in the
-    /// cells' weight unit per world unit squared.
+    /// the clusters: power x transmittance / squared distance, in the cells'
+    /// weight unit per index unit squared.
     delivered: Vec<f32>,
 }
 
@@ -185,8 +185,8 @@ impl NearPicks {
     }
 
     /// The regions' importance for the light selection, for a grid placed
-    /// by `index_from_world` whose cells' weights are `scale` x 4 pi times
-    /// the unit of [`NearImportance`] (see `emitter.rs`).
+    /// by `index_from_world`: `scale` x the summed estimates, `scale`
+    /// converting their unit to [`NearImportance`]'s (see `emitter.rs`).
     pub(super) fn importance(&self, index_from_world: Affine3A, scale: f32) -> NearImportance {
         NearImportance {
             index_from_world,
@@ -216,14 +216,11 @@ impl NearPicks {
     }
 
     /// The regions over `cells` (not empty), within the index-space box
-    /// `(lo, hi)` around them, whose index axes are `axis_length` world
-    /// units long (distances are weighed in world units);
-    /// `optical_depth(a, b)` estimates the optical depth between two
-    /// index-space points.
+    /// `(lo, hi)` around them; `optical_depth(a, b)` estimates the optical
+    /// depth between two index-space points.
     pub(super) fn build(
         cells: &[WeighedCell],
         (lo, hi): (Vec3, Vec3),
-        axis_length: Vec3,
         optical_depth: impl Fn(Vec3, Vec3) -> f32 + Sync,
     ) -> Self {
         let (clusters, cell_slots) = clusters(cells);
@@ -244,7 +241,7 @@ impl NearPicks {
                 } else {
                     0.5 * (lo + hi)
                 };
-                (power, centre, 0.5 * ((hi - lo) * axis_length).length())
+                (power, centre, 0.5 * (hi - lo).length())
             })
             .collect();
         let total: f32 = summaries.iter().map(|s| s.0).sum();
@@ -253,7 +250,7 @@ impl NearPicks {
             lo: lo - extent,
             size: 3.0 * extent / REGIONS_PER_AXIS as f32,
         };
-        let floor = (0.25 * (regions.size * axis_length).length()).powi(2);
+        let floor = (0.25 * regions.size.length()).powi(2);
         let n = REGIONS_PER_AXIS;
         let (tables, delivered) = (0..n * n * n)
             .into_par_iter()
@@ -263,9 +260,7 @@ impl NearPicks {
                 let delivered: Vec<f32> = summaries
                     .iter()
                     .map(|&(power, c, radius)| {
-                        let d2 = ((c - centre) * axis_length)
-                            .length_squared()
-                            .max(floor + radius * radius);
+                        let d2 = c.distance_squared(centre).max(floor + radius * radius);
                         power * (-optical_depth(centre, c)).exp() / d2
                     })
                     .collect();
@@ -359,7 +354,7 @@ mod tests {
                 0.0
             }
         };
-        let picks = NearPicks::build(&cells, (Vec3::ZERO, Vec3::splat(80.0)), Vec3::ONE, wall);
+        let picks = NearPicks::build(&cells, (Vec3::ZERO, Vec3::splat(80.0)), wall);
         assert!(picks.clusters.len() <= MAX_CLUSTERS);
         for from in [
             Vec3::new(-20.0, 5.0, 5.0),
