@@ -337,7 +337,7 @@ pub(crate) fn cone_union(a: (Vec3, f32), b: (Vec3, f32)) -> (Vec3, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::Pcg32;
+    use crate::lights::test_support::assert_picks_follow;
 
     fn omni_at(c: Vec3, phi: f32) -> LightBounds {
         LightBounds::omni(c - 0.1, c + 0.1, phi)
@@ -382,22 +382,7 @@ mod tests {
             probabilities[0] > 4.0 * probabilities[5],
             "{probabilities:?}"
         );
-        let mut rng = Pcg32::new(31, 0);
-        let n = 50_000;
-        let mut counts = [0u32; 8];
-        for _ in 0..n {
-            let pick = bvh.pick(p, rng.next_f32()).unwrap();
-            assert_eq!(pick.probability, probabilities[pick.light]);
-            counts[pick.light] += 1;
-        }
-        for (i, &c) in counts.iter().enumerate() {
-            let q = f64::from(probabilities[i]);
-            let sigma = (f64::from(n) * q * (1.0 - q)).sqrt();
-            assert!(
-                (f64::from(c) - f64::from(n) * q).abs() <= 4.0 * sigma,
-                "light {i}: {c}"
-            );
-        }
+        assert_picks_follow(&probabilities, (50_000, 31), |u| bvh.pick(p, u), "tree");
     }
 
     /// A tree of one light is a lone leaf, the one node the walks test

@@ -19,10 +19,10 @@
 //!   measure of free-flight tracking so that emission found by tracking
 //!   and by light sampling combine by MIS.
 //!
-//! One light is picked per sample (`select.rs`): infinite against bounded
-//! lights by what each can deliver at the shading point, infinite lights
-//! among themselves by power, bounded lights
-//! by a light BVH (`bvh.rs`, pbrt-v4's `BVHLightSampler`) that weighs power by
+//! One light is picked per sample (`select.rs`): infinite lights, each
+//! emitting volume and the other bounded lights by what each can deliver
+//! at the shading point, infinite lights among themselves by power, the
+//! other bounded lights by a light BVH (`bvh.rs`, pbrt-v4's `BVHLightSampler`) that weighs power by
 //! distance and orientation from the shading point. Every pdf that leaves
 //! this module is per steradian and includes that selection probability.
 //!

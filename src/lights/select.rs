@@ -240,8 +240,7 @@ pub(crate) fn scene_radius(bounds: &Bounds) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lights::test_support::record;
-    use crate::sampling::Pcg32;
+    use crate::lights::test_support::{assert_picks_follow, record};
     use crate::scene::LightShape;
     use crate::volumes::{Emitter, NearImportance};
 
@@ -294,22 +293,8 @@ mod tests {
                 (probabilities.iter().sum::<f32>() - 1.0).abs() < 1e-6,
                 "at {p}"
             );
-            let mut rng = Pcg32::new(7, 0);
-            let n = 20_000;
-            let mut counts = [0u32; 3];
-            for _ in 0..n {
-                let pick = selection.pick(p, rng.next_f32()).unwrap();
-                assert_eq!(pick.probability, probabilities[pick.light], "at {p}");
-                counts[pick.light] += 1;
-            }
-            for (count, &q) in counts.iter().zip(&probabilities) {
-                let q = f64::from(q);
-                let sigma = (f64::from(n) * q * (1.0 - q)).sqrt();
-                assert!(
-                    (f64::from(*count) - f64::from(n) * q).abs() <= 4.0 * sigma,
-                    "at {p}: {counts:?}"
-                );
-            }
+            let what = format!("at {p}");
+            assert_picks_follow(&probabilities, (20_000, 7), |u| selection.pick(p, u), &what);
         }
     }
 }

@@ -3,6 +3,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::bvh::Pick;
 use super::{LightHit, LightSample};
 use crate::sampling::Pcg32;
 use crate::scene::{Light as LightRecord, LightShape};
@@ -61,6 +62,39 @@ pub(crate) fn assert_within_4_sigma(e: Estimate, exact: f32, what: &str) {
         e.mean,
         e.sigma
     );
+}
+
+/// `n` picks made with `pick(u)` (u uniform, seeded) each report the
+/// probability `probabilities` gives their light, and each light is picked
+/// as often as that says (binomial, 4 sigma); `what` names the case.
+pub(crate) fn assert_picks_follow(
+    probabilities: &[f32],
+    (n, seed): (u32, u64),
+    mut pick: impl FnMut(f32) -> Option<Pick>,
+    what: &str,
+) {
+    let mut rng = Pcg32::new(seed, 0);
+    let mut counts = vec![0u32; probabilities.len()];
+    for _ in 0..n {
+        let pick = pick(rng.next_f32()).unwrap();
+        assert_eq!(pick.probability, probabilities[pick.light], "{what}");
+        counts[pick.light] += 1;
+    }
+    assert_counts_follow(&counts, probabilities, n, what);
+}
+
+/// Each of `n` draws landed in bin i `counts[i]` times, as often as its
+/// probability `probabilities[i]` says (binomial, 4 sigma; a bin of
+/// probability 0 or 1 exactly).
+fn assert_counts_follow(counts: &[u32], probabilities: &[f32], n: u32, what: &str) {
+    for (i, (&c, &q)) in counts.iter().zip(probabilities).enumerate() {
+        let q = f64::from(q);
+        let sigma = (f64::from(n) * q * (1.0 - q)).sqrt();
+        assert!(
+            (f64::from(c) - f64::from(n) * q).abs() <= 4.0 * sigma,
+            "{what}: bin {i}: {c} of {n}, expected p = {q}"
+        );
+    }
 }
 
 fn close(a: f32, b: f32, relative: f32) -> bool {
