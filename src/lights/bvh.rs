@@ -382,7 +382,12 @@ mod tests {
             probabilities[0] > 4.0 * probabilities[5],
             "{probabilities:?}"
         );
-        assert_picks_follow(&probabilities, (50_000, 31), |u| bvh.pick(p, u), "tree");
+        assert_picks_follow(
+            &probabilities,
+            (50_000, 31),
+            |u| bvh.pick(p, u).map(|k| (k.light, k.probability)),
+            "tree",
+        );
     }
 
     /// A tree of one light is a lone leaf, the one node the walks test

@@ -294,7 +294,12 @@ mod tests {
                 "at {p}"
             );
             let what = format!("at {p}");
-            assert_picks_follow(&probabilities, (20_000, 7), |u| selection.pick(p, u), &what);
+            assert_picks_follow(
+                &probabilities,
+                (20_000, 7),
+                |u| selection.pick(p, u).map(|k| (k.light, k.probability)),
+                &what,
+            );
         }
     }
 }

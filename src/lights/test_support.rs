@@ -3,7 +3,6 @@
 
 use glam::{Vec2, Vec3};
 
-use super::bvh::Pick;
 use super::{LightHit, LightSample};
 use crate::sampling::Pcg32;
 use crate::scene::{Light as LightRecord, LightShape};
@@ -64,21 +63,21 @@ pub(crate) fn assert_within_4_sigma(e: Estimate, exact: f32, what: &str) {
     );
 }
 
-/// `n` picks made with `pick(u)` (u uniform, seeded) each report the
-/// probability `probabilities` gives their light, and each light is picked
+/// `n` picks made with `pick(u)` (u uniform, seeded), each a light index
+/// and its reported probability, report the probability `probabilities` gives their light, and each light is picked
 /// as often as that says (binomial, 4 sigma); `what` names the case.
 pub(crate) fn assert_picks_follow(
     probabilities: &[f32],
     (n, seed): (u32, u64),
-    mut pick: impl FnMut(f32) -> Option<Pick>,
+    mut pick: impl FnMut(f32) -> Option<(usize, f32)>,
     what: &str,
 ) {
     let mut rng = Pcg32::new(seed, 0);
     let mut counts = vec![0u32; probabilities.len()];
     for _ in 0..n {
-        let pick = pick(rng.next_f32()).unwrap();
-        assert_eq!(pick.probability, probabilities[pick.light], "{what}");
-        counts[pick.light] += 1;
+        let (light, probability) = pick(rng.next_f32()).unwrap();
+        assert_eq!(probability, probabilities[light], "{what}");
+        counts[light] += 1;
     }
     assert_counts_follow(&counts, probabilities, n, what);
 }
