@@ -17,7 +17,7 @@
 //!   between two keys passes at most r (1 - cos(theta / 2)) inside its arc,
 //!   so the exporter adds keys (USD's own interpolation, read at the
 //!   inserted times) until no key-to-key rotation exceeds
-//!   `MAX_KEY_ROTATION_DEG` in `scenes/cirrus_export/motion.py` (5 degrees:
+//!   `MAX_KEY_ROTATION_DEG` in `exporter/cirrus_export/motion.py` (5 degrees:
 //!   at most 0.095% of r, below a pixel for anything under 1000 pixels
 //!   across). pbrt-v4's `AnimatedTransform` takes the other road: decomposed
 //!   interpolation with bounds from the roots of the motion derivative.

@@ -1,4 +1,4 @@
-//! The USD exporter (`scenes/export_usd.py`) on every real USD scene in
+//! The USD exporter (`exporter/export_usd.py`) on every real USD scene in
 //! `../shared/assets`, each checked by the independent `tests/python/check_export.py`
 //! (usd-core's own transforms and bounds), plus the instancing counts that matter
 //! and a clear one-line error for every kind of bad input.
@@ -13,7 +13,7 @@ use common::{asset, python_script, run_python, scratch, shared_scenes, venv_pyth
 /// Runs the exporter on `input` into `out` (with `--frame` when not empty).
 fn export(input: &Path, out: &Path, frame: &str) -> Output {
     let mut cmd = Command::new(venv_python());
-    cmd.arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/export_usd.py"))
+    cmd.arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("exporter/export_usd.py"))
         .arg(input)
         .arg("-o")
         .arg(out);

@@ -1,4 +1,4 @@
-//! UsdSkel posing in the exporter (`scenes/cirrus_export/skinning.py`) on the skinned
+//! UsdSkel posing in the exporter (`exporter/cirrus_export/skinning.py`) on the skinned
 //! cylinder of `tests/python/make_skinned_cylinder.py`: the exported world-space points
 //! and normals against usd-core's own `UsdSkel.BakeSkinning`
 //! (`tests/python/skinned_points.py`) at every animated frame, the rest pose without an

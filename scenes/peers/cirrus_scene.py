@@ -1,4 +1,4 @@
-"""Reads an exported Cirrus scene folder (scene.json + scene.bin, scenes/FORMAT.md).
+"""Reads an exported Cirrus scene folder (scene.json + scene.bin, exporter/FORMAT.md).
 
 Plain data only: the manifest as parsed JSON, bulk arrays as numpy views of
 scene.bin (little-endian f32/u32), and 3x4 row-major transforms as 4x4 numpy

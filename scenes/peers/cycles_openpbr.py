@@ -1,4 +1,4 @@
-"""OpenPBR Surface records (`model: open_pbr`, scenes/FORMAT.md) as Blender 5.0's
+"""OpenPBR Surface records (`model: open_pbr`, exporter/FORMAT.md) as Blender 5.0's
 Principled BSDF (runs in Blender's Python; used by to_cycles.py).
 
 Blender 4.0 rebuilt the Principled BSDF after OpenPBR, so most inputs map one to

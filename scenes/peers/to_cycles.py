@@ -7,7 +7,7 @@ installed; both installed by `scenes/peers/install --cycles`):
     blender -b --factory-startup -t 2 --python scenes/peers/to_cycles.py -- \\
         SCENE_DIR OUT.exr --spp 64 --threads 2 --seed 1 [--res WxH] [--max-depth 1024]
 
-SCENE_DIR is what `cirrus export` writes (scenes/FORMAT.md), read with
+SCENE_DIR is what `cirrus export` writes (exporter/FORMAT.md), read with
 cirrus_scene.py in Blender's Python (the venv's, or Debian's python3 + numpy
 for 3.4). The output
 is a float RGB EXR of linear Rec.709 radiance (Blender's scene-linear space,
@@ -474,7 +474,7 @@ class Converter(cirrus_scene.Converter):
 
     def motion_blur(self):
         """Cycles' motion blur over the camera's shutter (frames relative to the frame,
-        scenes/FORMAT.md): a box shutter (Cycles' default flat curve) of length close -
+        exporter/FORMAT.md): a box shutter (Cycles' default flat curve) of length close -
         open centred on the frame; the keys are shifted by the shutter's centre
         (key_frame), so any shutter, centred or not, maps onto Cycles' centred one."""
         cam = self.manifest["camera"]

@@ -3,7 +3,7 @@
 Usage (from the project .venv, after scenes/peers/install):
     .venv/bin/python scenes/peers/to_mitsuba.py SCENE_DIR -o OUT.exr --res 128x96 --spp 64
 
-SCENE_DIR is what `cirrus export IN.usda -o SCENE_DIR` writes (scenes/FORMAT.md).
+SCENE_DIR is what `cirrus export IN.usda -o SCENE_DIR` writes (exporter/FORMAT.md).
 The output is a float RGB EXR of linear Rec.709 radiance, box-filtered (as
 `cirrus render --filter box`). Everything converted only approximately is
 printed as `warning: ...` lines on stderr; mitsuba_scene.py says what maps to what.

@@ -2,7 +2,7 @@
 //! texture lookup, a mesh primvar interpolated across the triangle (else
 //! the hit instance's value of it, else the reader's fallback), or an
 //! operation on other inputs (MaterialX `multiply`, `add`, `subtract`,
-//! `mix`), the shapes `scenes/FORMAT.md` gives ("Input grammar"). Both
+//! `mix`), the shapes `exporter/FORMAT.md` gives ("Input grammar"). Both
 //! UsdPreviewSurface and OpenPBR inputs are [`Param`]s; a constant costs one
 //! `match` arm, as it did when inputs were constant or textured only.
 

@@ -1,4 +1,4 @@
-//! Running the USD exporter (`scenes/export_usd.py`, under the project's
+//! Running the USD exporter (`exporter/export_usd.py`, under the project's
 //! `.venv` Python) and caching its output. Exports are atomic: the exporter
 //! writes a temporary folder beside the target, which is renamed into place
 //! only when it succeeded, so a reader never sees half a scene.
@@ -18,7 +18,7 @@ pub enum ExportError {
     Spawn {
         /// The interpreter tried (the project's `.venv` Python).
         python: PathBuf,
-        /// `scenes/export_usd.py`.
+        /// `exporter/export_usd.py`.
         script: PathBuf,
         /// Why it did not start.
         error: std::io::Error,
@@ -125,13 +125,13 @@ pub struct CachedExport {
 
 /// The exporter's Python sources, so that a changed exporter re-exports.
 fn exporter_sources() -> Vec<Vec<u8>> {
-    let scenes = repo_root().join("scenes");
-    let package = std::fs::read_dir(scenes.join("cirrus_export"))
+    let folder = repo_root().join("exporter");
+    let package = std::fs::read_dir(folder.join("cirrus_export"))
         .into_iter()
         .flatten()
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e == "py"));
-    let mut files: Vec<PathBuf> = package.chain([scenes.join("export_usd.py")]).collect();
+    let mut files: Vec<PathBuf> = package.chain([folder.join("export_usd.py")]).collect();
     files.sort();
     files.iter().filter_map(|f| std::fs::read(f).ok()).collect()
 }
@@ -146,7 +146,7 @@ pub fn is_usd(path: &Path) -> bool {
         .is_some_and(|e| USD_EXTENSIONS.contains(&e))
 }
 
-/// The Cirrus checkout holding `.venv` and `scenes/`: `$CIRRUS_HOME`, else the
+/// The Cirrus checkout holding `.venv`, `exporter/` and `scenes/`: `$CIRRUS_HOME`, else the
 /// source folder this binary was built from.
 pub fn repo_root() -> PathBuf {
     std::env::var_os("CIRRUS_HOME")
@@ -168,7 +168,7 @@ pub fn cache_root() -> PathBuf {
 fn run_exporter(input: &Path, out_dir: &Path, options: &ExportOptions) -> Result<(), ExportError> {
     let root = repo_root();
     let python = root.join(".venv/bin/python");
-    let script = root.join("scenes/export_usd.py");
+    let script = root.join("exporter/export_usd.py");
     let mut cmd = Command::new(&python);
     cmd.arg(&script).arg(input).arg("-o").arg(out_dir);
     if let Some(f) = options.frame {

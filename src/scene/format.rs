@@ -1,5 +1,5 @@
 //! The records of `scene.json`, format version 1, field for field as
-//! `scenes/FORMAT.md` defines them. Each field names the USD attribute it comes
+//! `exporter/FORMAT.md` defines them. Each field names the USD attribute it comes
 //! from, its default when unauthored, and its units. serde checks shapes and
 //! enums; `load.rs` checks everything that needs more than one field (array
 //! references against `scene.bin`, indices, finite numbers).

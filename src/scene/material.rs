@@ -1,4 +1,4 @@
-//! The material and texture records of `scene.json` (`scenes/FORMAT.md`,
+//! The material and texture records of `scene.json` (`exporter/FORMAT.md`,
 //! "Material" and "Texture"): UsdPreviewSurface and OpenPBR Surface
 //! records, and the input grammar both share (constant, texture, primvar,
 //! op), parsed with messages naming the sub-field at fault.

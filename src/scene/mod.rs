@@ -1,5 +1,5 @@
-//! The intermediate scene format (`scenes/FORMAT.md`): what the USD exporter
-//! (`scenes/export_usd.py`) writes and the renderer reads.
+//! The intermediate scene format (`exporter/FORMAT.md`): what the USD exporter
+//! (`exporter/export_usd.py`) writes and the renderer reads.
 //!
 //! A scene is a folder of `scene.json` (the manifest, [`Manifest`]) and
 //! `scene.bin` (every bulk array). [`Scene::load`] reads the blob once into an

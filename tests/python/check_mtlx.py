@@ -17,7 +17,7 @@ from pathlib import Path
 
 import MaterialX as mx
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scenes"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "exporter"))
 from cirrus_export.export import export  # noqa: E402
 
 SPACES = {"srgb_texture": "sRGB", "lin_rec709": "raw", "": "raw"}

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 sys.dont_write_bytecode = True
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scenes"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "exporter"))
 
 from cirrus_export.export import export  # noqa: E402
 

@@ -2,7 +2,7 @@
 //! PointInstancer's `vertex`/`varying` primvars give each of its instances,
 //! its `constant`/`uniform` ones give all of them, and constant primvars on
 //! native instance roots and their ancestors give each copy below them
-//! (scenes/FORMAT.md, "Instances"; docs/materials.md, "Primvars").
+//! (exporter/FORMAT.md, "Instances"; docs/materials.md, "Primvars").
 
 use serde::Deserialize;
 

@@ -1,4 +1,4 @@
-"""Shader node graphs resolved into the scene format's inputs (scenes/FORMAT.md, "Input
+"""Shader node graphs resolved into the scene format's inputs (exporter/FORMAT.md, "Input
 grammar"): constants, textures, primvars and per-hit ops.
 
 Nodes are MaterialX nodes (from a .mtlx document, or written in USD with an `ND_*` info:id)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Exports a USD stage to a Cirrus scene folder (scene.json + scene.bin, see FORMAT.md).
 
-Usage: python scenes/export_usd.py IN.usd[a|c|z] -o OUT_DIR [--frame F] [--camera PRIM_PATH]
+Usage: python exporter/export_usd.py IN.usd[a|c|z] -o OUT_DIR [--frame F] [--camera PRIM_PATH]
        [--shutter OPEN,CLOSE] [--settings PRIM_PATH]
 
 Exit codes: 0 exported (warnings, if any, on stderr and in the manifest);

@@ -1,0 +1,1 @@
+"""Flattens a composed USD stage into the Cirrus scene format (exporter/FORMAT.md)."""
