@@ -39,9 +39,9 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .curves import CurveSource
-from .meshes import BadMesh, MeshGeometry, read_mesh, read_normals
+from .meshes import BadMesh, MeshGeometry, Pose, read_mesh, read_normals
 from .report import Report
-from .skinning import Pose, Skinning
+from .skinning import Skinning
 
 # Equal steps of the shutter keyed for a mesh with non-zero accelerations: lerping a
 # parabola over n steps strays at most a * (shutter / n)^2 / 8 from it.

@@ -28,8 +28,8 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .binfile import BinWriter
-from .prototypes import (PREDICATE, Prototypes, asset_above, asset_within, below, inherited_primvar, numeric,
-                         prototype_path)
+from .prims import PREDICATE, asset_above, asset_within, below, inherited_primvar, numeric, prototype_path
+from .prototypes import Prototypes
 from .report import Report
 from .skinning import Skinning
 from .xforms import compose, local_transform, to_3x4

@@ -6,7 +6,7 @@ import numpy as np
 from pxr import Usd, UsdGeom, UsdLux
 
 from .assets import AssetResolver
-from .prototypes import PREDICATE
+from .prims import PREDICATE
 from .report import Report
 from .xforms import as_array, to_3x4_list
 

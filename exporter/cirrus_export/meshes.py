@@ -4,15 +4,11 @@ Everything is vectorised over faces and corners; no Python loop per element.
 """
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 from pxr import Usd, UsdGeom
 
 from .report import Report
-
-if TYPE_CHECKING:
-    from .skinning import Pose
 
 PER_POINT = ("vertex", "varying")
 
@@ -33,6 +29,17 @@ class MeshGeometry:
     # name -> (n, width): the requested primvars the mesh has
     primvars: dict[str, np.ndarray] = field(default_factory=dict)
     corner_points: np.ndarray | None = None  # (c,) point of each faceVertexIndices corner (subdivision.py)
+
+
+@dataclass
+class Pose:
+    """A mesh's points and normals as a deformer poses them, replacing the authored ones:
+    UsdSkel at the time code (skinning.py), or one motion key (deforming.py)."""
+
+    skeleton: Usd.Prim | None  # the Skeleton whose space the pose is in (None: a motion key's)
+    points: np.ndarray  # (n, 3) float64: skeleton space, or mesh space for rigid influences
+    normals: tuple[np.ndarray, str] | None  # skinned normals and their interpolation
+    skel_from_points: np.ndarray  # row-vector (4, 4): identity, or the rigid skinned transform
 
 
 def fan_triangulate(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -108,7 +115,7 @@ def _validated(points, counts, indices) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 
 def read_mesh(prim: Usd.Prim, time: Usd.TimeCode, report: Report, uv_name: str = "st",
-              pose: "Pose | None" = None, primvars: tuple[str, ...] = ()) -> MeshGeometry:
+              pose: Pose | None = None, primvars: tuple[str, ...] = ()) -> MeshGeometry:
     """A UsdGeom.Mesh as triangles; per-corner vertices are unwelded when a primvar needs it.
 
     `uv_name` is the primvar the mesh's material reads as texture coordinates, `primvars`

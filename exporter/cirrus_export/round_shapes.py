@@ -7,7 +7,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .materials import NO_MATERIAL, MaterialTable
-from .prototypes import prototype_path
+from .prims import prototype_path
 from .report import Report
 
 

@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 from pxr import Gf, Tf, Usd, UsdGeom, UsdSkel, Vt
 
-from .meshes import read_normals
-from .prototypes import PREDICATE, prototype_path
+from .meshes import Pose, read_normals
+from .prims import PREDICATE, prototype_path
 from .report import Report
 from .xforms import as_array
 
@@ -33,16 +33,6 @@ RIGID = UsdGeom.Tokens.constant
 SKINNED_NORMALS = ("vertex", "varying", "faceVarying")
 # The kind `cirrus info` counts skins left in their bind pose under.
 BIND_POSE = "bind-pose skins"
-
-
-@dataclass
-class Pose:
-    """One mesh as UsdSkel poses it at the time code."""
-
-    skeleton: Usd.Prim
-    points: np.ndarray  # (n, 3) float64: skeleton space, or mesh space for rigid influences
-    normals: tuple[np.ndarray, str] | None  # skinned normals and their interpolation
-    skel_from_points: np.ndarray  # row-vector (4, 4): identity, or the rigid skinned transform
 
 
 @dataclass

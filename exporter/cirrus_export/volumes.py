@@ -8,7 +8,7 @@ import numpy as np
 from pxr import Usd, UsdGeom, UsdShade, UsdVol
 
 from .assets import AssetResolver
-from .prototypes import prototype_path
+from .prims import prototype_path
 from .report import Report
 from .vdb_header import grid_bounds
 
