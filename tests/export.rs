@@ -513,3 +513,76 @@ def Xform "World"
         "{info}"
     );
 }
+
+/// `cirrus export STAGE -o OUT` by `cirrus` run in `cwd`, with none of the
+/// exporter's variables but `vars`.
+fn export_by(cirrus: &Path, cwd: &Path, out: &Path, vars: &[(&str, &Path)]) -> Output {
+    let stage = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/tests/lamp_near_floor.usda");
+    let mut cmd = Command::new(cirrus);
+    cmd.current_dir(cwd)
+        .args(["export".as_ref(), stage.as_os_str(), "-o".as_ref()])
+        .arg(out);
+    for var in ["CIRRUS_EXPORTER", "CIRRUS_HOME", "CIRRUS_PYTHON"] {
+        cmd.env_remove(var);
+    }
+    cmd.envs(vars.iter().copied()).output().unwrap()
+}
+
+/// The binary finds its exporter by itself, from any folder: in the build
+/// tree, and installed by `.ci/install` (its Python named by CIRRUS_PYTHON);
+/// CIRRUS_EXPORTER naming no exporter fails, saying where it looked.
+#[test]
+fn the_binary_finds_its_exporter_built_or_installed() {
+    let dir = scratch("export_finds_exporter");
+    let built = Path::new(env!("CARGO_BIN_EXE_cirrus"));
+    let out = export_by(built, &dir, &dir.join("built"), &[]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let prefix = dir.join("prefix");
+    let install = Command::new(Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci/install"))
+        .arg(&prefix)
+        .arg(built)
+        .output()
+        .unwrap();
+    assert!(
+        install.status.success(),
+        "{}",
+        String::from_utf8_lossy(&install.stderr)
+    );
+    let python = venv_python();
+    let vars = [("CIRRUS_PYTHON", python.as_path())];
+    let out = export_by(
+        &prefix.join("bin/cirrus"),
+        &dir,
+        &dir.join("installed"),
+        &vars,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for file in ["scene.json", "scene.bin"] {
+        let read = |scene: &str| std::fs::read(dir.join(scene).join(file)).unwrap();
+        assert!(read("built") == read("installed"), "{file} differs");
+    }
+
+    let nowhere = dir.join("nowhere");
+    let out = export_by(
+        built,
+        &dir,
+        &dir.join("none"),
+        &[("CIRRUS_EXPORTER", &nowhere)],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let looked = nowhere.join("export_usd.py");
+    assert!(
+        !out.status.success() && stderr.contains(&*looked.to_string_lossy()),
+        "{stderr}"
+    );
+    assert!(stderr.contains("CIRRUS_PYTHON"), "{stderr}");
+}

@@ -201,7 +201,7 @@ pub(super) fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
 /// `stage` with `args`, under the `.venv` of the checkout named by
 /// `$CIRRUS_HOME` (else the one this binary was built from).
 pub(super) fn run_venv_script(script: &str, stage: &Path, args: &[String]) -> Result<()> {
-    let root = crate::scene::repo_root();
+    let root = super::scenes::repo_root();
     let script = root.join(script);
     let out = Command::new(root.join(".venv/bin/python"))
         .arg(&script)

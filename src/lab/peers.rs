@@ -84,7 +84,7 @@ impl FromStr for Peer {
 
 /// scenes/peers/render_peer.py in the project's `.venv`.
 fn render_peer_command() -> std::process::Command {
-    let root = crate::scene::repo_root();
+    let root = super::scenes::repo_root();
     let mut command = std::process::Command::new(root.join(".venv/bin/python"));
     command.arg(root.join("scenes/peers/render_peer.py"));
     command

@@ -5,14 +5,22 @@
 use std::path::{Path, PathBuf};
 
 /// `scenes` when any are given, else `defaults`: paths relative to the
-/// `scenes/` folder of the checkout ([`crate::scene::repo_root`]).
+/// `scenes/` folder of the checkout ([`repo_root`]).
 pub(crate) fn scenes_or_default(scenes: Vec<PathBuf>, defaults: &[&str]) -> Vec<PathBuf> {
     if scenes.is_empty() {
-        let folder = crate::scene::repo_root().join("scenes");
+        let folder = repo_root().join("scenes");
         defaults.iter().map(|d| folder.join(d)).collect()
     } else {
         scenes
     }
+}
+
+/// The Cirrus checkout whose `scenes/` and `.venv` the studies use:
+/// `$CIRRUS_HOME`, else the source folder this binary was built from.
+pub(crate) fn repo_root() -> PathBuf {
+    std::env::var_os("CIRRUS_HOME")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))
 }
 
 /// A scene's name in tables, charts and file names: its file stem.

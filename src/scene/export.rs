@@ -1,8 +1,10 @@
-//! Running the USD exporter (`exporter/export_usd.py`, under the project's
-//! `.venv` Python) and caching its output. Exports are atomic: the exporter
-//! writes a temporary folder beside the target, which is renamed into place
-//! only when it succeeded, so a reader never sees half a scene.
+//! Running the USD exporter (`exporter/export_usd.py`, under a Python with
+//! usd-core; [`Exporter::locate`] says where both are found) and caching its
+//! output. Exports are atomic: the exporter writes a temporary folder beside
+//! the target, which is renamed into place only when it succeeded, so a
+//! reader never sees half a scene.
 
+use std::ffi::OsString;
 use std::hash::{DefaultHasher, Hash, Hasher};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -13,12 +15,21 @@ use crate::motion::Shutter;
 /// Why an export did not produce a scene folder.
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
-    /// The exporter could not be started (no `.venv`, no script).
-    #[error("cannot run the USD exporter {python} {script}: {error} (set CIRRUS_HOME to the Cirrus checkout, and run .ci/setup there)", python = python.display(), script = script.display())]
+    /// The exporter's script, or a Python to run it, is in none of the places
+    /// [`Exporter::locate`] looks.
+    #[error("cannot find the USD exporter's {what}: looked at {looked} (set {EXPORTER_VAR} to the exporter folder or {HOME_VAR} to a Cirrus checkout, and {PYTHON_VAR} to a Python with usd-core unless a .venv, made by .ci/setup, is beside the exporter folder)", looked = listed(looked))]
+    NotFound {
+        /// `export_usd.py` or `Python`.
+        what: &'static str,
+        /// Every path tried, in order.
+        looked: Vec<PathBuf>,
+    },
+    /// The exporter was found but could not be started.
+    #[error("cannot run the USD exporter {python} {script}: {error} (set {PYTHON_VAR} to a Python with usd-core, or run .ci/setup in the checkout)", python = python.display(), script = script.display())]
     Spawn {
-        /// The interpreter tried (the project's `.venv` Python).
+        /// The interpreter tried.
         python: PathBuf,
-        /// `exporter/export_usd.py`.
+        /// The exporter's `export_usd.py`.
         script: PathBuf,
         /// Why it did not start.
         error: std::io::Error,
@@ -61,9 +72,19 @@ pub struct ExportOptions<'a> {
 /// `options` say, replacing `out_dir` if it exists. The exporter's warnings
 /// go to stderr as it wrote them.
 pub fn export(input: &Path, out_dir: &Path, options: &ExportOptions) -> Result<(), ExportError> {
+    export_with(&Exporter::find()?, input, out_dir, options)
+}
+
+/// [`export`] by `exporter`.
+fn export_with(
+    exporter: &Exporter,
+    input: &Path,
+    out_dir: &Path,
+    options: &ExportOptions,
+) -> Result<(), ExportError> {
     let tmp = beside(out_dir, "tmp");
     remove_dir(&tmp)?;
-    let result = run_exporter(input, &tmp, options).and_then(|()| {
+    let result = exporter.run(input, &tmp, options).and_then(|()| {
         let old = beside(out_dir, "old");
         if out_dir.exists() {
             rename(out_dir, &old)?;
@@ -86,6 +107,7 @@ pub fn export(input: &Path, out_dir: &Path, options: &ExportOptions) -> Result<(
 /// file references are not part of the key: after editing only a sublayer,
 /// touch the top file or run `cirrus export`.)
 pub fn export_cached(input: &Path, options: &ExportOptions) -> Result<CachedExport, ExportError> {
+    let exporter = Exporter::find()?;
     let io = |path: &Path| {
         let path = path.to_owned();
         move |error| ExportError::Io { path, error }
@@ -99,7 +121,7 @@ pub fn export_cached(input: &Path, options: &ExportOptions) -> Result<CachedExpo
     let shutter_bits = o.shutter.map(|s| (s.open.to_bits(), s.close.to_bits()));
     let frame_bits = o.frame.map(f64::to_bits);
     (&abs, mtime, frame_bits, o.camera, o.settings, shutter_bits).hash(&mut hasher);
-    exporter_sources().hash(&mut hasher);
+    exporter.sources().hash(&mut hasher);
     let stem = abs.file_stem().unwrap_or_default().to_string_lossy();
     let cache = cache_root();
     let dir = cache.join(format!("{stem}-{:016x}", hasher.finish()));
@@ -107,7 +129,7 @@ pub fn export_cached(input: &Path, options: &ExportOptions) -> Result<CachedExpo
         return Ok(CachedExport { dir, reused: true });
     }
     std::fs::create_dir_all(&cache).map_err(io(&cache))?;
-    match export(&abs, &dir, options) {
+    match export_with(&exporter, &abs, &dir, options) {
         // Another process may have exported the same file at the same time.
         Err(_) if dir.join(MANIFEST_FILE).is_file() => Ok(CachedExport { dir, reused: true }),
         result => result.map(|()| CachedExport { dir, reused: false }),
@@ -123,19 +145,6 @@ pub struct CachedExport {
     pub reused: bool,
 }
 
-/// The exporter's Python sources, so that a changed exporter re-exports.
-fn exporter_sources() -> Vec<Vec<u8>> {
-    let folder = repo_root().join("exporter");
-    let package = std::fs::read_dir(folder.join("cirrus_export"))
-        .into_iter()
-        .flatten()
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "py"));
-    let mut files: Vec<PathBuf> = package.chain([folder.join("export_usd.py")]).collect();
-    files.sort();
-    files.iter().filter_map(|f| std::fs::read(f).ok()).collect()
-}
-
 /// USD file extensions: such inputs are exported (through the cache) first.
 const USD_EXTENSIONS: &[&str] = &["usd", "usda", "usdc", "usdz"];
 
@@ -144,14 +153,6 @@ pub fn is_usd(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| USD_EXTENSIONS.contains(&e))
-}
-
-/// The Cirrus checkout holding `.venv`, `exporter/` and `scenes/`: `$CIRRUS_HOME`, else the
-/// source folder this binary was built from.
-pub fn repo_root() -> PathBuf {
-    std::env::var_os("CIRRUS_HOME")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))
 }
 
 /// Cirrus's cache folder: `$XDG_CACHE_HOME/cirrus`, else `~/.cache/cirrus`,
@@ -165,43 +166,153 @@ pub fn cache_root() -> PathBuf {
     base.join("cirrus")
 }
 
-fn run_exporter(input: &Path, out_dir: &Path, options: &ExportOptions) -> Result<(), ExportError> {
-    let root = repo_root();
-    let python = root.join(".venv/bin/python");
-    let script = root.join("exporter/export_usd.py");
-    let mut cmd = Command::new(&python);
-    cmd.arg(&script).arg(input).arg("-o").arg(out_dir);
-    if let Some(f) = options.frame {
-        cmd.arg("--frame").arg(f.to_string());
+/// The variable naming the exporter folder (the one holding `export_usd.py`).
+const EXPORTER_VAR: &str = "CIRRUS_EXPORTER";
+/// The variable naming a Cirrus checkout, whose `exporter/` is used.
+const HOME_VAR: &str = "CIRRUS_HOME";
+/// The variable naming the Python that runs the exporter.
+const PYTHON_VAR: &str = "CIRRUS_PYTHON";
+/// The exporter's entry point, in its folder.
+const SCRIPT: &str = "export_usd.py";
+
+/// The USD exporter: its folder and the Python that runs it.
+#[derive(Debug, PartialEq)]
+struct Exporter {
+    /// The folder holding `export_usd.py` and `cirrus_export/`.
+    folder: PathBuf,
+    /// A Python with usd-core, OpenEXR, numpy and MaterialX.
+    python: PathBuf,
+}
+
+impl Exporter {
+    /// The exporter of this process: [`Exporter::locate`] with its environment
+    /// and its executable.
+    fn find() -> Result<Self, ExportError> {
+        let exe = std::env::current_exe().ok();
+        Self::locate(|name| std::env::var_os(name), exe.as_deref())
     }
-    if let Some(c) = options.camera {
-        cmd.arg("--camera").arg(c);
+
+    /// Finds the exporter folder, the first of these holding `export_usd.py`:
+    /// 1. `$CIRRUS_EXPORTER` when set (then the only place looked);
+    /// 2. else `$CIRRUS_HOME/exporter` when set (a Cirrus checkout; the only
+    ///    place looked);
+    /// 3. else beside the executable `exe`, PREFIX/bin/cirrus or
+    ///    CHECKOUT/target/PROFILE/cirrus: `PREFIX/share/cirrus/exporter`
+    ///    (installed by `.ci/install`), `CHECKOUT/exporter` (cargo's build
+    ///    tree), and `CHECKOUT/exporter` for cargo's test binaries, one folder
+    ///    deeper (`target/PROFILE/deps/`).
+    ///
+    /// Then its Python: `$CIRRUS_PYTHON` when set (a path, or a name looked
+    /// up on `PATH`), else `.venv/bin/python` beside the exporter folder (the
+    /// checkout's `.venv` made by `.ci/setup`; `PREFIX/share/cirrus/.venv`
+    /// installed). `var` reads an environment variable; an empty one counts
+    /// as unset. Nothing found: [`ExportError::NotFound`], naming every place
+    /// looked.
+    fn locate(
+        var: impl Fn(&str) -> Option<OsString>,
+        exe: Option<&Path>,
+    ) -> Result<Self, ExportError> {
+        let var = |name: &str| var(name).filter(|v| !v.is_empty()).map(PathBuf::from);
+        let beside_exe = |up: usize, rel: &str| exe?.ancestors().nth(up).map(|p| p.join(rel));
+        let folders: Vec<PathBuf> = if let Some(folder) = var(EXPORTER_VAR) {
+            vec![folder]
+        } else if let Some(home) = var(HOME_VAR) {
+            vec![home.join("exporter")]
+        } else {
+            [
+                beside_exe(2, "share/cirrus/exporter"),
+                beside_exe(3, "exporter"),
+                beside_exe(4, "exporter"),
+            ]
+            .into_iter()
+            .flatten()
+            .collect()
+        };
+        let Some(folder) = folders.iter().find(|f| f.join(SCRIPT).is_file()) else {
+            return Err(ExportError::NotFound {
+                what: SCRIPT,
+                looked: folders.iter().map(|f| f.join(SCRIPT)).collect(),
+            });
+        };
+        // Absolute, so that the folder beside it is known for a relative one (`.`).
+        let folder = std::path::absolute(folder).unwrap_or_else(|_| folder.clone());
+        let python = match var(PYTHON_VAR) {
+            Some(python) => python,
+            None => {
+                let venv = folder.parent().unwrap_or(&folder).join(".venv/bin/python");
+                if !venv.is_file() {
+                    return Err(ExportError::NotFound {
+                        what: "Python",
+                        looked: vec![venv],
+                    });
+                }
+                venv
+            }
+        };
+        Ok(Self { folder, python })
     }
-    if let Some(s) = options.settings {
-        cmd.arg("--settings").arg(s);
+
+    /// The exporter's Python sources, so that a changed exporter re-exports.
+    fn sources(&self) -> Vec<Vec<u8>> {
+        let package = std::fs::read_dir(self.folder.join("cirrus_export"))
+            .into_iter()
+            .flatten()
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "py"));
+        let mut files: Vec<PathBuf> = package.chain([self.folder.join(SCRIPT)]).collect();
+        files.sort();
+        files.iter().filter_map(|f| std::fs::read(f).ok()).collect()
     }
-    if let Some(s) = options.shutter {
-        cmd.arg(format!("--shutter={s}"));
+
+    /// Exports `input` into `out_dir` as `options` say.
+    fn run(
+        &self,
+        input: &Path,
+        out_dir: &Path,
+        options: &ExportOptions,
+    ) -> Result<(), ExportError> {
+        let (python, script) = (&self.python, self.folder.join(SCRIPT));
+        let mut cmd = Command::new(python);
+        cmd.arg(&script).arg(input).arg("-o").arg(out_dir);
+        if let Some(f) = options.frame {
+            cmd.arg("--frame").arg(f.to_string());
+        }
+        if let Some(c) = options.camera {
+            cmd.arg("--camera").arg(c);
+        }
+        if let Some(s) = options.settings {
+            cmd.arg("--settings").arg(s);
+        }
+        if let Some(s) = options.shutter {
+            cmd.arg(format!("--shutter={s}"));
+        }
+        let output = cmd.output().map_err(|error| ExportError::Spawn {
+            python: python.clone(),
+            script,
+            error,
+        })?;
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        if output.status.success() {
+            eprint!("{stderr}");
+            return Ok(());
+        }
+        let (warnings, message) = split_failure(&stderr);
+        eprint!("{warnings}");
+        // The exporter's messages open with the input, which ours names already.
+        let named = format!("{}: ", input.display());
+        let message = message.map(|m| m.strip_prefix(&named).map_or(m.clone(), str::to_owned));
+        Err(ExportError::Failed {
+            input: input.to_owned(),
+            message: message
+                .unwrap_or_else(|| format!("the exporter exited with {}", output.status)),
+        })
     }
-    let output = cmd.output().map_err(|error| ExportError::Spawn {
-        python: python.clone(),
-        script: script.clone(),
-        error,
-    })?;
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    if output.status.success() {
-        eprint!("{stderr}");
-        return Ok(());
-    }
-    let (warnings, message) = split_failure(&stderr);
-    eprint!("{warnings}");
-    // The exporter's messages open with the input, which ours names already.
-    let named = format!("{}: ", input.display());
-    let message = message.map(|m| m.strip_prefix(&named).map_or(m.clone(), str::to_owned));
-    Err(ExportError::Failed {
-        input: input.to_owned(),
-        message: message.unwrap_or_else(|| format!("the exporter exited with {}", output.status)),
-    })
+}
+
+/// Paths, comma separated, for a message.
+fn listed(paths: &[PathBuf]) -> String {
+    let shown: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+    shown.join(", ")
 }
 
 /// Splits a failed export's stderr into what to pass through (warnings, from
@@ -280,5 +391,90 @@ mod tests {
             "Segmentation fault"
         );
         assert_eq!(split_failure("  \n"), (String::new(), None));
+    }
+
+    /// An empty file at `root/rel`, its folders made.
+    fn touch(root: &Path, rel: &str) {
+        let path = root.join(rel);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, "").unwrap();
+    }
+
+    #[test]
+    fn the_exporter_is_found_where_its_search_order_says() {
+        let root = std::env::temp_dir().join(format!("cirrus-locate-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let (checkout, prefix) = (root.join("checkout"), root.join("prefix"));
+        for rel in ["exporter/export_usd.py", ".venv/bin/python"] {
+            touch(&checkout, rel);
+            touch(&prefix, &format!("share/cirrus/{rel}"));
+        }
+        touch(&root, "copy/export_usd.py");
+        let vars = |pairs: &'static [(&'static str, &'static str)]| {
+            let root = root.clone();
+            move |name: &str| {
+                let (_, value) = pairs.iter().find(|(n, _)| *n == name)?;
+                Some(root.join(value).into_os_string())
+            }
+        };
+        let found = |folder: &Path, python: &Path| Exporter {
+            folder: folder.to_owned(),
+            python: python.to_owned(),
+        };
+        let venv = |base: &Path| base.join(".venv/bin/python");
+        let build_exe = checkout.join("target/release/cirrus");
+
+        // Beside the executable: the build tree, a test binary, an install.
+        let in_checkout = found(&checkout.join("exporter"), &venv(&checkout));
+        let locate = |exe: &Path| Exporter::locate(|_| None, Some(exe)).unwrap();
+        assert_eq!(locate(&build_exe), in_checkout);
+        assert_eq!(
+            locate(&checkout.join("target/release/deps/t-1")),
+            in_checkout
+        );
+        let share = prefix.join("share/cirrus");
+        let installed = found(&share.join("exporter"), &venv(&share));
+        assert_eq!(locate(&prefix.join("bin/cirrus")), installed);
+
+        // CIRRUS_HOME, then CIRRUS_EXPORTER, win over the executable's place;
+        // CIRRUS_PYTHON over the .venv.
+        let home = Exporter::locate(vars(&[("CIRRUS_HOME", "checkout")]), Some(&prefix));
+        assert_eq!(home.unwrap(), in_checkout);
+        let both = &[
+            ("CIRRUS_HOME", "prefix"),
+            ("CIRRUS_EXPORTER", "checkout/exporter"),
+        ];
+        assert_eq!(Exporter::locate(vars(both), None).unwrap(), in_checkout);
+        let copy = &[("CIRRUS_EXPORTER", "copy"), ("CIRRUS_PYTHON", "py")];
+        let copied = Exporter::locate(vars(copy), Some(&build_exe)).unwrap();
+        assert_eq!(copied, found(&root.join("copy"), &root.join("py")));
+
+        // Not found: every place looked, and the variables to set.
+        let message = |result: Result<Exporter, ExportError>| result.unwrap_err().to_string();
+        let far = root.join("far/target/release/cirrus");
+        let nowhere = message(Exporter::locate(|_| None, Some(&far)));
+        for looked in [
+            "far/target/share/cirrus/exporter",
+            "far/exporter",
+            "exporter",
+        ] {
+            let path = root.join(looked).join("export_usd.py");
+            assert!(nowhere.contains(&path.display().to_string()), "{nowhere}");
+        }
+        for var in ["CIRRUS_EXPORTER", "CIRRUS_HOME", "CIRRUS_PYTHON"] {
+            assert!(nowhere.contains(var), "{nowhere}");
+        }
+        let missing = message(Exporter::locate(
+            vars(&[("CIRRUS_EXPORTER", "none")]),
+            Some(&build_exe),
+        ));
+        let expected = format!("looked at {} (", root.join("none/export_usd.py").display());
+        assert!(missing.contains(&expected), "{missing}");
+        let no_python = message(Exporter::locate(vars(&[("CIRRUS_EXPORTER", "copy")]), None));
+        assert!(
+            no_python.contains(&venv(&root).display().to_string()),
+            "{no_python}"
+        );
+        std::fs::remove_dir_all(&root).unwrap();
     }
 }

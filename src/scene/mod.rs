@@ -27,7 +27,6 @@ use std::path::{Path, PathBuf};
 
 use crate::motion::Shutter;
 
-pub use export::repo_root;
 pub use export::{
     cache_root, export, export_cached, is_usd, CachedExport, ExportError, ExportOptions,
 };
