@@ -303,3 +303,112 @@ fn the_import_reader_sees_groups_and_paths() {
     graph.insert("b".to_string(), BTreeSet::from(["a".to_string()]));
     assert!(cycle(&graph).is_some());
 }
+
+// The exporter's Python modules (`exporter/cirrus_export/*.py` and
+// `exporter/export_usd.py`): no import circle between them either.
+
+/// The package the exporter's modules are in.
+const PYTHON_PACKAGE: &str = "cirrus_export";
+
+/// The modules of [`PYTHON_PACKAGE`] that Python `code` imports: `from .x
+/// import`, `from . import x`, `from cirrus_export.x import`, `from
+/// cirrus_export import x` and `import cirrus_export.x`, indented ones (in a
+/// function, under `if TYPE_CHECKING:`) included, comments excluded.
+fn python_imports(code: &str) -> BTreeSet<String> {
+    let mut statements = Vec::new();
+    let mut open: Option<String> = None;
+    for line in code.lines() {
+        let line = line.split('#').next().unwrap_or_default().trim();
+        let statement = match open.take() {
+            Some(start) => format!("{start} {line}"),
+            None if line.starts_with("from ") || line.starts_with("import ") => line.to_string(),
+            None => continue,
+        };
+        let unclosed = statement.matches('(').count() > statement.matches(')').count();
+        if unclosed && statement.contains("import ") {
+            open = Some(statement);
+        } else {
+            statements.push(statement.replace(['(', ')'], " "));
+        }
+    }
+    let mut found = BTreeSet::new();
+    for statement in &statements {
+        let words: Vec<&str> = statement.split_whitespace().collect();
+        let names = |from: &[&str]| {
+            let names = from.join(" ");
+            names
+                .split(',')
+                .filter_map(|n| n.split_whitespace().next().map(str::to_string))
+                .collect::<Vec<_>>()
+        };
+        match words.as_slice() {
+            ["from", module, "import", rest @ ..] => {
+                let inner = match module.strip_prefix(PYTHON_PACKAGE) {
+                    Some(inner) => inner.strip_prefix('.').or(inner.is_empty().then_some("")),
+                    None => module.strip_prefix('.'),
+                };
+                match inner {
+                    Some("") => found.extend(names(rest)),
+                    Some(inner) => found.extend(inner.split('.').next().map(str::to_string)),
+                    None => {}
+                }
+            }
+            ["import", rest @ ..] => found.extend(names(rest).iter().filter_map(|n| {
+                let inner = n.strip_prefix(PYTHON_PACKAGE)?.strip_prefix('.')?;
+                inner.split('.').next().map(str::to_string)
+            })),
+            _ => {}
+        }
+    }
+    found
+}
+
+/// Module -> the exporter's modules it imports, for the exporter in
+/// `folder`: the package's modules by name, `export_usd` for the script.
+fn python_graph(folder: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    let package = folder.join(PYTHON_PACKAGE);
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&package)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "py"))
+        .collect();
+    files.push(folder.join("export_usd.py"));
+    let stem = |p: &Path| p.file_stem().unwrap().to_string_lossy().into_owned();
+    let modules: BTreeSet<String> = files.iter().map(|p| stem(p)).collect();
+    files
+        .iter()
+        .map(|path| {
+            let imports = python_imports(&std::fs::read_to_string(path).unwrap());
+            (
+                stem(path),
+                imports.intersection(&modules).cloned().collect(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn no_cycle_between_the_exporters_python_modules() {
+    let graph = python_graph(&Path::new(env!("CARGO_MANIFEST_DIR")).join("exporter"));
+    assert!(graph["export_usd"].contains("export") && graph["prototypes"].contains("meshes"));
+    if let Some(c) = cycle(&graph) {
+        panic!("the exporter's Python modules import each other in a circle: {c:?}");
+    }
+}
+
+#[test]
+fn the_python_import_reader_sees_relative_absolute_and_indented_imports() {
+    let code = "from .meshes import read_mesh\nfrom . import report, xforms as x\n\
+                from cirrus_export.prims import (PREDICATE,\n    below)\n\
+                import cirrus_export.skinning as skin, json\nif TYPE_CHECKING:\n    \
+                from .volumes import VolumeTable\n# from .camera import Camera\n\
+                from pxr import Usd\nfrom cirrus_export import binfile\n\
+                \"\"\"A docstring\nfrom the lights (prose, not from .lights import x).\"\"\"\n";
+    let expected = [
+        "binfile", "meshes", "prims", "report", "skinning", "volumes", "xforms",
+    ];
+    assert_eq!(
+        python_imports(code),
+        BTreeSet::from(expected.map(String::from))
+    );
+}
