@@ -42,7 +42,8 @@ use crate::geometry::Geometry;
 use crate::scene::{
     InstanceNames, OpenError, OpenOptions, PlannedMesh, Refinement, Scene, SceneError,
 };
-use crate::volumes::{Media, VdbFile, VolumeError};
+use crate::volumes::grid::{VdbFile, VolumeError};
+use crate::volumes::Media;
 
 /// Bytes in one MiB and one GiB.
 const MIB: f64 = (1u64 << 20) as f64;

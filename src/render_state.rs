@@ -15,7 +15,9 @@ use crate::lights::{Emitters, LightError, Lights};
 use crate::materials::{MaterialError, Materials};
 use crate::motion::Shutter;
 use crate::scene::{InstanceNames, Scene};
-use crate::volumes::{MajorantKind, Media, VolumeError};
+use crate::volumes::grid::VolumeError;
+use crate::volumes::majorant::MajorantKind;
+use crate::volumes::Media;
 
 /// Image width used when neither the command line nor the stage's render
 /// settings give a resolution; the height follows the camera's aperture aspect.

@@ -265,7 +265,7 @@ fn light_sampling_on_and_off_render_the_same_explosion() {
 fn the_memory_estimate_covers_the_built_explosion() {
     let (dir, usda) = explosion_stage("fire_memory");
     let scene = cirrus::scene::Scene::open(&usda, &Default::default()).unwrap();
-    let vdb = cirrus::volumes::VdbFile::open(dir.join("explosion.vdb")).unwrap();
+    let vdb = cirrus::volumes::grid::VdbFile::open(dir.join("explosion.vdb")).unwrap();
     let field = |name: &str, emits: bool| {
         let info = &vdb.grids()[vdb.find(name, 0).unwrap()];
         cirrus::volumes::Media::field_bytes_for(info, emits)

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use cirrus::sampling::Pcg32;
 use cirrus::scene::{Scene, BLOB_FILE, MANIFEST_FILE, NO_MATERIAL};
-use cirrus::volumes::{GridTransform, SparseGrid, Tile};
+use cirrus::volumes::grid::{GridTransform, SparseGrid, Tile};
 use glam::{DAffine3, IVec3, Vec3};
 use proptest::prelude::*;
 use proptest::sample::Index;

@@ -23,7 +23,8 @@
 mod common;
 
 use cirrus::sampling::Pcg32;
-use cirrus::volumes::{transmittance, MajorantSegment, TrackingStats, TransmittanceEstimator};
+use cirrus::volumes::estimators::{transmittance, TrackingStats, TransmittanceEstimator};
+use cirrus::volumes::MajorantSegment;
 use common::render::{Image, Render, RenderLog};
 use common::{assert_within_4_sigma, estimate, Estimate};
 use glam::Vec3;

@@ -8,7 +8,7 @@ use std::path::Path;
 use std::process::Command;
 
 use cirrus::sampling::Pcg32;
-use cirrus::volumes::{Space, SparseGrid, VdbFile, VolumeError};
+use cirrus::volumes::grid::{Space, SparseGrid, VdbFile, VolumeError};
 use glam::{DVec3, IVec3, Vec3};
 
 /// Every float grid with data in the shared assets: (file, grid name).

@@ -14,10 +14,10 @@ use std::path::Path;
 
 use cirrus::sampling::{warp, Pcg32};
 use cirrus::scene::{self, Scene};
-use cirrus::volumes::{
-    transmittance, MajorantGrid, MajorantKind, Media, SparseGrid, TrackingStats,
-    TransmittanceEstimator, VdbFile,
-};
+use cirrus::volumes::estimators::{transmittance, TrackingStats, TransmittanceEstimator};
+use cirrus::volumes::grid::{SparseGrid, VdbFile};
+use cirrus::volumes::majorant::{MajorantGrid, MajorantKind};
+use cirrus::volumes::Media;
 use common::{estimate, Estimate};
 use glam::{IVec3, Vec2, Vec3};
 use rayon::prelude::*;

@@ -8,7 +8,7 @@
 #![no_main]
 
 use arbitrary::Arbitrary;
-use cirrus::volumes::{GridTransform, SparseGrid, Tile};
+use cirrus::volumes::grid::{GridTransform, SparseGrid, Tile};
 use glam::{DAffine3, IVec3, Vec3};
 use libfuzzer_sys::fuzz_target;
 

@@ -7,7 +7,7 @@ use std::path::Path;
 use anyhow::Result;
 
 use cirrus::scene;
-use cirrus::volumes::{grid_table, VdbFile};
+use cirrus::volumes::grid::{grid_table, VdbFile};
 
 pub fn run(file: &Path) -> Result<()> {
     let is_scene = file.is_dir() || file.file_name().is_some_and(|n| n == scene::MANIFEST_FILE);

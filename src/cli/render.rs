@@ -28,7 +28,7 @@ use cirrus::memory;
 use cirrus::output::{preview_path, write_film_preview, AovFiles, ExrHeader};
 use cirrus::render_state::{self, RenderState, StateOptions};
 use cirrus::sampling::SamplerKind;
-use cirrus::volumes::MajorantKind;
+use cirrus::volumes::majorant::MajorantKind;
 
 /// Samples per pixel when neither `--spp` nor `--time` is given.
 const DEFAULT_SPP: u32 = 64;

@@ -10,7 +10,7 @@ use crate::film::{Film, Tile};
 use crate::image::Compression;
 use crate::integrator::{RayCounts, RenderStats};
 use crate::output::{preview_path, write_film, write_film_preview, AovFiles};
-use crate::volumes::TrackingStats;
+use crate::volumes::estimators::TrackingStats;
 
 /// One part read back.
 struct Part {

@@ -12,10 +12,11 @@ use crate::lights::EquiangularTarget;
 use crate::render_state::RenderState;
 use crate::sampling::warp::{power_heuristic, Equiangular};
 use crate::sampling::Pcg32;
-use crate::volumes::{
-    channel_mean, ratio_tracking_with_null_ratio, walk_tentative_collisions, MajorantSegment,
-    MediaRay, MediumPoint, PassThrough, TrackingStats,
+use crate::volumes::estimators::{
+    channel_mean, ratio_tracking_with_null_ratio, walk_tentative_collisions, PassThrough,
+    TrackingStats,
 };
+use crate::volumes::{MajorantSegment, MediaRay, MediumPoint};
 
 /// How a free flight through media ended.
 pub(super) enum FlightEnd {

@@ -30,7 +30,7 @@ use crate::film::{Film, NonFiniteSamples, Tile, TileFilm};
 use crate::film::{FilterKind, PixelFilter};
 use crate::render_state::RenderState;
 use crate::sampling::{Pcg32, Sampler, SamplerKind};
-use crate::volumes::{TrackingStats, TransmittanceEstimator};
+use crate::volumes::estimators::{TrackingStats, TransmittanceEstimator};
 use progress::{next_pass_end, TILE_SIZE};
 pub use progress::{Periodic, RenderControl, RenderProgress, Snapshot};
 

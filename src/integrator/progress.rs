@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{RayCounts, RenderSettings};
 use crate::film::Film;
-use crate::volumes::TrackingStats;
+use crate::volumes::estimators::TrackingStats;
 
 /// Tile edge in pixels: enough tiles for load balance on many cores, big
 /// enough that per-tile overhead vanishes.

@@ -10,7 +10,7 @@ use obvhs::ray::Ray;
 use super::{PathSettings, RayCounts, VolumeEstimator};
 use crate::render_state::RenderState;
 use crate::sampling::Pcg32;
-use crate::volumes::{ratio_tracking_with_null_ratio, transmittance, TrackingStats};
+use crate::volumes::estimators::{ratio_tracking_with_null_ratio, transmittance, TrackingStats};
 
 /// Counters a path adds to.
 pub struct PathCounts<'a> {

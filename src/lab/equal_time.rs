@@ -242,7 +242,7 @@ mod tests {
 
     use super::*;
     use crate::integrator::RayCounts;
-    use crate::volumes::TrackingStats;
+    use crate::volumes::estimators::TrackingStats;
 
     fn rung(seconds: f64, error: f64) -> Rung {
         Rung {

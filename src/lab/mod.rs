@@ -56,7 +56,7 @@ use thiserror::Error;
 use crate::image::ImageError;
 use crate::render_state::RenderStateError;
 use crate::scene::{ExportError, OpenError, SceneError};
-use crate::volumes::VolumeError;
+use crate::volumes::grid::VolumeError;
 
 pub use adaptive::run as bench_adaptive;
 pub use aovs::{run as bench_aovs, AovsBench};

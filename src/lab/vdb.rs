@@ -14,7 +14,7 @@ use super::machine::machine_line;
 use super::stats::median;
 use super::Result;
 use crate::sampling::Pcg32;
-use crate::volumes::VdbFile;
+use crate::volumes::grid::VdbFile;
 
 /// What to measure.
 pub struct VdbBench {

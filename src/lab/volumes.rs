@@ -26,7 +26,9 @@ use super::Result;
 use crate::integrator::{Budget, PathSettings, RenderSettings, VolumeEstimator};
 use crate::render_state::{RenderState, StateOptions};
 use crate::scene::Scene;
-use crate::volumes::{MajorantKind, TrackingStats, VdbFile};
+use crate::volumes::estimators::TrackingStats;
+use crate::volumes::grid::VdbFile;
+use crate::volumes::majorant::MajorantKind;
 
 /// The targets: global / grid density lookups per camera ray at
 /// least this, ...

@@ -242,7 +242,8 @@ mod tests {
     use super::*;
     use crate::lights::test_support::{assert_picks_follow, record};
     use crate::scene::LightShape;
-    use crate::volumes::{Emitter, NearImportance};
+    use crate::volumes::emission::NearImportance;
+    use crate::volumes::Emitter;
 
     /// A sun, a sphere light (the BVH's) and a fire whose near estimate is
     /// 300 within 2 units of its box: beside the fire the selection weighs

@@ -19,7 +19,8 @@ use glam::{Vec2, Vec3};
 
 use super::bvh::LightBounds;
 use super::LightSample;
-use crate::volumes::{Emitter, Media, NearImportance};
+use crate::volumes::emission::NearImportance;
+use crate::volumes::{Emitter, Media};
 
 /// Resolution of the split of one uniform number into two (see
 /// [`VolumeLight::sample`]).

@@ -3,8 +3,8 @@
 //! prim), NaN, infinite and negative grid values (read as 0, one warning
 //! per grid naming volume, grid and file).
 
-use super::advection::VelocityField;
-use super::{SparseGrid, VolumeError};
+use super::grid::{SparseGrid, VolumeError};
+use super::motion::VelocityField;
 use crate::scene::{Volume, VolumeField};
 
 /// Refuses a negative or non-finite `heatScale` or `emissionScale` (0 turns

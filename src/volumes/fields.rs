@@ -5,9 +5,9 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use super::advection::VelocityField;
 use super::checks::{velocity_units_per_frame, warn_bad_velocities};
-use super::{SparseGrid, VdbFile, VolumeError};
+use super::grid::{SparseGrid, VdbFile, VolumeError};
+use super::motion::VelocityField;
 use crate::motion::Shutter;
 use crate::scene::{Scene, VolumeField};
 

@@ -9,7 +9,7 @@
 //! a grey or per-channel densityScale (chromatic extinction); albedo is RGB
 //! (sigma_s = albedo x sigma_t, sigma_a = sigma_t - sigma_s);
 //! a temperature field with a positive `heatScale` emits blackbody radiance
-//! (`emission.rs`), an emission field emits emissionScale x emissionColor x
+//! (`emission/blackbody.rs`), an emission field emits emissionScale x emissionColor x
 //! its value; the source term is sigma_a x Le either way (pbrt-v4's grid
 //! medium does the same). Overlapping media add their
 //! extinctions: along a ray, their majorant segments are merged and summed.
@@ -21,19 +21,17 @@ use std::sync::Arc;
 use glam::{Affine3A, Vec3};
 use smallvec::SmallVec;
 
-use super::advection::Advection;
 use super::checks::{check_emission_scales, warn_bad_values};
-use super::emitter::{EmissionCells, SourceSample};
+use super::emission::{BlackbodyTable, EmissionCells, NearImportance, SourceSample};
+use super::estimators::channel_mean;
 use super::fields::{field_key, read_field, read_velocities, FieldKey};
-use super::moving::PlacementMotion;
-use super::near_picks::NearImportance;
+use super::grid::{GridInfo, SparseGrid, VolumeError};
+use super::majorant::{MajorantGrid, MajorantKind, MajorantSegments};
+use super::motion::{Advection, PlacementMotion};
 use super::overlap::{box_hit, merge};
+use super::phase::HenyeyGreenstein;
 use super::placement::{longest_axis, to_f32, to_f64, world_box};
-use super::tracking::channel_mean;
-use super::{
-    BlackbodyTable, GridInfo, HenyeyGreenstein, MajorantGrid, MajorantKind, MajorantSegment,
-    MajorantSegments, SparseGrid, VolumeError,
-};
+use super::segment::MajorantSegment;
 use crate::color::luminance;
 use crate::geometry::MovingInstances;
 use crate::motion::Shutter;
@@ -68,10 +66,10 @@ pub struct Medium {
     /// World volume of one index-space unit cube, |det(world_from_index)|.
     voxel_volume: f32,
     /// Its velocity field, when it has one and the shutter is not closed
-    /// at the frame (`advection.rs`); `None` reads every grid where it is.
+    /// at the frame (`motion/advection.rs`); `None` reads every grid where it is.
     advection: Option<Advection>,
     /// Its placement over the shutter when its transform moves
-    /// (`moving.rs`): rays enter index space at their time, and the frame
+    /// (`motion/moving.rs`): rays enter index space at their time, and the frame
     /// maps above (`index_from_world`, the emission grids') serve the
     /// index-space points they reach. `None` for a still placement.
     motion: Option<PlacementMotion>,
@@ -276,9 +274,9 @@ pub struct Emitter {
     pub world_max: Vec3,
     /// Luminance of the power that leaves the volume, W: 4 pi (gas emits the
     /// same in every direction) x the integral of sigma_a Le times an
-    /// estimate of its escape transmittance (`emitter.rs`).
+    /// estimate of its escape transmittance (`emission/emitter.rs`).
     pub power: f32,
-    /// What it delivers near its emission, by region (`near_picks.rs`).
+    /// What it delivers near its emission, by region (`emission/near_picks.rs`).
     pub(crate) near: NearImportance,
 }
 
@@ -734,7 +732,7 @@ impl Media {
 }
 
 impl Medium {
-    /// Where this medium emits, for light sampling (`emitter.rs`), and its
+    /// Where this medium emits, for light sampling (`emission/emitter.rs`), and its
     /// majorant grid raised where it emits (`kind` grid only: the global
     /// baseline stays one bound); `None`s when it emits nothing (warned: a
     /// volume that would emit but does not absorb has no source term).

@@ -10,7 +10,7 @@
 //! Rendering: [`Media`] places every Volume in the world; a [`MajorantGrid`]
 //! per grid bounds its trilinear density per 8^3-voxel cell (split into
 //! sub-cells where density varies, with `MajorantKind::Adaptive`: the
-//! criterion of Pixar's "Elemental" talk, refine.rs) and is walked by a 3D
+//! criterion of Pixar's "Elemental" talk, majorant/refine.rs) and is walked by a 3D
 //! DDA (Amanatides and Woo 1987) into [`MajorantSegment`]s; over those,
 //! [`walk_tentative_collisions`] samples free flights and [`transmittance`] estimates
 //! shadow-ray transmittance by ratio, residual ratio (Novák et al. 2014,
@@ -19,42 +19,40 @@
 //! 2018, "Monte Carlo Methods for Volumetric Light Transport Simulation");
 //! scattering uses the Henyey-Greenstein (1941) phase function.
 
-mod advection;
+//!
+//! The folder by job, each sub-folder's `mod.rs` its interface and its papers:
+//! - [`grid`]: the grid data: [`grid::SparseGrid`], its lookups, and reading
+//!   `.vdb` files through the OpenVDB bridge ([`grid::VdbFile`]).
+//! - [`majorant`]: bounds on density per cell ([`majorant::MajorantGrid`],
+//!   adaptive sub-cells) and the DDA that walks them along a ray.
+//! - [`estimators`]: free flights and transmittance over majorant segments
+//!   (delta, ratio, residual ratio, track-length, ray marching, the camera
+//!   ray's pass-through weight) and the counters they add to.
+//! - [`emission`]: what a volume emits (blackbody) and where, for sampling
+//!   it as a light (its cells, picked by power or from near by).
+//! - `motion/`: volumes moved over the shutter by a velocity field or by
+//!   their transforms.
+//!
+//! Here, tying them: [`Media`] (medium.rs), the scene's volumes placed in the
+//! world, read from the scene's fields (fields.rs, checked by checks.rs);
+//! [`MajorantSegment`] (segment.rs), the stretch of ray the majorant grids
+//! yield and the estimators walk, merged where media overlap (overlap.rs);
+//! the phase function (phase.rs); and placement.rs, the affine maps'
+//! helpers.
+
 mod checks;
-mod dda;
-mod emission;
-mod emitter;
+pub mod emission;
+pub mod estimators;
 mod fields;
-mod grid;
-mod grid_table;
-mod lookup;
-mod majorant;
+pub mod grid;
+pub mod majorant;
 mod medium;
-mod moving;
-mod near_picks;
+mod motion;
 mod overlap;
-mod pass_through;
 mod phase;
 mod placement;
-mod ray_marching;
-mod refine;
-mod stats;
-mod tracking;
-mod vdb;
+mod segment;
 
-pub use dda::{MajorantSegment, MajorantSegments};
-pub use emission::{BlackbodyTable, REFERENCE_TEMPERATURE_K};
-pub use grid::{GridStats, GridTransform, LayoutError, SparseGrid, Tile};
-pub use grid_table::grid_table;
-pub use lookup::GridAccessor;
-pub use majorant::{MajorantGrid, MajorantKind};
 pub use medium::{Emitter, Media, MediaRay, MediumPoint, RaySegments};
-pub(crate) use near_picks::NearImportance;
-pub use pass_through::PassThrough;
 pub use phase::{HenyeyGreenstein, PhaseSample};
-pub use stats::TrackingStats;
-pub use tracking::{
-    channel_mean, ratio_tracking_with_null_ratio, transmittance, walk_tentative_collisions,
-    TransmittanceEstimator, RUSSIAN_ROULETTE_THRESHOLD,
-};
-pub use vdb::{GridInfo, Space, VdbFile, VolumeError};
+pub use segment::MajorantSegment;

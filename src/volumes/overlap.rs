@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::MajorantSegment;
+use super::segment::MajorantSegment;
 
 /// Merges per-medium segment lists into one list whose pieces carry the sums.
 pub(super) fn merge(lists: Vec<Vec<MajorantSegment>>) -> Vec<MajorantSegment> {

@@ -6,7 +6,7 @@ use crate::integrator::{RenderSettings, Strategy, VolumeEstimator};
 use crate::lab::peers::Peer;
 use crate::render_state::RenderState;
 use crate::sampling::SamplerKind;
-use crate::volumes::MajorantKind;
+use crate::volumes::majorant::MajorantKind;
 
 /// A method of the study: the reference's settings ([`base_settings`](crate::lab::reference::base_settings),
 /// which are `cirrus render`'s defaults but a box filter) with at most one

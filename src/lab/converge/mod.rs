@@ -49,7 +49,7 @@ use crate::lab::scenes::{scene_name, scenes_or_default};
 use crate::lab::stats::median;
 use crate::lab::Result;
 use crate::render_state::{RenderState, StateOptions};
-use crate::volumes::MajorantKind;
+use crate::volumes::majorant::MajorantKind;
 
 /// What the study renders.
 pub struct ConvergeOptions {

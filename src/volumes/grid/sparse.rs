@@ -154,7 +154,7 @@ pub struct SparseGrid {
 
 /// The most aligned blocks of `edge` voxels a box of `dims` voxels can
 /// touch: `ceil(d / edge) + 1` per axis (the box need not be aligned).
-pub(super) fn blocks_spanned(dims: U64Vec3, edge: u64) -> u64 {
+pub(in crate::volumes) fn blocks_spanned(dims: U64Vec3, edge: u64) -> u64 {
     dims.to_array()
         .map(|d| d.div_ceil(edge) + 1)
         .iter()

@@ -18,8 +18,8 @@ use glam::Vec3;
 
 use super::ray_marching::ray_marching;
 use super::stats::TrackingStats;
-use super::MajorantSegment;
 use crate::sampling::Pcg32;
+use crate::volumes::MajorantSegment;
 
 /// Weights of ratio tracking below this are Russian-rouletted: they survive
 /// with probability `|weight| / RUSSIAN_ROULETTE_THRESHOLD` and then carry

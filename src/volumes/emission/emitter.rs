@@ -36,9 +36,9 @@
 use glam::{Affine3A, IVec3, Vec3};
 use rayon::prelude::*;
 
-use super::majorant::{MajorantGrid, OccupiedCell};
 use super::near_picks::{NearImportance, NearPicks, WeighedCell};
 use crate::sampling::AliasTable;
+use crate::volumes::majorant::{MajorantGrid, OccupiedCell};
 
 /// The smallest share of its emission bound a cell's weight is given.
 const FLOOR: f32 = 1e-3;
@@ -481,7 +481,8 @@ impl<'a> Extinction<'a> {
 mod tests {
     use super::*;
     use crate::sampling::Pcg32;
-    use crate::volumes::{GridTransform, MajorantKind, SparseGrid, Tile};
+    use crate::volumes::grid::{GridTransform, SparseGrid, Tile};
+    use crate::volumes::majorant::MajorantKind;
     use glam::DAffine3;
 
     /// Density 1 over the 16^3 voxels of eight constant blocks, emitting

@@ -2,32 +2,15 @@
 //! Ray Tracing") over a [`MajorantGrid`]: the non-empty cells a ray crosses,
 //! front to back, as [`MajorantSegment`]s, as pbrt-v4's
 //! `DDAMajorantIterator` does. Each segment is clipped to the box where its
-//! cell's interpolated density can be non-zero (see majorant.rs), so the
+//! cell's interpolated density can be non-zero (see cells.rs), so the
 //! empty half of a boundary cell costs nothing. Inside a split cell
 //! (`--majorant adaptive`, refine.rs) a second DDA walks its sub-cells over
 //! that clipped stretch, yielding one segment per non-empty sub-cell.
 
 use glam::{IVec3, Vec3};
 
-use super::majorant::{MajorantGrid, Refinement, SupportBox};
-
-/// One stretch of a ray over which extinction is bounded:
-/// `sigma_min <= sigma_t(t) <= sigma_maj` for t in `[t_min, t_max)`.
-/// Extinctions are per unit of `t` along the caller's direction.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MajorantSegment {
-    /// Start of the stretch, in the caller's ray parameter.
-    pub t_min: f32,
-    /// End of the stretch (exclusive); the next segment starts exactly here
-    /// unless empty cells or a cell's empty part were skipped.
-    pub t_max: f32,
-    /// Majorant of `sigma_t` (density max x scale) over the stretch, grey:
-    /// it bounds every RGB channel of a chromatic extinction.
-    pub sigma_maj: f32,
-    /// Minorant of `sigma_t` (density min x scale, >= 0) in every channel,
-    /// the control extinction of residual ratio tracking (Novák et al. 2014).
-    pub sigma_min: f32,
-}
+use super::cells::{MajorantGrid, Refinement, SupportBox};
+use crate::volumes::MajorantSegment;
 
 /// The iterator returned by [`MajorantGrid::segments`]: an Amanatides & Woo
 /// DDA that yields the non-empty cells the ray crosses, front to back.
@@ -335,11 +318,12 @@ impl MajorantGrid {
 mod tests {
     use super::*;
     use crate::sampling::Pcg32;
-    use crate::volumes::majorant::tests::{
+    use crate::volumes::grid::{GridTransform, SparseGrid};
+    use crate::volumes::majorant::cells::tests::{
         assert_exact_ranges, density, split_grids, synthetic, SMOKE, TEAPOT,
     };
-    use crate::volumes::majorant::DensityRange;
-    use crate::volumes::{GridTransform, MajorantKind, SparseGrid};
+    use crate::volumes::majorant::cells::DensityRange;
+    use crate::volumes::majorant::MajorantKind;
     use glam::DAffine3;
 
     /// Past the cell limit, cells double until the grid fits; they still hold

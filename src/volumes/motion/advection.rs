@@ -16,12 +16,12 @@ use std::sync::Arc;
 
 use glam::{Affine3A, Mat3A, Vec3};
 
-use super::placement::to_f32;
-use super::{GridTransform, SparseGrid, VdbFile, VolumeError};
 use crate::scene::VolumeField;
+use crate::volumes::grid::{GridTransform, SparseGrid, VdbFile, VolumeError};
+use crate::volumes::placement::to_f32;
 
 /// A velocity field read once: its x, y and z components as float grids.
-pub(super) struct VelocityField {
+pub(in crate::volumes) struct VelocityField {
     /// Components, world units per second, each with its own transform.
     components: [SparseGrid; 3],
     /// Per component, the smallest and largest value any trilinear lookup
@@ -32,7 +32,7 @@ pub(super) struct VelocityField {
 impl VelocityField {
     /// Reads `field`: a vec3s grid (`vel`, `v`), or a float grid named
     /// `NAME.x`, `NAME.y` or `NAME.z` together with the other two.
-    pub(super) fn read(field: &VolumeField) -> Result<Self, VolumeError> {
+    pub(in crate::volumes) fn read(field: &VolumeField) -> Result<Self, VolumeError> {
         let file = VdbFile::open(&field.file)?;
         let index = field.index as usize;
         let at = file.find(&field.grid, index)?;
@@ -64,7 +64,7 @@ impl VelocityField {
 
     /// NaN and infinite values over the three components (read as a zero
     /// velocity).
-    pub(super) fn non_finite_count(&self) -> usize {
+    pub(in crate::volumes) fn non_finite_count(&self) -> usize {
         self.components
             .iter()
             .map(|g| g.stats().non_finite_count)
@@ -72,7 +72,7 @@ impl VelocityField {
     }
 
     /// Bytes held by the three component grids.
-    pub(super) fn memory_bytes(&self) -> usize {
+    pub(in crate::volumes) fn memory_bytes(&self) -> usize {
         self.components.iter().map(SparseGrid::memory_bytes).sum()
     }
 }
@@ -84,7 +84,7 @@ fn split_stem(grid: &str) -> Option<&str> {
 }
 
 /// A velocity field placed in one density grid's index space.
-pub(super) struct Advection {
+pub(in crate::volumes) struct Advection {
     field: Arc<VelocityField>,
     /// Density index point to each component's index point.
     component_from_density: [Affine3A; 3],
@@ -97,7 +97,7 @@ pub(super) struct Advection {
 impl Advection {
     /// `field` moving the density grid of transform `density`;
     /// `units_per_frame` is velocityScale / timeCodesPerSecond.
-    pub(super) fn new(
+    pub(in crate::volumes) fn new(
         field: Arc<VelocityField>,
         density: &GridTransform,
         units_per_frame: f32,
@@ -116,7 +116,7 @@ impl Advection {
     }
 
     /// The field it samples.
-    pub(super) fn field(&self) -> &Arc<VelocityField> {
+    pub(in crate::volumes) fn field(&self) -> &Arc<VelocityField> {
         &self.field
     }
 
@@ -125,7 +125,7 @@ impl Advection {
     /// medium there holds what was at `p - displacement` at the frame. A
     /// non-finite velocity reads as zero.
     #[inline]
-    pub(super) fn displacement(&self, p: Vec3, time: f32) -> Vec3 {
+    pub(in crate::volumes) fn displacement(&self, p: Vec3, time: f32) -> Vec3 {
         let [x, y, z] = &self.field.components;
         let [mx, my, mz] = &self.component_from_density;
         let v = Vec3::new(
@@ -143,7 +143,7 @@ impl Advection {
     /// every lookup at times in `[open, close]` (frames), as (min, max):
     /// what the medium's majorant grid is dilated by. Interval arithmetic
     /// over the components' value ranges, the linear map and the times.
-    pub(super) fn reach(
+    pub(in crate::volumes) fn reach(
         field: &VelocityField,
         density: &GridTransform,
         units_per_frame: f32,

@@ -21,8 +21,8 @@
 use glam::IVec3;
 use rayon::prelude::*;
 
-use super::majorant::{DensityRange, MajorantGrid, Refinement, BLOCK_LOG2};
-use super::SparseGrid;
+use super::cells::{DensityRange, MajorantGrid, Refinement, BLOCK_LOG2};
+use crate::volumes::grid::SparseGrid;
 
 /// Split threshold on (sigma_max - sigma_min) x cell diagonal: an optical
 /// depth (unitless). 1.44 is the "Elemental" value Cycles 5 uses; see
@@ -200,10 +200,11 @@ impl MajorantGrid {
 mod tests {
     use super::*;
     use crate::sampling::Pcg32;
-    use crate::volumes::majorant::tests::{
+    use crate::volumes::grid::GridTransform;
+    use crate::volumes::majorant::cells::tests::{
         assert_probes_within, density, footprint_range, ramp, split_grids, SMOKE,
     };
-    use crate::volumes::{GridTransform, MajorantKind};
+    use crate::volumes::majorant::MajorantKind;
     use glam::{DAffine3, Vec3};
 
     /// Every sub-cell of every split cell holds the exact clamped range of
@@ -275,7 +276,7 @@ mod tests {
     /// their minima (the near face's value) bias track-length visibly.
     #[test]
     fn tracking_over_split_cells_reads_the_ramps_transmittance() {
-        use crate::volumes::{transmittance, TrackingStats, TransmittanceEstimator};
+        use crate::volumes::estimators::{transmittance, TrackingStats, TransmittanceEstimator};
         let grid = ramp();
         let mg = MajorantGrid::build_for(&grid, MajorantKind::Adaptive, 1.0);
         assert!(mg.refinements.iter().any(|r| r.level == 3));

@@ -32,8 +32,8 @@ use glam::{DVec3, Vec3};
 use smallvec::SmallVec;
 
 use super::stats::TrackingStats;
-use super::MajorantSegment;
 use crate::sampling::Pcg32;
+use crate::volumes::MajorantSegment;
 
 /// Comb points per unit of the ray's bound width `W = ∫ (sigma_maj - sigma_min) dt`
 /// (see [`Comb`]): about one lookup per unit of optical depth the majorant

@@ -26,8 +26,8 @@ use std::cell::Cell;
 use glam::Vec3;
 
 use super::tracking::russian_roulette;
-use super::MajorantSegment;
 use crate::sampling::Pcg32;
+use crate::volumes::MajorantSegment;
 
 /// The running pass-through weight along a walk of tentative collisions.
 /// Its state is in cells so that the segment iterator ([`Self::enter`]) and
@@ -103,7 +103,7 @@ impl PassThrough {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::volumes::walk_tentative_collisions;
+    use crate::volumes::estimators::walk_tentative_collisions;
 
     /// Mean, standard error and variance of `n` pass-through estimates
     /// along `segments` with grey extinction `sigma_t`, and lookups per

@@ -2,12 +2,12 @@
 //! index and world space (equal to OpenVDB's `PointSampler` and
 //! `BoxSampler`), the accessor that caches the last block for ray marches,
 //! and the footprint a trilinear lookup reads in one block, from which
-//! majorant grids are built. Where values sit: grid.rs and
+//! majorant grids are built. Where values sit: sparse.rs and
 //! docs/conventions.md, "Voxel centres".
 
 use glam::{DVec3, IVec3, Vec3};
 
-use super::grid::{SparseGrid, APRON_EDGE, BRICK_LOG2, CONSTANT, EMPTY};
+use super::sparse::{SparseGrid, APRON_EDGE, BRICK_LOG2, CONSTANT, EMPTY};
 
 impl SparseGrid {
     /// Nearest-neighbour value at an index-space point: the closest index point,
@@ -189,9 +189,9 @@ mod tests {
 
     use super::*;
     use crate::sampling::Pcg32;
-    use crate::volumes::grid::tests::identity;
-    use crate::volumes::grid::LEAF_VOXELS;
-    use crate::volumes::{GridTransform, Tile};
+    use crate::volumes::grid::sparse::tests::identity;
+    use crate::volumes::grid::sparse::LEAF_VOXELS;
+    use crate::volumes::grid::{GridTransform, Tile};
 
     /// A grid with one leaf at `origin` whose voxel (x,y,z) holds x + 10y + 100z
     /// (a linear function, so trilinear interpolation inside it is exact).

@@ -15,11 +15,11 @@
 
 use glam::{Affine3A, DAffine3, Vec3};
 
-use super::placement::{to_f32, to_f64, world_box};
 use crate::motion::TransformTrack;
+use crate::volumes::placement::{to_f32, to_f64, world_box};
 
 /// A placed grid's world-from-index map keyed over the shutter.
-pub(super) struct PlacementMotion {
+pub(in crate::volumes) struct PlacementMotion {
     /// World-from-index keys: the instance's world-from-volume keys times
     /// the grid's volume-from-index map (lerping either gives the same).
     world_from_index: TransformTrack,
@@ -28,7 +28,10 @@ pub(super) struct PlacementMotion {
 impl PlacementMotion {
     /// The motion of a grid whose volume moves by `world_from_volume`, with
     /// `volume_from_index` the grid's own transform.
-    pub(super) fn new(world_from_volume: &TransformTrack, volume_from_index: &DAffine3) -> Self {
+    pub(in crate::volumes) fn new(
+        world_from_volume: &TransformTrack,
+        volume_from_index: &DAffine3,
+    ) -> Self {
         let keys = world_from_volume
             .keys()
             .iter()
@@ -43,13 +46,13 @@ impl PlacementMotion {
     /// World (scene units) to index space at `time` (frames); non-finite
     /// where the placement then collapses the grid (no density is read
     /// there: [`Self::index_ray`] gives such rays nothing to cross).
-    pub(super) fn index_from_world(&self, time: f32) -> Affine3A {
+    pub(in crate::volumes) fn index_from_world(&self, time: f32) -> Affine3A {
         self.world_from_index.at(time).inverse()
     }
 
     /// The index-space ray of world ray `origin + t direction` at `time`,
     /// with the same parameter t; `None` where the placement collapses.
-    pub(super) fn index_ray(
+    pub(in crate::volumes) fn index_ray(
         &self,
         origin: Vec3,
         direction: Vec3,
@@ -61,7 +64,7 @@ impl PlacementMotion {
     }
 
     /// World box around index box `[lo, hi]` at every time of the shutter.
-    pub(super) fn world_box(&self, lo: Vec3, hi: Vec3) -> (Vec3, Vec3) {
+    pub(in crate::volumes) fn world_box(&self, lo: Vec3, hi: Vec3) -> (Vec3, Vec3) {
         self.world_from_index.keys().iter().fold(
             (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
             |(min, max), key| {

@@ -3,14 +3,14 @@
 //! module that talks to OpenVDB; C++ exceptions arrive here as `cxx::Exception`
 //! and leave as [`VolumeError`] naming the file and grid.
 
-#[path = "../../ffi/openvdb/bridge.rs"]
+#[path = "../../../ffi/openvdb/bridge.rs"]
 mod bridge;
 
 use std::path::{Path, PathBuf};
 
 use glam::{DAffine3, DMat4, DVec3, IVec3, U64Vec3};
 
-use super::grid::{blocks_spanned, GridTransform, SparseGrid, Tile};
+use super::sparse::{blocks_spanned, GridTransform, SparseGrid, Tile};
 use bridge::ffi;
 
 /// Why a VDB file or grid could not be used.
@@ -107,7 +107,7 @@ pub enum VolumeError {
         /// The grid.
         grid: String,
         /// What is wrong with the tree.
-        source: super::grid::LayoutError,
+        source: super::sparse::LayoutError,
     },
 }
 

@@ -32,8 +32,7 @@
 use glam::{IVec3, U64Vec3, Vec3};
 use rayon::prelude::*;
 
-use super::grid::blocks_spanned;
-use super::SparseGrid;
+use crate::volumes::grid::{blocks_spanned, SparseGrid};
 
 /// Voxels per cell edge, log2, at the finest resolution (one OpenVDB leaf).
 pub(super) const BLOCK_LOG2: i32 = 3;
@@ -165,7 +164,7 @@ impl MajorantGrid {
     /// Every cell whose density can be non-zero, in slot order: its slot,
     /// the index-space box of its support (where interpolated density can be
     /// non-zero) and its density max. Emission light sampling picks among
-    /// these (`emitter.rs`).
+    /// these (`emission/emitter.rs`).
     pub(crate) fn occupied_cells(&self) -> impl Iterator<Item = OccupiedCell> + '_ {
         (0..self.cells.len()).filter_map(move |slot| {
             let range = self.cells[slot];
@@ -404,7 +403,7 @@ impl MajorantGrid {
     /// A copy that bounds, at every point q, the density at q - d for any
     /// displacement d in the box `[lo, hi]` of `reach` (index units per
     /// axis): a volume whose lookups move back by such d over the shutter
-    /// (`advection.rs`) keeps a conservative majorant. Each cell's max
+    /// (`motion/advection.rs`) keeps a conservative majorant. Each cell's max
     /// becomes the max over the cells `ceil(hi / edge)` below and
     /// `ceil(-lo / edge)` above it (a separable max filter), the grid
     /// growing by as many cells on the other side; minorants drop to 0,
@@ -520,7 +519,7 @@ impl DensityRange {
 pub(super) mod tests {
     use super::*;
     use crate::sampling::Pcg32;
-    use crate::volumes::{GridTransform, Tile, VdbFile};
+    use crate::volumes::grid::{GridTransform, Tile, VdbFile};
     use glam::DAffine3;
 
     pub(in crate::volumes) const TEAPOT: &str = concat!(
