@@ -14,65 +14,53 @@
 //! medium does the same). Overlapping media add their
 //! extinctions: along a ray, their majorant segments are merged and summed.
 
-use std::collections::HashMap;
 use std::f32::consts::PI;
 use std::sync::Arc;
 
 use glam::{Affine3A, Vec3};
 use smallvec::SmallVec;
 
-use super::checks::{check_emission_scales, warn_bad_values};
-use super::emission::{BlackbodyTable, EmissionCells, NearImportance, SourceSample};
-use super::estimators::channel_mean;
-use super::fields::{field_key, read_field, read_velocities, FieldKey};
-use super::grid::{GridInfo, SparseGrid, VolumeError};
-use super::majorant::{MajorantGrid, MajorantKind, MajorantSegments};
+use super::emission::{BlackbodyTable, EmissionCells, NearImportance};
+use super::grid::{GridInfo, SparseGrid};
+use super::majorant::{MajorantGrid, MajorantSegments};
 use super::motion::{Advection, PlacementMotion};
 use super::overlap::{box_hit, merge};
 use super::phase::HenyeyGreenstein;
-use super::placement::{longest_axis, to_f32, to_f64, world_box};
+use super::placement::{to_f64, world_box};
 use super::segment::MajorantSegment;
-use crate::color::luminance;
-use crate::geometry::MovingInstances;
-use crate::motion::Shutter;
-use crate::scene::{affine, Scene};
-
-/// An emitting volume's light cells and its majorant grid raised where it
-/// emits (see [`Medium::emission_cells`]).
-type EmittingGrids = (Option<Arc<EmissionCells>>, Option<Arc<MajorantGrid>>);
 
 /// One placed volume.
 pub struct Medium {
-    density: Arc<SparseGrid>,
-    majorant: Arc<MajorantGrid>,
+    pub(super) density: Arc<SparseGrid>,
+    pub(super) majorant: Arc<MajorantGrid>,
     /// World (scene units) to the grid's index space, the placement included.
-    index_from_world: Affine3A,
+    pub(super) index_from_world: Affine3A,
     /// World-space box of the grid's stored data, for quick ray rejection.
-    world_min: Vec3,
-    world_max: Vec3,
+    pub(super) world_min: Vec3,
+    pub(super) world_max: Vec3,
     /// `densityScale`: sigma_t per world unit per unit density, per RGB channel.
-    density_scale: Vec3,
+    pub(super) density_scale: Vec3,
     /// sigma_s / sigma_t per RGB channel.
-    albedo: Vec3,
+    pub(super) albedo: Vec3,
     /// Henyey-Greenstein phase function (`anisotropy`).
-    phase: HenyeyGreenstein,
+    pub(super) phase: HenyeyGreenstein,
     /// Emission sources (temperature and/or emission fields); empty, and
     /// free, for volumes that do not emit.
-    emission: Vec<Emission>,
+    pub(super) emission: Vec<Emission>,
     /// Where it emits, for light sampling; `None` when it emits nothing.
-    emitter: Option<Arc<EmissionCells>>,
+    pub(super) emitter: Option<Arc<EmissionCells>>,
     /// Index (voxel) space to world, the inverse of `index_from_world`.
-    world_from_index: Affine3A,
+    pub(super) world_from_index: Affine3A,
     /// World volume of one index-space unit cube, |det(world_from_index)|.
-    voxel_volume: f32,
+    pub(super) voxel_volume: f32,
     /// Its velocity field, when it has one and the shutter is not closed
     /// at the frame (`motion/advection.rs`); `None` reads every grid where it is.
-    advection: Option<Advection>,
+    pub(super) advection: Option<Advection>,
     /// Its placement over the shutter when its transform moves
     /// (`motion/moving.rs`): rays enter index space at their time, and the frame
     /// maps above (`index_from_world`, the emission grids') serve the
     /// index-space points they reach. `None` for a still placement.
-    motion: Option<PlacementMotion>,
+    pub(super) motion: Option<PlacementMotion>,
 }
 
 impl Medium {
@@ -81,7 +69,7 @@ impl Medium {
     /// 0 too, so bad voxels can neither make extinction negative nor stall
     /// tracking with an infinite majorant; `Media::build` reports them.
     #[inline]
-    fn density(&self, p: Vec3) -> f32 {
+    pub(super) fn density(&self, p: Vec3) -> f32 {
         let v = self.density.trilinear_index(p);
         if v.is_finite() {
             v.max(0.0)
@@ -143,28 +131,28 @@ impl Medium {
 
     /// The emitted radiance Le at world point `p`, W/(m^2 sr) per RGB
     /// channel: the sum over its emission sources.
-    fn emitted(&self, p: Vec3, blackbody: Option<&BlackbodyTable>) -> Vec3 {
+    pub(super) fn emitted(&self, p: Vec3, blackbody: Option<&BlackbodyTable>) -> Vec3 {
         self.emission.iter().map(|e| e.radiance(p, blackbody)).sum()
     }
 
     /// sigma_a per world unit per unit density, per RGB channel:
     /// (1 - albedo) x densityScale.
-    fn absorption(&self) -> Vec3 {
+    pub(super) fn absorption(&self) -> Vec3 {
         (Vec3::ONE - self.albedo).max(Vec3::ZERO) * self.density_scale
     }
 }
 
 /// One emission source of a medium: a grid and how its values become
 /// radiance.
-struct Emission {
-    grid: Arc<SparseGrid>,
+pub(super) struct Emission {
+    pub(super) grid: Arc<SparseGrid>,
     /// World to the grid's index space (its own transform).
-    index_from_world: Affine3A,
-    radiance: EmittedRadiance,
+    pub(super) index_from_world: Affine3A,
+    pub(super) radiance: EmittedRadiance,
 }
 
 /// How an emission grid's value becomes emitted radiance Le, W/(m^2 sr).
-enum EmittedRadiance {
+pub(super) enum EmittedRadiance {
     /// A temperature field: Le = heatScale x blackbody(T) normalised to
     /// luminance 1 at 1500 K, T = temperatureOffset + temperatureScale x
     /// value, kelvin.
@@ -210,9 +198,9 @@ impl Emission {
 /// Every medium of a scene; empty (and free) for scenes without volumes.
 #[derive(Default)]
 pub struct Media {
-    media: Vec<Medium>,
+    pub(super) media: Vec<Medium>,
     /// Blackbody radiance by temperature, built only when a medium emits.
-    blackbody: Option<BlackbodyTable>,
+    pub(super) blackbody: Option<BlackbodyTable>,
 }
 
 /// A ray prepared against the media it crosses: each medium's index-space
@@ -517,275 +505,5 @@ impl<'a> MediaRay<'a> {
         self.media
             .last()
             .map_or(HenyeyGreenstein { g: 0.0 }, |(m, _, _)| m.phase)
-    }
-}
-
-impl Media {
-    /// [`Self::build_at`] with the shutter closed at the frame: nothing moves.
-    pub fn build(scene: &Scene, kind: MajorantKind) -> Result<Self, VolumeError> {
-        Self::build_at(scene, kind, Shutter::CLOSED)
-    }
-
-    /// Reads every placed volume's density grid (once per file, grid and
-    /// index), builds its majorant grid of `kind`, and places it. Under a
-    /// `shutter` that is not closed at the frame, volumes with a velocity
-    /// field are advected by it and their majorant grids dilated by the
-    /// farthest it moves them; otherwise velocity fields are not read.
-    pub fn build_at(
-        scene: &Scene,
-        kind: MajorantKind,
-        shutter: Shutter,
-    ) -> Result<Self, VolumeError> {
-        let m = &scene.manifest;
-        let mut grids: HashMap<FieldKey, (Arc<SparseGrid>, Arc<MajorantGrid>)> = HashMap::new();
-        let mut emission_grids: HashMap<FieldKey, Arc<SparseGrid>> = HashMap::new();
-        let prototypes = scene.view(&m.instances.prototype);
-        let transforms = scene.view(&m.instances.transform);
-        for volume in m
-            .volumes
-            .iter()
-            .filter(|v| !v.fields.contains_key("density"))
-        {
-            log::warn!(
-                "volume {} has no density field; it is not rendered",
-                volume.path
-            );
-        }
-        for volume in &m.volumes {
-            check_emission_scales(volume)?;
-        }
-        let velocities = read_velocities(scene, shutter)?;
-        let moving = MovingInstances::new(scene, shutter.blurs());
-        let times = (shutter.open, shutter.close);
-        let blackbody = m
-            .volumes
-            .iter()
-            .any(|v| v.fields.contains_key("temperature") && v.emits_from("temperature"))
-            .then(BlackbodyTable::new);
-        // Emission light cells and the majorant grid raised where the volume
-        // emits, per Volume prim: shared by its placements.
-        let mut emitters: HashMap<u32, EmittingGrids> = HashMap::new();
-        // Per density grid, its densest placement's sigma_t per unit density
-        // x world length per index unit: what adaptive majorants split by.
-        let mut depth_scales: HashMap<FieldKey, f32> = HashMap::new();
-        for (world_from_prototype, &prototype) in transforms.iter().zip(prototypes) {
-            for part in &m.prototypes[prototype as usize].volumes {
-                let volume = &m.volumes[part.volume as usize];
-                if let Some(field) = volume.fields.get("density") {
-                    let placed = affine(world_from_prototype) * affine(&part.transform);
-                    let scale = Vec3::from(volume.density_scale).max_element()
-                        * longest_axis(to_f64(&placed).matrix3);
-                    let entry = depth_scales.entry(field_key(field)).or_insert(0.0);
-                    *entry = entry.max(scale);
-                }
-            }
-        }
-        let mut media = Vec::new();
-        for (instance, (world_from_prototype, &prototype)) in
-            transforms.iter().zip(prototypes).enumerate()
-        {
-            for part in &m.prototypes[prototype as usize].volumes {
-                let volume = &m.volumes[part.volume as usize];
-                let Some(field) = volume.fields.get("density") else {
-                    continue; // warned above, once per volume
-                };
-                let key = field_key(field);
-                let (density, majorant) = match grids.get(&key) {
-                    Some(found) => found.clone(),
-                    None => {
-                        let grid = read_field(field)?;
-                        warn_bad_values(volume, field, &grid, "densities");
-                        if grid.background() != 0.0 {
-                            log::warn!(
-                                "volume {}: grid {} of {} has background {}; it is rendered as \
-                                 0 outside the grid's stored data",
-                                volume.path,
-                                field.grid,
-                                field.file.display(),
-                                grid.background()
-                            );
-                        }
-                        let voxel = longest_axis(grid.transform().world_from_index.matrix3);
-                        let depth = depth_scales[&key] * voxel;
-                        let mut majorant = MajorantGrid::build_for(&grid, kind, depth);
-                        // Every volume advecting this grid: how far any moves it.
-                        let reach = m
-                            .volumes
-                            .iter()
-                            .zip(&velocities)
-                            .filter(|(v, _)| {
-                                v.fields.get("density").map(field_key) == Some(key.clone())
-                            })
-                            .filter_map(|(_, velocity)| velocity.as_ref())
-                            .map(|(field, per_frame)| {
-                                Advection::reach(field, grid.transform(), *per_frame, times)
-                            })
-                            .fold((Vec3::ZERO, Vec3::ZERO), |(a, b), (lo, hi)| {
-                                (a.min(lo), b.max(hi))
-                            });
-                        if reach != (Vec3::ZERO, Vec3::ZERO) {
-                            majorant = majorant.dilated(reach);
-                        }
-                        let entry = (Arc::new(grid), Arc::new(majorant));
-                        grids.insert(key, entry.clone());
-                        entry
-                    }
-                };
-                let world_from_volume = affine(world_from_prototype) * affine(&part.transform);
-                let world_from_index =
-                    to_f64(&world_from_volume) * density.transform().world_from_index;
-                let index_from_world = world_from_index.inverse();
-                if !index_from_world.is_finite() {
-                    log::warn!(
-                        "volume {}: its placement collapses it; skipped",
-                        volume.path
-                    );
-                    continue;
-                }
-                let mut emission = Vec::new();
-                for (name, field) in &volume.fields {
-                    let radiance = match name.as_str() {
-                        _ if !volume.emits_from(name) => continue,
-                        "temperature" => EmittedRadiance::Blackbody {
-                            heat_scale: volume.heat_scale,
-                            temperature_offset: volume.temperature_offset,
-                            temperature_scale: volume.temperature_scale,
-                        },
-                        _ => EmittedRadiance::Scaled(
-                            Vec3::from(volume.emission_color) * volume.emission_scale,
-                        ),
-                    };
-                    let key = field_key(field);
-                    let grid = match emission_grids.get(&key) {
-                        Some(found) => Arc::clone(found),
-                        None => {
-                            let grid = Arc::new(read_field(field)?);
-                            warn_bad_values(volume, field, &grid, "values");
-                            emission_grids.insert(key, Arc::clone(&grid));
-                            grid
-                        }
-                    };
-                    let world_from_grid =
-                        to_f64(&world_from_volume) * grid.transform().world_from_index;
-                    emission.push(Emission {
-                        index_from_world: to_f32(&world_from_grid.inverse()),
-                        grid,
-                        radiance,
-                    });
-                }
-                let advection =
-                    velocities[part.volume as usize]
-                        .as_ref()
-                        .map(|(field, per_frame)| {
-                            Advection::new(Arc::clone(field), density.transform(), *per_frame)
-                        });
-                let motion = moving
-                    .mesh_track(instance as u32, affine(&part.transform))
-                    .map(|track| {
-                        PlacementMotion::new(&track, &density.transform().world_from_index)
-                    });
-                let (lo, hi) = majorant.index_box();
-                let (world_min, world_max) = match &motion {
-                    Some(motion) => motion.world_box(lo, hi),
-                    None => world_box(&world_from_index, lo, hi),
-                };
-                let mut medium = Medium {
-                    density,
-                    majorant,
-                    index_from_world: to_f32(&index_from_world),
-                    world_min,
-                    world_max,
-                    density_scale: Vec3::from(volume.density_scale),
-                    albedo: Vec3::from(volume.albedo),
-                    phase: HenyeyGreenstein {
-                        g: volume.anisotropy,
-                    },
-                    emission,
-                    emitter: None,
-                    world_from_index: to_f32(&world_from_index),
-                    voxel_volume: world_from_index.matrix3.determinant().abs() as f32,
-                    advection,
-                    motion,
-                };
-                if !medium.emission.is_empty() && medium.motion.is_some() {
-                    log::warn!(
-                        "volume {}: it emits and moves by its transform over the shutter: its \
-                         light is found by tracking alone, not light-sampled (unbiased, noisier)",
-                        volume.path
-                    );
-                }
-                if !medium.emission.is_empty() {
-                    let (cells, raised) = emitters
-                        .entry(part.volume)
-                        .or_insert_with(|| medium.emission_cells(volume, blackbody.as_ref(), kind))
-                        .clone();
-                    medium.emitter = cells;
-                    if let Some(raised) = raised {
-                        medium.majorant = raised;
-                    }
-                }
-                media.push(medium);
-            }
-        }
-        Ok(Self { media, blackbody })
-    }
-}
-
-impl Medium {
-    /// Where this medium emits, for light sampling (`emission/emitter.rs`), and its
-    /// majorant grid raised where it emits (`kind` grid only: the global
-    /// baseline stays one bound); `None`s when it emits nothing (warned: a
-    /// volume that would emit but does not absorb has no source term).
-    fn emission_cells(
-        &self,
-        volume: &crate::scene::Volume,
-        blackbody: Option<&BlackbodyTable>,
-        kind: MajorantKind,
-    ) -> EmittingGrids {
-        let absorption = luminance(self.absorption());
-        if absorption <= 0.0 {
-            log::warn!(
-                "volume {}: it has emission fields but its albedo is 1 (sigma_a = 0), so it \
-                 emits nothing (the source term is sigma_a Le)",
-                volume.path
-            );
-            return (None, None);
-        }
-        // The emission grids share the density grid's index points.
-        let aligned = self.emission.iter().all(|e| {
-            let map = e.index_from_world * self.world_from_index;
-            map.abs_diff_eq(Affine3A::IDENTITY, 1e-4)
-        });
-        let source = |p_index: Vec3| {
-            let p = self.world_from_index.transform_point3(p_index);
-            let le = self.emitted(p, blackbody);
-            let density = self.density(p_index);
-            SourceSample {
-                sigma_t: channel_mean(self.density_scale) * density,
-                source: luminance(self.absorption() * density * le),
-                radiance: luminance(le),
-            }
-        };
-        let m = &self.world_from_index.matrix3;
-        let axis_length = Vec3::new(m.x_axis.length(), m.y_axis.length(), m.z_axis.length());
-        let cells =
-            EmissionCells::build(&self.majorant, (absorption, axis_length), aligned, source);
-        let Some(cells) = cells else {
-            log::warn!(
-                "volume {}: its emission fields emit nothing where it has density; \
-                 no emission is rendered",
-                volume.path
-            );
-            return (None, None);
-        };
-        let raised = (kind != MajorantKind::Global).then(|| {
-            let per_density = 1.0 / self.density_scale.max_element();
-            let floors = cells.collision_floors().iter();
-            Arc::new(
-                self.majorant
-                    .with_floors(floors.map(|&(slot, sigma)| (slot, sigma * per_density))),
-            )
-        });
-        (Some(Arc::new(cells)), raised)
     }
 }

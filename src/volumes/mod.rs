@@ -34,12 +34,13 @@
 //!   their transforms.
 //!
 //! Here, tying them: [`Media`] (medium.rs), the scene's volumes placed in the
-//! world, read from the scene's fields (fields.rs, checked by checks.rs);
-//! [`MajorantSegment`] (segment.rs), the stretch of ray the majorant grids
-//! yield and the estimators walk, merged where media overlap (overlap.rs);
-//! the phase function (phase.rs); and placement.rs, the affine maps'
-//! helpers.
+//! world, built step by step (assembly.rs) from the scene's fields (fields.rs,
+//! checked by checks.rs); [`MajorantSegment`] (segment.rs), the stretch of
+//! ray the majorant grids yield and the estimators walk, merged where media
+//! overlap (overlap.rs); the phase function (phase.rs); and placement.rs,
+//! the affine maps' helpers.
 
+mod assembly;
 mod checks;
 pub mod emission;
 pub mod estimators;
