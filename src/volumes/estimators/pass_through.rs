@@ -27,7 +27,7 @@ use glam::Vec3;
 
 use super::tracking::russian_roulette;
 use crate::sampling::Pcg32;
-use crate::volumes::MajorantSegment;
+use crate::volumes::segment::MajorantSegment;
 
 /// The running pass-through weight along a walk of tentative collisions.
 /// Its state is in cells so that the segment iterator ([`Self::enter`]) and

@@ -33,7 +33,7 @@ use smallvec::SmallVec;
 
 use super::stats::TrackingStats;
 use crate::sampling::Pcg32;
-use crate::volumes::MajorantSegment;
+use crate::volumes::segment::MajorantSegment;
 
 /// Comb points per unit of the ray's bound width `W = ∫ (sigma_maj - sigma_min) dt`
 /// (see [`Comb`]): about one lookup per unit of optical depth the majorant

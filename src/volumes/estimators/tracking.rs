@@ -19,7 +19,7 @@ use glam::Vec3;
 use super::ray_marching::ray_marching;
 use super::stats::TrackingStats;
 use crate::sampling::Pcg32;
-use crate::volumes::MajorantSegment;
+use crate::volumes::segment::MajorantSegment;
 
 /// Weights of ratio tracking below this are Russian-rouletted: they survive
 /// with probability `|weight| / RUSSIAN_ROULETTE_THRESHOLD` and then carry

@@ -10,7 +10,7 @@
 use glam::{IVec3, Vec3};
 
 use super::cells::{MajorantGrid, Refinement, SupportBox};
-use crate::volumes::MajorantSegment;
+use crate::volumes::segment::MajorantSegment;
 
 /// The iterator returned by [`MajorantGrid::segments`]: an Amanatides & Woo
 /// DDA that yields the non-empty cells the ray crosses, front to back.
