@@ -1,5 +1,5 @@
 //! cxx bridge to `shim.cc`: the only way Rust reaches OpenVDB. Mounted as a
-//! private child of `src/volumes/vdb.rs`; nothing else may name it.
+//! private child of `src/volumes/grid/vdb.rs`; nothing else may name it.
 
 #[cxx::bridge(namespace = "cirrus::vdb")]
 pub(super) mod ffi {

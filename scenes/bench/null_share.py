@@ -3,7 +3,7 @@
 usage: /usr/bin/python3 scenes/bench/null_share.py VDB [VDB...]   (Debian's pyopenvdb)
 
 For cells of 2, 4, 8 and 16 voxels a side, each cell's majorant is the max density over
-its trilinear footprint (its voxels and one layer beyond, as src/volumes/majorant.rs
+its trilinear footprint (its voxels and one layer beyond, as src/volumes/majorant/cells.rs
 builds it). In an optically thin medium tentative collisions fall uniformly at rate
 sigma_maj, so the share of null collisions is 1 - sum(density) / sum(cell majorant x
 cell volume) over the non-empty cells. Dense media concentrate collisions where rays

@@ -1,6 +1,6 @@
 //! What one path sample gathers: its radiance and the same contributions
 //! split into the light-path AOVs by the first scattering event (see
-//! `output::aov`), plus the other AOVs' values.
+//! `film::aov`), plus the other AOVs' values.
 
 use glam::Vec3;
 

@@ -36,7 +36,7 @@ impl LightImage {
         (sum / self.texels.len() as f64) as f32
     }
 
-    /// Reads `path` through `output::read_image`; one channel is grey, two
+    /// Reads `path` through `image::read_image`; one channel is grey, two
     /// are grey and alpha, three or more are RGB(A). Negative and non-finite
     /// texels become 0. `None` (with a warning naming the light) when the file
     /// cannot be read, so the light falls back to its constant emission.

@@ -3,7 +3,7 @@
 //! one light, with its emitting cells' world box, its power and emission in
 //! every direction for the light BVH; a sample is a point of the volume
 //! picked by power, or near the volume by what it delivers to the shading
-//! point (`volumes/emitter.rs`, `volumes/near_picks.rs`).
+//! point (`volumes/emission/emitter.rs`, `volumes/emission/near_picks.rs`).
 //!
 //! A sampled point stands for a tentative collision of free-flight tracking
 //! there: its radiance is sigma_a Le / sigma_maj, what tracking adds at a

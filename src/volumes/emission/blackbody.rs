@@ -1,5 +1,5 @@
 //! Volume emission from a temperature grid: the blackbody radiance of the
-//! gas, scaled by the Volume's `heatScale` (README, "Volumes").
+//! gas, scaled by the Volume's `heatScale` (docs/volumes.md, "Authoring a volume: the primvars").
 //!
 //! Temperature T = temperatureOffset + temperatureScale x grid value, in
 //! kelvin. The emitted radiance is heatScale x B(T) / Y(B(1500 K)), where B
