@@ -15,6 +15,7 @@ pub mod geometry;
 pub mod host;
 pub mod image;
 pub mod integrator;
+pub mod job;
 pub mod lab;
 pub mod lights;
 pub mod materials;

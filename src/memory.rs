@@ -25,12 +25,13 @@
 //!   then `output::write_bytes_for` (the output layers and their copies);
 //! - runtime: code, libraries and thread stacks, measured once.
 //!
-//! Subdivision surfaces are checked before they are refined: [`open`] loads
-//! the cages, counts what refining them would make ([`Scene::refinement_plan`]:
-//! triangles exactly, array bytes bounded), estimates the scene, geometry,
-//! volumes and runtime parts as if refined, and refuses, naming the heaviest
-//! meshes and the highest level that fits, before any refinement work. The
-//! film is checked with the rest once the outputs are planned.
+//! Subdivision surfaces are checked before they are refined: with the cages
+//! loaded (`job::open`), [`check_refinement`] counts what refining them would
+//! make ([`Scene::refinement_plan`]: triangles exactly, array bytes bounded),
+//! estimates the scene, geometry, volumes and runtime parts as if refined,
+//! and refuses, naming the heaviest meshes and the highest level that fits,
+//! before any refinement work. The film is checked with the rest once the
+//! outputs are planned ([`estimate`], [`check`]).
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -39,9 +40,7 @@ use glam::UVec2;
 
 use crate::film::{AovSet, Film};
 use crate::geometry::Geometry;
-use crate::scene::{
-    InstanceNames, OpenError, OpenOptions, PlannedMesh, Refinement, Scene, SceneError,
-};
+use crate::scene::{InstanceNames, PlannedMesh, Refinement, Scene, SceneError};
 use crate::volumes::grid::{VdbFile, VolumeError};
 use crate::volumes::Media;
 
@@ -114,9 +113,6 @@ pub enum MemoryError {
     /// A volume's grid table cannot be read.
     #[error(transparent)]
     Volume(#[from] VolumeError),
-    /// The scene cannot be opened.
-    #[error(transparent)]
-    Open(#[from] OpenError),
     /// The scene's subdivision surfaces cannot be refined as asked.
     #[error(transparent)]
     Scene(#[from] SceneError),
@@ -174,32 +170,23 @@ fn limit_of(limit: Option<u64>) -> Option<(u64, bool)> {
     }
 }
 
-/// Opens the scene at `path` as `options` say, first checking that its
-/// subdivision surfaces, refined as `options.refinement` asks, fit in
-/// `limit` bytes (`--memory-limit`; without one, what the machine has): the
-/// cages are loaded and counted, and refined only when the estimate fits.
-pub fn open(path: &Path, options: &OpenOptions, limit: Option<u64>) -> Result<Scene, MemoryError> {
-    let cages = OpenOptions {
-        refinement: Refinement::Cages,
-        ..*options
-    };
-    let mut scene = Scene::open(path, &cages)?;
-    let planned = scene.refinement_plan(options.refinement, None)?;
+/// Refuses refining the subdivision surfaces of `scene` (loaded as cages,
+/// nothing refined) as `refinement` asks when the refined scene's estimate
+/// exceeds `limit` bytes (`--memory-limit`; without one, what the machine
+/// has), naming its heaviest meshes and the highest level that fits.
+pub fn check_refinement(
+    scene: &Scene,
+    refinement: Refinement,
+    limit: Option<u64>,
+) -> Result<(), MemoryError> {
+    let planned = scene.refinement_plan(refinement, None)?;
     if let (false, Some((limit, explicit))) = (planned.is_empty(), limit_of(limit)) {
-        let needs = parts(&scene, &planned)?;
+        let needs = parts(scene, &planned)?;
         if needs.total() > limit {
-            return Err(refusal(
-                &scene,
-                options.refinement,
-                needs,
-                limit,
-                explicit,
-                planned,
-            )?);
+            return Err(refusal(scene, refinement, needs, limit, explicit, planned)?);
         }
     }
-    scene.refine(options.refinement)?;
-    Ok(scene)
+    Ok(())
 }
 
 /// The refusal of refining `planned`: its heaviest meshes, and the highest

@@ -7,7 +7,8 @@ use std::path::PathBuf;
 use anyhow::Result;
 use glam::UVec2;
 
-use cirrus::farm::{self, FrameRange, SlurmJob, SplitBy};
+use cirrus::farm::{self, SlurmJob, SplitBy};
+use cirrus::job::FrameRange;
 
 /// `cirrus farm` subcommands.
 #[derive(clap::Subcommand, Debug)]

@@ -14,7 +14,7 @@ pub fn run(file: &Path) -> Result<()> {
     if is_scene || scene::is_usd(file) {
         print!(
             "{}",
-            scene::summary(&cirrus::memory::open(file, &Default::default(), None)?)
+            scene::summary(&cirrus::job::open(file, &Default::default(), None)?)
         );
     } else {
         let vdb = VdbFile::open(file)?;

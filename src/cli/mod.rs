@@ -134,7 +134,7 @@ fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Val
 /// the renderer would refuse is reported now rather than at render time.
 fn export(input: &Path, output: &Path, options: &cirrus::scene::ExportOptions) -> Result<()> {
     cirrus::scene::export(input, output, options)?;
-    let scene = cirrus::memory::open(output, &Default::default(), None)?;
+    let scene = cirrus::job::open(output, &Default::default(), None)?;
     let m = &scene.manifest;
     println!(
         "{}: {} prototype(s), {} instance(s), {} warning(s)",

@@ -4,34 +4,21 @@
 //! (or one file per AOV) and a tone-mapped preview beside it (OUT.png).
 
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use glam::UVec2;
 
 use super::signal::{Interrupted, StopSignal};
 use super::split::PartArgs;
-use cirrus::farm::{
-    frame_output, has_frame_number, is_film_output, plan_outputs, resume, save_interrupted,
-    write_finished, write_snapshot, Fingerprint, FrameRange, ImageFormat, OutputFlags, PartInfo,
-    RenderIdentity,
-};
-use cirrus::film::Film;
-use cirrus::film::FilterKind;
-use cirrus::film::{AdaptiveSampling, AovSet};
+use cirrus::film::{AdaptiveSampling, AovSet, FilterKind};
 use cirrus::image::Compression;
-use cirrus::integrator::{
-    self, Budget, PathSettings, Periodic, RenderControl, RenderSettings, RenderStats, Snapshot,
-    Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH,
-};
+use cirrus::integrator::{PathSettings, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH};
+use cirrus::job::{self, FrameOutcome, FrameRange, JobControl, JobError, RenderJob};
 use cirrus::memory;
-use cirrus::output::{preview_path, write_film_preview, AovFiles, ExrHeader};
-use cirrus::render_state::{self, RenderState, StateOptions};
+use cirrus::output::AovFiles;
 use cirrus::sampling::SamplerKind;
 use cirrus::volumes::majorant::MajorantKind;
-
-/// Samples per pixel when neither `--spp` nor `--time` is given.
-const DEFAULT_SPP: u32 = 64;
 
 /// `cirrus render` arguments.
 #[derive(clap::Args, Clone, Debug)]
@@ -138,9 +125,6 @@ pub struct RenderArgs {
     /// only; default: the stage's renderSettingsPrimPath, else the only one).
     #[arg(long, value_name = "PRIM_PATH")]
     settings: Option<String>,
-    /// Set for each frame of --frames: product names need a frame token.
-    #[arg(skip)]
-    sequence: bool,
     /// Subdivision level of meshes that do not author primvars:cirrus:subdivisionLevel.
     #[arg(long, default_value_t = cirrus::subdivision::DEFAULT_LEVEL)]
     subdiv_level: u32,
@@ -201,219 +185,76 @@ fn parse_noise_threshold(s: &str) -> Result<f32, String> {
         .ok_or_else(|| format!("{s:?}: must be a positive number, e.g. 0.05"))
 }
 
-/// Runs `cirrus render`: one frame, or each of `--frames` in turn.
+/// Runs `cirrus render`: the flags as a [`RenderJob`], run until done or
+/// stopped by SIGINT or SIGTERM; prints what each frame wrote.
 pub fn run(args: RenderArgs) -> Result<()> {
     let signal = StopSignal::install().context("cannot install the SIGINT/SIGTERM handlers")?;
-    let Some(range) = args.frames else {
-        return render_frame(args, &signal);
-    };
-    let frames: Vec<i64> = range.frames().collect();
-    if frames.len() > 1 && args.output.as_ref().is_some_and(|o| !has_frame_number(o)) {
-        bail!("--frames: -o has no frame token for the frame number (e.g. out/shot.####.exr)");
-    }
-    if !cirrus::scene::is_usd(&args.scene) {
-        bail!(
-            "--frames needs a USD scene; {} is exported",
-            args.scene.display()
-        );
-    }
-    for (i, &frame) in frames.iter().enumerate() {
-        log::info!("frame {frame} ({} of {})", i + 1, frames.len());
-        let output = args.output.as_ref().map(|o| frame_output(o, Some(frame)));
-        render_frame(
-            RenderArgs {
-                frame: Some(frame as f64),
-                output,
-                sequence: frames.len() > 1,
-                ..args.clone()
-            },
-            &signal,
-        )?;
-    }
-    Ok(())
-}
-
-/// Renders one frame: `args.frame` to `args.output`.
-fn render_frame(args: RenderArgs, signal: &StopSignal) -> Result<()> {
-    let budget = match (args.spp, args.time) {
-        (_, Some(t)) => Budget::Time(t),
-        (Some(0), _) => bail!("--spp 0: at least one sample per pixel"),
-        (spp, None) => Budget::Samples(spp.unwrap_or(DEFAULT_SPP)),
-    };
-    if args.clamp.is_some_and(|c| c.is_nan() || c <= 0.0) {
-        bail!("--clamp must be positive");
-    }
-    let mut settings = RenderSettings {
-        budget,
-        seed: args.seed,
-        sampler: args.sampler,
-        filter: args.filter,
-        path: PathSettings {
-            strategy: args.strategy,
-            max_depth: args.max_depth,
-            clamp: args.clamp,
-            volume_estimator: args.volume_estimator,
-            equiangular: !args.no_equiangular,
-            camera_ray_transmittance: args.camera_ray_transmittance,
-        },
-        aovs: AovSet::default(),
-        adaptive: args
-            .noise_threshold
-            .map(|t| AdaptiveSampling::new(t, args.min_spp)),
-    };
-    let film_output = args.output.as_deref().is_some_and(is_film_output);
-    let part = args.part.request();
-    if film_output && args.preview_every.is_some() {
-        bail!("--preview-every: a film state (-o *.film) has no preview; write an EXR");
-    }
-    if settings.adaptive.is_some() && part.sample_range.is_some() {
-        bail!("--noise-threshold cannot be split by --sample-range: which pixels stop depends on all their samples; split the frame by --tile or --crop instead");
-    }
-    if part.is_part() && !film_output {
-        bail!("--tile, --crop and --sample-range render a part of a frame: write it with -o PART.film and join the parts with cirrus merge");
-    }
-    let frame_spp = match budget {
-        Budget::Samples(n) => n,
-        Budget::Time(_) if film_output => bail!("a film state (-o *.film) needs --spp, not --time"),
-        Budget::Time(_) => 0,
-    };
-    let samples = part.samples(frame_spp)?;
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = args.threads {
-        pool = pool.num_threads(n.into());
-    }
-    let pool = pool.build().context("cannot start worker threads")?;
-    let start = Instant::now();
-    let options = cirrus::scene::OpenOptions {
-        export: cirrus::scene::ExportOptions {
-            frame: args.frame,
-            camera: args.camera.as_deref(),
-            settings: args.settings.as_deref(),
-            shutter: args.shutter,
-        },
-        refinement: cirrus::scene::Refinement::Level(args.subdiv_level),
-    };
-    let scene = memory::open(&args.scene, &options, args.memory_limit)?;
-    let flags = OutputFlags {
-        output: args.output.as_deref(),
-        aovs: args.aovs.as_ref(),
-        resolution: args.res.is_some(),
-        camera: args.camera.is_some(),
-        sequence: args.sequence,
-    };
-    let m = &scene.manifest;
-    let plan = plan_outputs(&m.render, m.source.time_code, &flags)?;
-    settings.aovs = plan.aovs.clone();
-    let Some(files) = plan.claim(args.aov_files, args.skip_existing, args.resume)? else {
-        let first = plan.outputs[0].path.display();
-        println!("{first} is complete; --skip-existing renders nothing");
-        return Ok(());
-    };
-    let resolution = render_state::resolution_for(&scene, args.res);
-    let frame = plan.frame_window(resolution)?;
-    let window = part.window(frame, resolution)?;
-    let needs = pool.install(|| memory::estimate(&scene, window.size, &settings.aovs))?;
-    memory::check(&needs, args.memory_limit)?;
-    log::debug!("estimated peak memory: {needs}");
-    let options = StateOptions {
-        majorant: args.majorant,
-        volume_lights: args.volume_light_sampling,
-        shutter: args.shutter,
-    };
-    let state = pool.install(|| RenderState::build(&scene, args.res, options))?;
-    let identity = RenderIdentity {
-        fingerprint: Fingerprint::new(&scene, state.resolution, &settings, options)?,
-        exr: ExrHeader::new(&state, &settings).with_layers(&plan.outputs[0].layers),
-        part: PartInfo {
-            samples: samples.clone(),
-            frame_spp,
-            data_window: PartInfo::data_window_of(frame, resolution),
-        },
-    };
-    drop(scene);
-    if let Budget::Samples(_) = settings.budget {
-        // The integrator's target is the last sample index of this part.
-        settings.budget = Budget::Samples(samples.end);
-    }
-    let film = Film::cropped(state.resolution, window, settings.aovs.clone());
-    let fresh = Snapshot::new(film, samples.start);
-    let resumed = if args.resume {
-        let resumed = resume(&files[0].checkpoint, &identity, &fresh, &settings)?;
-        log::info!(
-            "resuming {} at {} spp",
-            files[0].checkpoint.display(),
-            resumed.progress.samples_per_pixel()
-        );
-        resumed
-    } else {
-        fresh
-    };
-    log::info!(
-        "{}: ready in {:.2} s, {}x{}",
-        args.scene.display(),
-        start.elapsed().as_secs_f64(),
-        window.size.x,
-        window.size.y
-    );
-    let progress = cirrus::progress_bar::ProgressDisplay::new();
-    let save = |s: &Snapshot| {
-        if let Err(e) = write_snapshot(&files[0].checkpoint, &identity.named(&state, &s.film), s) {
-            log::warn!("checkpoint not saved: {e:#}");
+    let done = |outcome: &FrameOutcome| match outcome {
+        FrameOutcome::Complete(output) => {
+            println!(
+                "{} is complete; --skip-existing renders nothing",
+                output.display()
+            )
+        }
+        FrameOutcome::Written(files) => {
+            let names: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
+            println!("wrote {}", names.join(" and "));
         }
     };
-    let preview = |s: &Snapshot| {
-        if let Err(e) = write_film_preview(&preview_path(files[0].output()), &s.film) {
-            log::warn!("preview not written: {e}");
-        }
-    };
-    let periodic: Vec<Periodic> = [
-        (args.checkpoint_every, &save as &(dyn Fn(&Snapshot) + Sync)),
-        (args.preview_every, &preview),
-    ]
-    .into_iter()
-    .filter_map(|(every, save)| every.map(|every| Periodic { every, save }))
-    .collect();
-    let control = RenderControl {
-        progress: &|f| progress.update(f),
+    let control = JobControl {
         stop: &|| signal.requested(),
-        periodic: &periodic,
+        done: &done,
     };
-    let (end, stats) =
-        pool.install(|| integrator::render_from(&state, &settings, resumed, &control));
-    progress.finish();
-    if !stats.complete {
-        let signal = signal.signal().unwrap_or(signal_hook::consts::SIGINT);
-        let spp = end.progress.samples_per_pixel();
-        let message = if end.progress.is_empty() {
-            "interrupted before the first sample; nothing written".into()
-        } else {
-            let identity = identity.named(&state, &end.film);
-            save_interrupted(&files[0], &identity, &end, &stats, args.compression)
-                .context("interrupted, and the checkpoint could not be saved")?;
-            let (c, p) = (files[0].checkpoint.display(), files[0].partial.display());
-            format!("interrupted at {spp} spp: saved {c} and {p}; run the same command with --resume to finish")
-        };
-        return Err(Interrupted { signal, message }.into());
+    match job::render(&args.job(), &control) {
+        Err(JobError::Interrupted(message)) => {
+            let signal = signal.signal().unwrap_or(signal_hook::consts::SIGINT);
+            Err(Interrupted { signal, message }.into())
+        }
+        result => Ok(result?),
     }
-    let identity = identity.named(&state, &end.film);
-    let mut written = Vec::new();
-    for (files, product) in files.iter().zip(&plan.outputs) {
-        let format = ImageFormat {
-            aov_files: args.aov_files,
-            compression: args.compression,
-            layers: &product.layers,
-        };
-        written.extend(write_finished(files, &identity, &end, &stats, format)?);
-    }
-    report(&written, &stats);
-    Ok(())
 }
 
-/// Prints what was written and how the render went; warns about dropped samples.
-fn report(written: &[PathBuf], stats: &RenderStats) {
-    stats.log_summary();
-    let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
-    println!("wrote {}", names.join(" and "));
+impl RenderArgs {
+    /// The job these flags describe.
+    fn job(self) -> RenderJob {
+        RenderJob {
+            scene: self.scene,
+            output: self.output,
+            spp: self.spp,
+            time: self.time,
+            resolution: self.res,
+            seed: self.seed,
+            threads: self.threads,
+            sampler: self.sampler,
+            filter: self.filter,
+            path: PathSettings {
+                strategy: self.strategy,
+                max_depth: self.max_depth,
+                clamp: self.clamp,
+                volume_estimator: self.volume_estimator,
+                equiangular: !self.no_equiangular,
+                camera_ray_transmittance: self.camera_ray_transmittance,
+            },
+            adaptive: (self.noise_threshold).map(|t| AdaptiveSampling::new(t, self.min_spp)),
+            majorant: self.majorant,
+            volume_light_sampling: self.volume_light_sampling,
+            aovs: self.aovs,
+            aov_files: self.aov_files,
+            compression: self.compression,
+            shutter: self.shutter,
+            frame: self.frame,
+            frames: self.frames,
+            camera: self.camera,
+            settings: self.settings,
+            subdiv_level: self.subdiv_level,
+            part: self.part.request(),
+            skip_existing: self.skip_existing,
+            checkpoint_every: self.checkpoint_every,
+            preview_every: self.preview_every,
+            resume: self.resume,
+            memory_limit: self.memory_limit,
+        }
+    }
 }
 
 /// `on` or `off` as a flag's value.

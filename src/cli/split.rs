@@ -1,14 +1,15 @@
 //! Flags for one frame over many processes: `cirrus render --tile I/N |
 //! --crop | --sample-range A..B -o PART.film` and `cirrus merge PARTS... -o
-//! OUT.exr` (the work is `farm::PartRequest` and `farm::merge`).
+//! OUT.exr` (the work is `job::PartRequest` and `farm::merge`).
 
 use std::ops::Range;
 use std::path::PathBuf;
 
 use anyhow::Result;
 
-use cirrus::farm::{self, PartRequest};
+use cirrus::farm;
 use cirrus::image::Compression;
+use cirrus::job::PartRequest;
 use cirrus::output::AovFiles;
 
 /// Which part of a frame `cirrus render` takes (all of it by default).

@@ -5,10 +5,11 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use super::{prepare_folder, read_snapshot, FarmError, OutputFiles, SnapshotHeader};
+use super::FarmError;
 use crate::film::{Film, Tile};
 use crate::image::Compression;
 use crate::integrator::{RayCounts, RenderStats};
+use crate::job::{prepare_folder, read_snapshot, OutputFiles, SnapshotHeader};
 use crate::output::{preview_path, write_film, write_film_preview, AovFiles};
 use crate::volumes::estimators::TrackingStats;
 
@@ -40,7 +41,7 @@ pub struct Merged {
 /// frame (same scene and settings), finished, and cover every pixel's
 /// samples exactly once, listing every problem; then adds them and writes
 /// the frame to `output` (overwriting it atomically) with its PNG preview.
-/// A rescued film state of a whole frame (see `rescue.rs`) is such a part
+/// A rescued film state of a whole frame (see `job/rescue.rs`) is such a part
 /// alone; merging the output's own checkpoint finishes that render.
 pub fn merge(
     paths: &[PathBuf],

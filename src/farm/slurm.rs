@@ -11,7 +11,6 @@
 //! `sbatch --array=K parts.sbatch`, then its frame's merge with
 //! `sbatch --array=F merge.sbatch`.
 
-use super::frames::{frame_output, FrameRange};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -19,6 +18,7 @@ use glam::UVec2;
 
 use super::FarmError;
 use crate::file_error::FileError;
+use crate::job::{frame_output, shell_quote, FrameRange};
 use crate::motion::Shutter;
 
 /// How a frame is split into parts.
@@ -85,14 +85,9 @@ pub struct Submitted {
     pub jobs: Option<[String; 2]>,
 }
 
-/// `s` quoted for bash.
-fn quote(s: &str) -> String {
-    format!("'{}'", s.replace('\'', r"'\''"))
-}
-
 /// A path quoted for bash.
-pub(super) fn quote_path(p: &Path) -> String {
-    quote(&p.to_string_lossy())
+fn quote_path(p: &Path) -> String {
+    shell_quote(&p.to_string_lossy())
 }
 
 /// An absolute path (the scripts run elsewhere).
@@ -160,7 +155,7 @@ pub fn submit(job: &SlurmJob) -> Result<Submitted, FarmError> {
     }
     let cirrus =
         std::env::current_exe().map_err(|e| FileError::new("find", "the cirrus binary", e))?;
-    let labels: Vec<String> = frames.iter().map(|&f| quote(&label(f))).collect();
+    let labels: Vec<String> = frames.iter().map(|&f| shell_quote(&label(f))).collect();
     let outputs: Vec<String> = frames
         .iter()
         .map(|&f| quote_path(&frame_output(&output, f)))
@@ -276,14 +271,4 @@ fn sbatch(flags: &[String], script: &Path) -> Result<String, FarmError> {
     let id = String::from_utf8_lossy(&out.stdout).trim().to_string();
     // `--parsable` prints `ID` or `ID;CLUSTER`.
     Ok(id.split(';').next().unwrap_or_default().to_string())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn quotes_escape() {
-        assert_eq!(quote("it's"), r"'it'\''s'");
-    }
 }

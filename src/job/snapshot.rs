@@ -10,7 +10,7 @@ use std::path::Path;
 use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
-use super::{FarmError, PartInfo};
+use super::{JobError, PartInfo};
 use crate::file_error::FileError;
 use crate::film::{read_film_state, write_film_state, Film};
 use crate::integrator::{Budget, RenderProgress, RenderSettings, Snapshot};
@@ -31,7 +31,7 @@ impl Fingerprint {
         resolution: UVec2,
         settings: &RenderSettings,
         options: StateOptions,
-    ) -> Result<Self, FarmError> {
+    ) -> Result<Self, JobError> {
         let p = &settings.path;
         let entries = [
             ("cirrus", env!("CARGO_PKG_VERSION").to_string()),
@@ -101,7 +101,7 @@ impl Fingerprint {
 }
 
 /// [`Scene::content_crc`] as hex.
-fn scene_hash(scene: &Scene) -> Result<String, FarmError> {
+fn scene_hash(scene: &Scene) -> Result<String, JobError> {
     let crc = scene
         .content_crc()
         .map_err(|e| FileError::new("read", scene.dir.join(MANIFEST_FILE), e))?;
@@ -179,7 +179,7 @@ pub fn write_snapshot(
     path: &Path,
     identity: &RenderIdentity,
     snapshot: &Snapshot,
-) -> Result<(), FarmError> {
+) -> Result<(), JobError> {
     let header = SnapshotHeaderRef {
         identity,
         progress: &snapshot.progress,
@@ -188,7 +188,7 @@ pub fn write_snapshot(
 }
 
 /// Reads a snapshot's film-state file.
-pub fn read_snapshot(path: &Path) -> Result<(SnapshotHeader, Film), FarmError> {
+pub fn read_snapshot(path: &Path) -> Result<(SnapshotHeader, Film), JobError> {
     Ok(read_film_state::<SnapshotHeader>(path)?)
 }
 
@@ -200,7 +200,7 @@ pub fn resume(
     identity: &RenderIdentity,
     fresh: &Snapshot,
     settings: &RenderSettings,
-) -> Result<Snapshot, FarmError> {
+) -> Result<Snapshot, JobError> {
     let (header, film) = read_snapshot(path)?;
     let saved = &header.identity;
     let mut differences = saved
@@ -213,7 +213,7 @@ pub fn resume(
         ));
     }
     if !differences.is_empty() {
-        return Err(FarmError::Refused(format!(
+        return Err(JobError::Refused(format!(
             "{} was made by another render; resume it with its settings, or run without --resume to start over:\n  {}",
             path.display(),
             differences.join("\n  ")
@@ -225,6 +225,6 @@ pub fn resume(
     };
     snapshot
         .check(fresh, settings)
-        .map_err(|e| FarmError::Refused(format!("{}: {e}", path.display())))?;
+        .map_err(|e| JobError::Refused(format!("{}: {e}", path.display())))?;
     Ok(snapshot)
 }

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::FarmError;
+use super::JobError;
 use crate::file_error::FileError;
 use crate::film::AovSet;
 use crate::output::{preview_path, AovFiles};
@@ -66,9 +66,9 @@ impl OutputFiles {
     /// needs the checkpoint), drops an unfinished render's checkpoint and
     /// partial image: the render starts over, as husk does without
     /// `--autoresume`.
-    pub fn claim(&self, skip_existing: bool, resume: bool) -> Result<Claim, FarmError> {
+    pub fn claim(&self, skip_existing: bool, resume: bool) -> Result<Claim, JobError> {
         if resume && !self.checkpoint.exists() {
-            return Err(FarmError::Refused(format!(
+            return Err(JobError::Refused(format!(
                 "--resume: there is no checkpoint {} to continue",
                 self.checkpoint.display()
             )));
@@ -89,7 +89,7 @@ impl OutputFiles {
     }
 
     /// Removes the checkpoint and the partial image once the render is done.
-    pub fn finish(&self) -> Result<(), FarmError> {
+    pub fn finish(&self) -> Result<(), JobError> {
         remove_if_present(&self.checkpoint)?;
         remove_if_present(&self.partial)
     }
@@ -99,9 +99,9 @@ impl OutputFiles {
 /// folder in its place, creates its missing folders (as husk does), and
 /// creates and removes a probe file there, so an unwritable folder fails at
 /// once with its name.
-pub fn prepare_folder(output: &Path) -> Result<(), FarmError> {
+pub fn prepare_folder(output: &Path) -> Result<(), JobError> {
     if output.is_dir() {
-        return Err(FarmError::Refused(format!(
+        return Err(JobError::Refused(format!(
             "{} is a folder; -o names the file to write",
             output.display()
         )));
@@ -118,7 +118,7 @@ pub fn prepare_folder(output: &Path) -> Result<(), FarmError> {
     Ok(())
 }
 
-pub(super) fn remove_if_present(path: &Path) -> Result<(), FarmError> {
+pub(super) fn remove_if_present(path: &Path) -> Result<(), JobError> {
     match std::fs::remove_file(path) {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
             Err(FileError::new("remove", path, e).into())

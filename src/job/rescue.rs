@@ -7,8 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use super::files::is_film_output;
-use super::slurm::quote_path;
-use super::{write_snapshot, FarmError, OutputFiles, RenderIdentity};
+use super::{write_snapshot, JobError, OutputFiles, RenderIdentity};
 use crate::image::Compression;
 use crate::integrator::{RenderStats, Snapshot};
 use crate::output::{preview_path, write_film, write_film_preview, AovFiles, Layers};
@@ -37,7 +36,7 @@ pub fn write_finished(
     end: &Snapshot,
     stats: &RenderStats,
     format: ImageFormat<'_>,
-) -> Result<Vec<PathBuf>, FarmError> {
+) -> Result<Vec<PathBuf>, JobError> {
     let output = files.output();
     let written = if is_film_output(output) {
         write_snapshot(output, identity, end).map(|()| vec![output.to_path_buf()])
@@ -54,7 +53,7 @@ pub fn write_finished(
         )
         .and_then(|()| write_film_preview(&preview, &end.film))
         .map(|()| vec![output.to_path_buf(), preview])
-        .map_err(FarmError::from)
+        .map_err(JobError::from)
     };
     match written {
         Ok(written) => files.finish().map(|()| written),
@@ -66,14 +65,14 @@ pub fn write_finished(
 /// not be written (`error`), in the first writable place of: its checkpoint
 /// beside the output, `$XDG_CACHE_HOME/cirrus/rescued` (else
 /// `~/.cache/cirrus/rescued`), the system temporary folder. Returns
-/// [`FarmError::Rescued`] with the command that writes the image from it.
+/// [`JobError::Rescued`] with the command that writes the image from it.
 fn rescue(
     files: &OutputFiles,
     identity: &RenderIdentity,
     end: &Snapshot,
     format: ImageFormat<'_>,
-    error: FarmError,
-) -> FarmError {
+    error: JobError,
+) -> JobError {
     let output = files.output();
     let mut identity = identity.clone();
     // `cirrus merge` writes the layers this file was to have.
@@ -118,7 +117,7 @@ fn rescue(
         why += &format!(": {c}");
         cause = c.source();
     }
-    FarmError::Rescued {
+    JobError::Rescued {
         error: why,
         state,
         command,
@@ -132,8 +131,13 @@ fn shell_word(path: &Path) -> String {
     if !text.is_empty() && text.chars().all(safe) {
         text.into_owned()
     } else {
-        quote_path(path)
+        shell_quote(&text)
     }
+}
+
+/// `s` quoted for bash: one word, whatever it holds.
+pub fn shell_quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', r"'\''"))
 }
 
 /// Saves the checkpoint and the partial EXR of a render stopped at `end`
@@ -145,10 +149,10 @@ pub fn save_interrupted(
     end: &Snapshot,
     stats: &RenderStats,
     compression: Compression,
-) -> Result<(), FarmError> {
+) -> Result<(), JobError> {
     write_snapshot(&files.checkpoint, identity, end)?;
     let (film, header) = (&end.film, &identity.exr);
-    let layers = header.layers().map_err(FarmError::Refused)?;
+    let layers = header.layers().map_err(JobError::Refused)?;
     write_film(
         &files.partial,
         AovFiles::Single,
@@ -159,4 +163,14 @@ pub fn save_interrupted(
         &layers,
     )?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quotes_escape() {
+        assert_eq!(shell_quote("it's"), r"'it'\''s'");
+    }
 }

@@ -11,7 +11,7 @@ use std::ops::Range;
 use glam::UVec2;
 use serde::{Deserialize, Serialize};
 
-use super::FarmError;
+use super::JobError;
 use crate::film::Tile;
 
 /// Which part of a frame a render takes (all of it by default).
@@ -72,13 +72,13 @@ impl PartRequest {
     /// The pixels this part covers of a frame covering `frame` of an image
     /// of `resolution` (all of it, or a render product's data window):
     /// `--tile` splits its rows; `--crop` (in image pixels) must lie inside it.
-    pub fn window(&self, frame: Tile, resolution: UVec2) -> Result<Tile, FarmError> {
+    pub fn window(&self, frame: Tile, resolution: UVec2) -> Result<Tile, JobError> {
         let (start, end) = (frame.origin, frame.origin + frame.size);
         if let Some((i, n)) = self.tile {
             let row = |k: u32| (u64::from(k) * u64::from(frame.size.y) / u64::from(n)) as u32;
             let (y0, y1) = (row(i), row(i + 1));
             if y0 == y1 {
-                return Err(FarmError::Refused(format!(
+                return Err(JobError::Refused(format!(
                     "--tile {i}/{n}: the frame has only {} rows",
                     frame.size.y
                 )));
@@ -96,7 +96,7 @@ impl PartRequest {
                     let [a, b, c, d] = [start.x, start.y, end.x, end.y];
                     format!("the render product's data window {a},{b},{c},{d} (dataWindowNDC)")
                 };
-                return Err(FarmError::Refused(format!(
+                return Err(JobError::Refused(format!(
                     "--crop {x0},{y0},{x1},{y1}: outside {frame}"
                 )));
             }
@@ -109,9 +109,9 @@ impl PartRequest {
     }
 
     /// The sample indices this part takes of a frame of `frame_spp`.
-    pub fn samples(&self, frame_spp: u32) -> Result<Range<u32>, FarmError> {
+    pub fn samples(&self, frame_spp: u32) -> Result<Range<u32>, JobError> {
         match &self.sample_range {
-            Some(r) if r.end > frame_spp => Err(FarmError::Refused(format!(
+            Some(r) if r.end > frame_spp => Err(JobError::Refused(format!(
                 "--sample-range {}..{}: the frame has {frame_spp} samples (--spp)",
                 r.start, r.end
             ))),

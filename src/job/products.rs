@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use glam::UVec2;
 
-use super::{is_film_output, Claim, FarmError, OutputFiles};
+use super::{is_film_output, Claim, JobError, OutputFiles};
 use crate::film::{AovSet, Tile};
 use crate::image::PixelType;
 use crate::output::{layer_of, AovFiles, LayerSource, Layers, NamedLayer, VarAttributes};
@@ -45,7 +45,7 @@ pub struct OutputPlan {
 impl OutputPlan {
     /// The pixels of an image of `resolution` the frame covers: the first
     /// product's data window, else the whole image.
-    pub fn frame_window(&self, resolution: UVec2) -> Result<Tile, FarmError> {
+    pub fn frame_window(&self, resolution: UVec2) -> Result<Tile, JobError> {
         match self.data_window_ndc {
             Some(ndc) => data_window(ndc, resolution),
             None => Ok(Tile {
@@ -64,7 +64,7 @@ impl OutputPlan {
         aov_files: AovFiles,
         skip_existing: bool,
         resume: bool,
-    ) -> Result<Option<Vec<OutputFiles>>, FarmError> {
+    ) -> Result<Option<Vec<OutputFiles>>, JobError> {
         let files: Vec<OutputFiles> = (self.outputs.iter())
             .map(|o| OutputFiles::new(&o.path, aov_files, &self.aovs))
             .collect();
@@ -101,14 +101,14 @@ pub fn plan_outputs(
     render: &Render,
     time_code: Option<f64>,
     flags: &OutputFlags,
-) -> Result<OutputPlan, FarmError> {
+) -> Result<OutputPlan, JobError> {
     let Some(first) = render.products.first() else {
         let output = flags.output.ok_or_else(|| {
             let settings = render.settings.as_deref().map_or_else(
                 || "the stage has no render settings".to_string(),
                 |s| format!("render settings {s} have no raster RenderProduct"),
             );
-            FarmError::Refused(format!("no -o OUT.exr, and {settings} to name the output"))
+            JobError::Refused(format!("no -o OUT.exr, and {settings} to name the output"))
         })?;
         return Ok(OutputPlan {
             outputs: vec![ProductOutput {
@@ -138,7 +138,7 @@ pub fn plan_outputs(
         }
         let aspect = product.pixel_aspect_ratio;
         if !(aspect.is_finite() && aspect > 0.0) {
-            return Err(FarmError::Refused(format!(
+            return Err(JobError::Refused(format!(
                 "render product {}: pixelAspectRatio must be finite and positive, got {aspect}",
                 product.path
             )));
@@ -176,15 +176,15 @@ fn shares_render(first: &RenderProduct, product: &RenderProduct, flags: &OutputF
 }
 
 /// `productName` with its frame tokens replaced by `frame`.
-fn product_path(product: &RenderProduct, frame: i64, sequence: bool) -> Result<PathBuf, FarmError> {
+fn product_path(product: &RenderProduct, frame: i64, sequence: bool) -> Result<PathBuf, JobError> {
     let pattern = Path::new(&product.name);
-    if sequence && !super::frames::has_frame_number(pattern) {
-        return Err(FarmError::Refused(format!(
+    if sequence && !super::frame_range::has_frame_number(pattern) {
+        return Err(JobError::Refused(format!(
             "render product {}: productName {} has no frame token ($F4, <F4> or ####) for a sequence",
             product.path, product.name
         )));
     }
-    Ok(super::frames::frame_output(pattern, Some(frame)))
+    Ok(super::frame_range::frame_output(pattern, Some(frame)))
 }
 
 /// The layers of `product`'s vars that we produce; each other var gets one
@@ -218,7 +218,7 @@ fn product_layers(product: &RenderProduct) -> Vec<NamedLayer> {
 
 /// The pixels of an image of `resolution` whose centres lie in the NDC
 /// window `ndc` (`[xmin, ymin, xmax, ymax]`, y up); refused when none do.
-fn data_window(ndc: [f32; 4], resolution: UVec2) -> Result<Tile, FarmError> {
+fn data_window(ndc: [f32; 4], resolution: UVec2) -> Result<Tile, JobError> {
     let [x0, y0, x1, y1] = ndc;
     let (w, h) = (resolution.x as f32, resolution.y as f32);
     // Pixel i's centre (i + 0.5) / w lies in [a, b) for ceil(a w - 0.5) <= i < ceil(b w - 0.5).
@@ -227,7 +227,7 @@ fn data_window(ndc: [f32; 4], resolution: UVec2) -> Result<Tile, FarmError> {
     // Rows count from the top: NDC y is 1 - (row + 0.5) / h.
     let (top, bottom) = (edge(1.0 - y1, h), edge(1.0 - y0, h));
     if left >= right || top >= bottom {
-        return Err(FarmError::Refused(format!(
+        return Err(JobError::Refused(format!(
             "dataWindowNDC {ndc:?} holds no pixel centre of the {}x{} image",
             resolution.x, resolution.y
         )));
