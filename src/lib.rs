@@ -1,6 +1,9 @@
 //! Cirrus: a production path tracer for USD scenes and OpenVDB volumes.
 //!
 //! Data flows one way: scene -> render state -> integrator -> film -> output.
+//! The render job (`job/`) drives that pipeline for a frame or a sequence
+//! (opening the scene with its memory preflight, checkpoints, the files
+//! written); `farm/` splits frames over a cluster and merges their parts.
 //! Each folder under `src/` is one concern with its `mod.rs` as the interface;
 //! the C++ libraries (OpenVDB, OpenImageIO, OpenSubdiv) are reached only through `ffi/`,
 //! mounted privately by `volumes::vdb` and `output::exr`.

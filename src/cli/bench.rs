@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::Subcommand;
 
-use super::render::parse_resolution;
+use cirrus::job::parse_resolution;
 use cirrus::lab::{self, EqualTimeBench};
 
 #[derive(Subcommand, Debug)]

@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use glam::UVec2;
 
-use super::render::parse_resolution;
+use cirrus::job::parse_resolution;
 use cirrus::lab::{self, parse_method, ConvergeOptions, Method, Peer};
 
 /// `cirrus converge` arguments.

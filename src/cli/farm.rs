@@ -40,7 +40,7 @@ pub struct SubmitArgs {
     #[arg(long, default_value_t = 64)]
     spp: u32,
     /// Image size WIDTHxHEIGHT (default: the stage's).
-    #[arg(long, value_parser = super::render::parse_resolution)]
+    #[arg(long, value_parser = cirrus::job::parse_resolution)]
     res: Option<UVec2>,
     /// Shutter OPEN,CLOSE (frames) each frame is exported and rendered with
     /// (default: the camera's).

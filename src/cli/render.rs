@@ -33,10 +33,10 @@ pub struct RenderArgs {
     #[arg(long, conflicts_with = "time")]
     spp: Option<u32>,
     /// Render for about this many seconds instead (whole passes; at least one sample).
-    #[arg(long, value_parser = parse_seconds)]
+    #[arg(long, value_parser = job::parse_seconds)]
     time: Option<Duration>,
     /// Image size WIDTHxHEIGHT (default: the stage's render settings, else 960 wide).
-    #[arg(long, value_parser = parse_resolution)]
+    #[arg(long, value_parser = job::parse_resolution)]
     res: Option<UVec2>,
     /// Seed of every sample sequence: same seed and spp, same image.
     #[arg(long, default_value_t = 0)]
@@ -74,19 +74,19 @@ pub struct RenderArgs {
     /// Light-sample emitting volumes (fire) by next-event estimation,
     /// MIS-combined with the emission tracking finds: on (default) or off
     /// (tracking alone, for comparisons). Both are unbiased.
-    #[arg(long, default_value = "on", value_parser = on_off, value_name = "on|off", action = clap::ArgAction::Set)]
+    #[arg(long, default_value = "on", value_parser = job::parse_on_off, value_name = "on|off", action = clap::ArgAction::Set)]
     volume_light_sampling: bool,
     /// Camera rays see what lies behind media through a ratio-tracking
     /// transmittance estimate, real scattering still sampled by delta
     /// tracking: on, or off (default: delta tracking's 0-or-1 survival,
     /// which measured level or better at equal time on the benchmark
     /// scenes; docs/volumes.md). Both unbiased.
-    #[arg(long, default_value = "off", value_parser = on_off, value_name = "on|off", action = clap::ArgAction::Set)]
+    #[arg(long, default_value = "off", value_parser = job::parse_on_off, value_name = "on|off", action = clap::ArgAction::Set)]
     camera_ray_transmittance: bool,
     /// Adaptive sampling: a pixel stops once its relative noise estimate is
     /// under this (e.g. 0.05), checked between passes; --spp stays the cap.
     /// Off by default (it is slightly biased: docs/rendering.md).
-    #[arg(long, value_name = "T", value_parser = parse_noise_threshold, allow_hyphen_values = true)]
+    #[arg(long, value_name = "T", value_parser = job::parse_noise_threshold, allow_hyphen_values = true)]
     noise_threshold: Option<f32>,
     /// Samples every pixel takes before adaptive sampling may stop it
     /// [default: max(4, ceil(16 / T^0.3)) as in Cycles: 32 at 0.1, 64 at 0.01].
@@ -138,10 +138,10 @@ pub struct RenderArgs {
     _force: bool,
     /// Save the film state to OUT.checkpoint every this many seconds (it is
     /// always saved when SIGINT or SIGTERM stops the render).
-    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    #[arg(long, value_name = "SECONDS", value_parser = job::parse_seconds)]
     checkpoint_every: Option<Duration>,
     /// Rewrite the PNG preview (OUT.png) every this many seconds while rendering.
-    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    #[arg(long, value_name = "SECONDS", value_parser = job::parse_seconds)]
     preview_every: Option<Duration>,
     /// Continue the render saved in OUT.checkpoint (same scene and settings;
     /// the result is bit-identical to an uninterrupted render).
@@ -151,38 +151,6 @@ pub struct RenderArgs {
     /// 8G, 512M; default: the memory available to this process).
     #[arg(long, value_parser = memory::parse_bytes)]
     memory_limit: Option<u64>,
-}
-
-/// Parses `WIDTHxHEIGHT`.
-pub(super) fn parse_resolution(s: &str) -> Result<UVec2, String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("{s:?}: expected WIDTHxHEIGHT, e.g. 1280x720"))?;
-    let side = |v: &str| {
-        v.parse::<u32>()
-            .ok()
-            .filter(|&n| (1..=65536).contains(&n))
-            .ok_or_else(|| format!("{s:?}: {v:?} is not a size in 1..=65536"))
-    };
-    Ok(UVec2::new(side(w)?, side(h)?))
-}
-
-/// Parses a positive, finite number of seconds (`--time`, `--checkpoint-every`,
-/// `--preview-every`).
-fn parse_seconds(s: &str) -> Result<Duration, String> {
-    s.parse::<f64>()
-        .ok()
-        .filter(|t| *t > 0.0)
-        .and_then(|t| Duration::try_from_secs_f64(t).ok())
-        .ok_or_else(|| format!("{s:?}: must be a positive number of seconds"))
-}
-
-/// Parses `--noise-threshold`: a positive, finite relative error.
-fn parse_noise_threshold(s: &str) -> Result<f32, String> {
-    s.parse::<f32>()
-        .ok()
-        .filter(|t| t.is_finite() && *t > 0.0)
-        .ok_or_else(|| format!("{s:?}: must be a positive number, e.g. 0.05"))
 }
 
 /// Runs `cirrus render`: the flags as a [`RenderJob`], run until done or
@@ -254,14 +222,5 @@ impl RenderArgs {
             resume: self.resume,
             memory_limit: self.memory_limit,
         }
-    }
-}
-
-/// `on` or `off` as a flag's value.
-fn on_off(value: &str) -> Result<bool, String> {
-    match value {
-        "on" => Ok(true),
-        "off" => Ok(false),
-        _ => Err(format!("'{value}' is neither on nor off")),
     }
 }

@@ -23,6 +23,7 @@ mod files;
 mod frame;
 mod frame_range;
 mod open;
+mod parse;
 mod part;
 mod products;
 mod rescue;
@@ -50,6 +51,10 @@ use crate::volumes::majorant::MajorantKind;
 pub use files::{is_film_output, prepare_folder, Claim, OutputFiles};
 pub use frame_range::{frame_output, has_frame_number, FrameRange};
 pub use open::open;
+pub use parse::{
+    parse_crop, parse_noise_threshold, parse_on_off, parse_resolution, parse_sample_range,
+    parse_seconds, parse_tile,
+};
 pub use part::{PartInfo, PartRequest};
 pub use products::{plan_outputs, OutputFlags, OutputPlan, ProductOutput};
 pub use rescue::{save_interrupted, shell_quote, write_finished, ImageFormat};

@@ -24,12 +24,15 @@
 //! them: a sheet is `4 * tile_w + 5 * 2` wide (fewer columns when there are
 //! fewer tiles) and `rows * tile_h + (rows + 1) * 2` high.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
 use super::preview::pbr_neutral;
-use crate::image::{srgb_to_linear, write_display_png, ExrChannels, ImageError, TextLabel};
+use crate::image::{
+    srgb_to_linear, write_display_png, ChannelFormat, ExrChannels, ImageError, StoredChannel,
+    TextLabel,
+};
 
 /// Most tiles per row.
 const COLUMNS: usize = 4;
@@ -344,12 +347,77 @@ fn cryptomatte_of<'a>(layer: &str, cryptomattes: &[&'a str]) -> Option<&'a str> 
     cryptomattes.iter().copied().find(|&c| is_rank && c == base)
 }
 
+/// The contact sheet written beside the EXR `exr` by default: `NAME.aovs.png`
+/// for `NAME.exr`.
+pub fn contact_sheet_path(exr: &Path) -> PathBuf {
+    exr.with_extension("aovs.png")
+}
+
+impl ContactSheet {
+    /// The listing of this sheet of the EXR `exr` read from `path`: the
+    /// file's size and channel count, then per tile its grid position, layer
+    /// name, and channels with their stored type (once when they all share it).
+    pub fn table(&self, path: &Path, exr: &ExrChannels) -> String {
+        let mut out = format!(
+            "{}: {}x{}, {} channels, {} layers\n",
+            path.display(),
+            exr.width,
+            exr.height,
+            exr.channels.len(),
+            self.tiles.len()
+        );
+        out += &format!("  {:<4}{:<7}{:<20}channels\n", "row", "column", "layer");
+        for tile in &self.tiles {
+            let channels: Vec<&StoredChannel> =
+                tile.channels.iter().map(|&c| &exr.channels[c]).collect();
+            let shared = channels.iter().all(|c| c.format == channels[0].format);
+            let listed: Vec<String> = if shared {
+                let names: Vec<&str> = channels.iter().map(|c| c.name.as_str()).collect();
+                vec![format!(
+                    "{} ({})",
+                    names.join(" "),
+                    format_name(channels[0].format)
+                )]
+            } else {
+                channels
+                    .iter()
+                    .map(|c| format!("{} ({})", c.name, format_name(c.format)))
+                    .collect()
+            };
+            out += &format!(
+                "  {:<4}{:<7}{:<20}{}\n",
+                tile.row,
+                tile.column,
+                tile.layer,
+                listed.join(" ")
+            );
+        }
+        out
+    }
+}
+
+/// How OpenEXR names a pixel type.
+fn format_name(format: ChannelFormat) -> &'static str {
+    match format {
+        ChannelFormat::Half => "half",
+        ChannelFormat::Float => "float",
+        ChannelFormat::Uint => "uint",
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use std::collections::BTreeMap;
 
     use super::*;
-    use crate::image::{ChannelFormat, StoredChannel};
+
+    #[test]
+    fn sheet_goes_beside_the_exr() {
+        assert_eq!(
+            contact_sheet_path(Path::new("/renders/shot.0101.exr")),
+            Path::new("/renders/shot.0101.aovs.png")
+        );
+    }
 
     /// A 2x1 image with these channels, all zero, and these string attributes.
     fn image(names: &[&str], strings: &[(&str, &str)]) -> ExrChannels {

@@ -9,7 +9,7 @@ mod exr;
 mod preview;
 mod render_vars;
 
-pub use contact_sheet::{write_contact_sheet, ContactSheet, SheetTile};
+pub use contact_sheet::{contact_sheet_path, write_contact_sheet, ContactSheet, SheetTile};
 pub use exr::{write_beauty, write_bytes_for, write_film, AovFiles, ExrHeader};
 pub use preview::{preview_path, write_film_preview, write_preview};
 pub use render_vars::{layer_of, LayerSource, Layers, NamedLayer, VarAttributes};
