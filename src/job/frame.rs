@@ -78,17 +78,7 @@ pub(super) fn render_frame(
     let (end, stats) = render(job, &ready, from, &files[0], control, &pool);
     let identity = ready.identity.named(&ready.state, &end.film);
     if !stats.complete {
-        if end.progress.is_empty() {
-            let nothing = "interrupted before the first sample; nothing written";
-            return Err(JobError::Interrupted(nothing.into()));
-        }
-        save_interrupted(&files[0], &identity, &end, &stats, job.compression)
-            .map_err(|e| JobError::NotCheckpointed(Box::new(e)))?;
-        let spp = end.progress.samples_per_pixel();
-        let (c, p) = (files[0].checkpoint.display(), files[0].partial.display());
-        return Err(JobError::Interrupted(format!(
-            "interrupted at {spp} spp: saved {c} and {p}; run the same command with --resume to finish"
-        )));
+        return Err(stopped(job, &files[0], &identity, &end, &stats));
     }
     let mut written = Vec::new();
     for (files, product) in files.iter().zip(&plan.outputs) {
@@ -247,4 +237,28 @@ fn render(
         .install(|| integrator::render_from(&ready.state, &ready.settings, from, &render_control));
     progress.finish();
     ended
+}
+
+/// Why a job whose frame its caller stopped at `end` ends: the frame's
+/// checkpoint and partial image saved to `files` for `--resume`, unless it
+/// took no sample.
+fn stopped(
+    job: &RenderJob,
+    files: &OutputFiles,
+    identity: &RenderIdentity,
+    end: &Snapshot,
+    stats: &RenderStats,
+) -> JobError {
+    if end.progress.is_empty() {
+        let nothing = "interrupted before the first sample; nothing written";
+        return JobError::Interrupted(nothing.into());
+    }
+    if let Err(e) = save_interrupted(files, identity, end, stats, job.compression) {
+        return JobError::NotCheckpointed(Box::new(e));
+    }
+    let spp = end.progress.samples_per_pixel();
+    let (c, p) = (files.checkpoint.display(), files.partial.display());
+    JobError::Interrupted(format!(
+        "interrupted at {spp} spp: saved {c} and {p}; run the same command with --resume to finish"
+    ))
 }

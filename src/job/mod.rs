@@ -134,7 +134,6 @@ pub struct RenderJob {
 }
 
 /// What a running job asks of its caller, and tells it.
-#[derive(Clone, Copy)]
 pub struct JobControl<'a> {
     /// Polled while rendering: true stops the frame after the tiles in
     /// flight, saves its checkpoint and ends the job with
@@ -145,7 +144,7 @@ pub struct JobControl<'a> {
 }
 
 /// What a frame of a job did.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Debug)]
 pub enum FrameOutcome {
     /// `--skip-existing` found this output complete: nothing rendered.
     Complete(PathBuf),
