@@ -412,3 +412,174 @@ fn the_python_import_reader_sees_relative_absolute_and_indented_imports() {
         BTreeSet::from(expected.map(String::from))
     );
 }
+
+// The module map of docs/architecture.md: drawn from the imports above, so
+// that it cannot drift from the code.
+
+/// The markers around the module map in docs/architecture.md.
+const MAP_BEGIN: &str = "<!-- module map: drawn by tests/it/house.rs from the code's imports -->";
+const MAP_END: &str = "<!-- end of module map -->";
+
+/// Each node's floor: 1 for a node that imports nothing, else one above the
+/// highest floor it imports (the graph has no cycle: tested above).
+fn floors(
+    graph: &BTreeMap<String, BTreeSet<String>>,
+    nodes: &BTreeSet<String>,
+) -> BTreeMap<String, usize> {
+    fn floor(
+        n: &str,
+        g: &BTreeMap<String, BTreeSet<String>>,
+        memo: &mut BTreeMap<String, usize>,
+    ) -> usize {
+        if let Some(&f) = memo.get(n) {
+            return f;
+        }
+        let f = 1 + g
+            .get(n)
+            .into_iter()
+            .flatten()
+            .map(|m| floor(m, g, memo))
+            .max()
+            .unwrap_or(0);
+        memo.insert(n.to_string(), f);
+        f
+    }
+    let mut memo = BTreeMap::new();
+    nodes
+        .iter()
+        .map(|n| (n.clone(), floor(n, graph, &mut memo)))
+        .collect()
+}
+
+/// The arrows of `graph` that no longer path implies (its transitive
+/// reduction), the ones worth drawing.
+fn direct_arrows(graph: &BTreeMap<String, BTreeSet<String>>) -> Vec<(String, String)> {
+    let reaches = |from: &str, to: &str, skip: &str| {
+        let mut seen = BTreeSet::new();
+        let mut todo: Vec<&str> = graph[from]
+            .iter()
+            .map(String::as_str)
+            .filter(|n| *n != skip)
+            .collect();
+        while let Some(n) = todo.pop() {
+            if n == to {
+                return true;
+            }
+            if seen.insert(n) {
+                todo.extend(graph.get(n).into_iter().flatten().map(String::as_str));
+            }
+        }
+        false
+    };
+    graph
+        .iter()
+        .flat_map(|(a, tos)| tos.iter().map(move |b| (a.clone(), b.clone())))
+        .filter(|(a, b)| !reaches(a, b, b))
+        .collect()
+}
+
+/// One map: a Mermaid drawing of the arrows no longer path implies, floors
+/// top down, and a table of every import.
+fn map_section(
+    title: &str,
+    graph: &BTreeMap<String, BTreeSet<String>>,
+    nodes: &[String],
+) -> String {
+    let floor = floors(graph, &nodes.iter().cloned().collect());
+    let mut order: Vec<&String> = nodes.iter().collect();
+    order.sort_by_key(|n| (std::cmp::Reverse(floor[*n]), *n));
+    let mut out = format!("### {title}\n\n```mermaid\nflowchart TD\n");
+    for (a, b) in direct_arrows(graph) {
+        out += &format!("  {a} --> {b}\n");
+    }
+    let alone = |n: &&&String| !graph.contains_key(**n) && !graph.values().any(|t| t.contains(**n));
+    for n in order.iter().filter(alone) {
+        out += &format!("  {n}\n");
+    }
+    out += "```\n\n| floor | module | imports |\n|---|---|---|\n";
+    for n in order {
+        let imports: Vec<String> = graph
+            .get(n)
+            .into_iter()
+            .flatten()
+            .map(|m| format!("`{m}`"))
+            .collect();
+        out += &format!("| {} | `{n}` | {} |\n", floor[n], imports.join(", "));
+    }
+    out
+}
+
+/// The module map as docs/architecture.md should hold it: `src/`'s top-level
+/// modules and the exporter's Python modules (structure only: no sizes, so
+/// that only a change of imports redraws it).
+fn module_map() -> String {
+    let sources = sources();
+    let rust: Vec<String> = sources
+        .iter()
+        .filter(|s| !matches!(s.parts[..], [ref f] if f == "lib" || f == "main"))
+        .map(|s| s.parts[0].clone())
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    let exporter = Path::new(env!("CARGO_MANIFEST_DIR")).join("exporter");
+    let python_modules = python_graph(&exporter);
+    let python: Vec<String> = python_modules
+        .keys()
+        .filter(|n| *n != "__init__")
+        .cloned()
+        .collect();
+    format!(
+        "{MAP_BEGIN}\n\n{}\n{}\n{MAP_END}",
+        map_section(
+            "`src/`: top-level modules (a module imports only modules on lower floors)",
+            &top_level_graph(&sources),
+            &rust
+        ),
+        map_section("`exporter/`: the Python modules", &python_modules, &python),
+    )
+}
+
+#[test]
+fn the_architecture_map_is_drawn_from_the_code() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/architecture.md");
+    let doc = std::fs::read_to_string(&path).unwrap();
+    let (Some(begin), Some(end)) = (doc.find(MAP_BEGIN), doc.find(MAP_END)) else {
+        panic!(
+            "{}: no module map between {MAP_BEGIN:?} and {MAP_END:?}",
+            path.display()
+        );
+    };
+    let drawn = &doc[begin..end + MAP_END.len()];
+    let map = module_map();
+    if drawn == map {
+        return;
+    }
+    if std::env::var_os("CIRRUS_BLESS").is_some() {
+        std::fs::write(&path, doc.replace(drawn, &map)).unwrap();
+        return;
+    }
+    panic!(
+        "{}'s module map differs from the code's imports: rerun this test with \
+         CIRRUS_BLESS=1 to redraw it, and commit the result",
+        path.display()
+    );
+}
+
+#[test]
+fn the_map_draws_only_arrows_no_longer_path_implies() {
+    let graph = BTreeMap::from([
+        (
+            "cli".to_string(),
+            BTreeSet::from(["job".to_string(), "film".to_string()]),
+        ),
+        ("job".to_string(), BTreeSet::from(["film".to_string()])),
+    ]);
+    let arrows = direct_arrows(&graph);
+    assert_eq!(
+        arrows,
+        [("cli".into(), "job".into()), ("job".into(), "film".into())]
+    );
+    let nodes = BTreeSet::from(["cli", "job", "film"].map(String::from));
+    let floor = floors(&graph, &nodes);
+    assert_eq!((floor["cli"], floor["job"], floor["film"]), (3, 2, 1));
+}
