@@ -21,7 +21,7 @@ the timed render's synchronization_time 0 and its render_time within 10 ms of
 S), and `sync_seconds=` (warm-up less S) comes before it: 5.0's sync, which
 prepares the volumes, takes seconds (14 s on the teapot cloud, under load).
 
-Blender 5.0 against 3.4, each convention checked (2026-12-02, tests/peers.rs):
+Blender 5.0 against 3.4, each convention checked (2026-12-02, tests/it/peers.rs):
 world-space density, sun, sphere-light and world units are unchanged
 (volume_teapot and surface_lights agree as with 3.4); area lights' power is
 pi A L, not 4 A L (area_power_factor); the half-voxel shift is gone (voxel_shift);

@@ -545,7 +545,9 @@ fn assert_renders_agree(
         .file_stem()
         .unwrap()
         .to_string_lossy();
-    let dir = common::scratch(&format!("render_agree_{name}"));
+    // Two tests compare renders of the same scene: the folder names both.
+    let test = std::thread::current().name().unwrap_or("?").replace("::", "_");
+    let dir = common::scratch(&format!("render_agree_{test}_{name}"));
     let render = |seed, extra: &'static [&'static str]| {
         Render {
             scene,

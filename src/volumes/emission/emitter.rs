@@ -19,7 +19,7 @@
 //! wrapped in dense smoke mostly lights the smoke; weighed by its emitted
 //! power it would take the samples of the sun and the sky and waste them on
 //! blocked shadow rays (measured: 12x the noise under the sun beside a shell
-//! of optical depth 87, tests/stability.rs). Far from the volume, cells are
+//! of optical depth 87, tests/it/stability.rs). Far from the volume, cells are
 //! picked by emitted power (weighing them by their escape as well measured
 //! 2.4x more variance on the boulder the canyon's fire lights); near it, by
 //! what they deliver to the shading point's region, the transmittance from

@@ -37,7 +37,7 @@ const REGIONS_PER_AXIS: i32 = 12;
 /// Most clusters a region's distribution spans: neighbouring cells are
 /// merged (2^3, 4^3, ...) until there are no more, so the tables hold at
 /// most 12^3 x 512 bins (10.6 MB) however large the fire (the memory
-/// preflight counts that bound; tests/fire.rs sets it aside).
+/// preflight counts that bound; tests/it/fire.rs sets it aside).
 const MAX_CLUSTERS: usize = 512;
 
 /// Share of a region's picks made by power alone (defensive mixture).

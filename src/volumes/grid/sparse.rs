@@ -604,7 +604,7 @@ pub(super) mod tests {
         );
     }
 
-    /// Regression (`tests/fuzz_inputs.rs`): an invertible matrix with a NaN
+    /// Regression (`tests/it/fuzz_inputs.rs`): an invertible matrix with a NaN
     /// translation was accepted, and every world lookup then returned NaN.
     #[test]
     fn transforms_with_non_finite_entries_are_refused() {
