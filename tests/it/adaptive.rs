@@ -124,7 +124,7 @@ fn a_resumed_adaptive_render_is_bit_identical() {
 /// `cirrus render` with `extra` fails with exit code 2 (a flag error) or 1;
 /// its stderr.
 fn refused(extra: &[&str]) -> String {
-    let dir = scratch("bad");
+    let dir = scratch(&common::test_name());
     let out = command(&dir.join("out.exr"), 16, &[], extra)
         .output()
         .unwrap();

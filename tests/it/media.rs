@@ -546,8 +546,7 @@ fn assert_renders_agree(
         .unwrap()
         .to_string_lossy();
     // Two tests compare renders of the same scene: the folder names both.
-    let test = std::thread::current().name().unwrap_or("?").replace("::", "_");
-    let dir = common::scratch(&format!("render_agree_{test}_{name}"));
+    let dir = common::scratch(&format!("render_agree_{}_{name}", common::test_name()));
     let render = |seed, extra: &'static [&'static str]| {
         Render {
             scene,

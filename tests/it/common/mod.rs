@@ -84,6 +84,15 @@ pub fn scratch(test: &str) -> PathBuf {
     dir
 }
 
+/// The running test's name, `module_test` (libtest names each test's thread
+/// `module::test`): for the scratch folder of a helper that several tests call.
+pub fn test_name() -> String {
+    std::thread::current()
+        .name()
+        .unwrap_or("unnamed")
+        .replace("::", "_")
+}
+
 /// Runs the `cirrus` binary with `args` and returns its stdout; panics with
 /// its stderr when it fails.
 pub fn cirrus_ok(args: &[&std::ffi::OsStr]) -> String {
