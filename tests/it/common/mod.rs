@@ -68,16 +68,20 @@ pub fn asset(rel: &str) -> PathBuf {
 }
 
 /// A fresh scratch folder for one test, under cargo's per-target tmp dir.
-/// Every module's tests run in this one process, in parallel: a name claimed
-/// twice in a run panics rather than letting two tests share a folder.
+/// Every module's tests run in this one process, in parallel: a name that
+/// another test already claimed in this run panics rather than letting two
+/// tests share a folder (the same test may take its folder afresh).
 pub fn scratch(test: &str) -> PathBuf {
-    static CLAIMED: std::sync::Mutex<std::collections::BTreeSet<String>> =
-        std::sync::Mutex::new(std::collections::BTreeSet::new());
-    let fresh = CLAIMED
+    static CLAIMED: std::sync::Mutex<std::collections::BTreeMap<String, String>> =
+        std::sync::Mutex::new(std::collections::BTreeMap::new());
+    let me = test_name();
+    let owner = CLAIMED
         .lock()
         .unwrap_or_else(|e| e.into_inner())
-        .insert(test.to_owned());
-    assert!(fresh, "scratch folder {test:?} claimed twice in this run");
+        .entry(test.to_owned())
+        .or_insert_with(|| me.clone())
+        .clone();
+    assert_eq!(owner, me, "scratch folder {test:?} is {owner}'s already");
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(test);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
