@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::Subcommand;
 
 use cirrus::job::parse_resolution;
-use cirrus::lab::{self, EqualTimeBench};
+use cirrus::lab::{self, EqualTimeBench, EqualTimeDefaults};
 
 #[derive(Subcommand, Debug)]
 pub enum Bench {
@@ -95,24 +95,8 @@ pub enum Bench {
         /// StandardShaderBall and the intent-vfx layout from ../shared/assets.
         #[arg(required = true)]
         scenes: Vec<PathBuf>,
-        /// Image size WIDTHxHEIGHT.
-        #[arg(long, default_value = "160x120", value_parser = parse_resolution)]
-        res: glam::UVec2,
-        /// Samples per pixel of the MIS + Sobol reference.
-        #[arg(long, default_value_t = 4096)]
-        reference_spp: u32,
-        /// Equal-time budgets in seconds.
-        #[arg(long, value_delimiter = ',', default_value = "0.5,1,2,4,8")]
-        times: Vec<f64>,
-        /// Seeds per measurement; the table shows medians.
-        #[arg(long, default_value_t = 3)]
-        repeats: u32,
-        /// Worker threads.
-        #[arg(long, default_value_t = 2)]
-        threads: usize,
-        /// Folder for the reference EXRs and the charts.
-        #[arg(long, default_value = "out/bench-render")]
-        out: PathBuf,
+        #[command(flatten)]
+        equal_time: EqualTimeArgs,
         /// Instead: the seconds adaptive sampling (--noise-threshold) takes
         /// to reach uniform sampling's relMSE at each budget.
         #[arg(long)]
@@ -126,28 +110,12 @@ pub enum Bench {
         /// Scenes (USD or exported); default: the teapot cloud and smoke.vdb
         /// of scenes/bench.
         scenes: Vec<PathBuf>,
-        /// Image size WIDTHxHEIGHT.
-        #[arg(long, default_value = "160x120", value_parser = parse_resolution)]
-        res: glam::UVec2,
-        /// Samples per pixel of the reference (null-scattering MIS, grid majorant).
-        #[arg(long, default_value_t = 1024)]
-        reference_spp: u32,
-        /// Equal-time budgets in seconds.
-        #[arg(long, value_delimiter = ',', default_value = "0.5,1,2,4")]
-        times: Vec<f64>,
-        /// Seeds per measurement; the table shows medians.
-        #[arg(long, default_value_t = 3)]
-        repeats: u32,
+        #[command(flatten)]
+        equal_time: EqualTimeArgs,
         /// Smoke check in under a minute: budgets 0.1,0.2 s, one seed, a
         /// 32-spp reference (numbers are noisy).
         #[arg(long, conflicts_with_all = ["reference_spp", "times", "repeats"])]
         quick: bool,
-        /// Worker threads.
-        #[arg(long, default_value_t = 2)]
-        threads: usize,
-        /// Folder for the reference EXRs and the charts.
-        #[arg(long, default_value = "out/bench-volumes")]
-        out: PathBuf,
         /// Also write each chart as DIR/volumes-<scene>-equal-time.svg (the
         /// README's charts live in docs/bench).
         #[arg(long, value_name = "DIR")]
@@ -161,28 +129,12 @@ pub enum Bench {
         /// and scenes/bench/canyon_fire.usda (docs/benchmarks.md says how to
         /// write the VDB and the canyon they read).
         scenes: Vec<PathBuf>,
-        /// Image size WIDTHxHEIGHT.
-        #[arg(long, default_value = "160x90", value_parser = parse_resolution)]
-        res: glam::UVec2,
-        /// Samples per pixel of the reference (light sampling on).
-        #[arg(long, default_value_t = 4096)]
-        reference_spp: u32,
-        /// Equal-time budgets in seconds.
-        #[arg(long, value_delimiter = ',', default_value = "5,10,20,30")]
-        times: Vec<f64>,
-        /// Seeds per measurement; the table shows medians.
-        #[arg(long, default_value_t = 3)]
-        repeats: u32,
+        #[command(flatten)]
+        equal_time: EqualTimeArgs,
         /// Smoke check in about a minute: budgets 0.2,0.5 s, one seed, a
         /// 64-spp reference (numbers are noisy).
         #[arg(long, conflicts_with_all = ["reference_spp", "times", "repeats"])]
         quick: bool,
-        /// Worker threads.
-        #[arg(long, default_value_t = 2)]
-        threads: usize,
-        /// Folder for the reference EXRs and the charts.
-        #[arg(long, default_value = "out/bench-fire")]
-        out: PathBuf,
         /// Also write each chart as DIR/fire-<scene>-equal-time.svg.
         #[arg(long, value_name = "DIR")]
         charts: Option<PathBuf>,
@@ -248,6 +200,51 @@ pub enum Bench {
     },
 }
 
+/// The flags `bench render`, `bench volumes` and `bench fire` share; each
+/// benchmark's defaults are the lab's ([`EqualTimeDefaults`]).
+#[derive(clap::Args, Debug)]
+pub struct EqualTimeArgs {
+    /// Image size WIDTHxHEIGHT [default: 160x120 (render, volumes), 160x90 (fire)].
+    #[arg(long, value_parser = parse_resolution)]
+    res: Option<glam::UVec2>,
+    /// Samples per pixel of the reference: MIS + Sobol (render),
+    /// null-scattering MIS with the grid majorant (volumes), light sampling
+    /// on (fire) [default: 4096 (render, fire), 1024 (volumes)].
+    #[arg(long)]
+    reference_spp: Option<u32>,
+    /// Equal-time budgets in seconds [default: 0.5,1,2,4,8 (render),
+    /// 0.5,1,2,4 (volumes), 5,10,20,30 (fire)].
+    #[arg(long, value_delimiter = ',')]
+    times: Option<Vec<f64>>,
+    /// Seeds per measurement; the table shows medians.
+    #[arg(long, default_value_t = 3)]
+    repeats: u32,
+    /// Worker threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+    /// Folder for the reference EXRs and the charts [default:
+    /// out/bench-render, out/bench-volumes, out/bench-fire].
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+impl EqualTimeArgs {
+    /// The benchmark these flags, `scenes`, `--quick` and `--charts` describe.
+    fn bench(
+        self,
+        defaults: &EqualTimeDefaults,
+        scenes: Vec<PathBuf>,
+        quick: bool,
+        charts: Option<PathBuf>,
+    ) -> EqualTimeBench {
+        let settings = (self.reference_spp, self.times, self.repeats);
+        let (threads, folders) = (self.threads, (self.out, charts));
+        EqualTimeBench::new(
+            defaults, scenes, self.res, settings, quick, threads, folders,
+        )
+    }
+}
+
 /// Runs one benchmark: its flags as the lab's options.
 pub fn run(bench: Bench) -> Result<()> {
     match bench {
@@ -288,16 +285,10 @@ pub fn run(bench: Bench) -> Result<()> {
         }),
         Bench::Render {
             scenes,
-            res,
-            reference_spp,
-            times,
-            repeats,
-            threads,
-            out,
+            equal_time,
             adaptive,
         } => {
-            let settings = (reference_spp, times, repeats);
-            let bench = EqualTimeBench::new(scenes, res, settings, None, threads, (out, None));
+            let bench = equal_time.bench(&lab::RENDER_DEFAULTS, scenes, false, None);
             match adaptive {
                 true => lab::bench_adaptive(&bench),
                 false => lab::bench_render(&bench),
@@ -305,36 +296,16 @@ pub fn run(bench: Bench) -> Result<()> {
         }
         Bench::Volumes {
             scenes,
-            res,
-            reference_spp,
-            times,
-            repeats,
+            equal_time,
             quick,
-            threads,
-            out,
             charts,
-        } => {
-            let quick = quick.then(|| (32, vec![0.1, 0.2], 1));
-            let settings = (reference_spp, times, repeats);
-            let bench = EqualTimeBench::new(scenes, res, settings, quick, threads, (out, charts));
-            lab::bench_volumes(&bench)
-        }
+        } => lab::bench_volumes(&equal_time.bench(&lab::VOLUMES_DEFAULTS, scenes, quick, charts)),
         Bench::Fire {
             scenes,
-            res,
-            reference_spp,
-            times,
-            repeats,
+            equal_time,
             quick,
-            threads,
-            out,
             charts,
-        } => {
-            let quick = quick.then(|| (64, vec![0.2, 0.5], 1));
-            let settings = (reference_spp, times, repeats);
-            let bench = EqualTimeBench::new(scenes, res, settings, quick, threads, (out, charts));
-            lab::bench_fire(&bench)
-        }
+        } => lab::bench_fire(&equal_time.bench(&lab::FIRE_DEFAULTS, scenes, quick, charts)),
         Bench::PointsCurves {
             points,
             curves,

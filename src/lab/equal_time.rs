@@ -41,28 +41,52 @@ pub struct EqualTimeBench {
     pub charts: Option<PathBuf>,
 }
 
+/// What an equal-time benchmark's flags take when not given: each
+/// benchmark's own (`render::DEFAULTS`, `volumes::DEFAULTS`, `fire::DEFAULTS`).
+pub struct EqualTimeDefaults {
+    /// Image size.
+    pub resolution: UVec2,
+    /// Samples per pixel of each scene's reference.
+    pub reference_spp: u32,
+    /// Equal-time budgets, seconds.
+    pub times: &'static [f64],
+    /// Folder for references and charts.
+    pub out: &'static str,
+    /// The `--quick` smoke check's (reference spp, budgets in seconds,
+    /// seeds), for the benchmarks that offer one.
+    pub quick: Option<(u32, &'static [f64], u32)>,
+}
+
 impl EqualTimeBench {
-    /// From a benchmark's flags: its scenes, resolution, and (reference spp,
-    /// budgets in seconds, seeds), replaced by `quick`'s when given (the
-    /// `--quick` smoke check), worker threads, and the output and charts
-    /// folders.
+    /// From a benchmark's flags, each `None` taking `defaults`' value: its
+    /// scenes, resolution, (reference spp, budgets in seconds, seeds), all
+    /// three replaced by `defaults.quick` when `quick` (the `--quick` smoke
+    /// check), worker threads, and the output and charts folders.
     pub fn new(
+        defaults: &EqualTimeDefaults,
         scenes: Vec<PathBuf>,
-        resolution: UVec2,
-        settings: (u32, Vec<f64>, u32),
-        quick: Option<(u32, Vec<f64>, u32)>,
+        resolution: Option<UVec2>,
+        (reference_spp, times, repeats): (Option<u32>, Option<Vec<f64>>, u32),
+        quick: bool,
         threads: usize,
-        (out, charts): (PathBuf, Option<PathBuf>),
+        (out, charts): (Option<PathBuf>, Option<PathBuf>),
     ) -> Self {
-        let (reference_spp, times, repeats) = quick.unwrap_or(settings);
+        let (reference_spp, times, repeats) = match defaults.quick.filter(|_| quick) {
+            Some((spp, times, seeds)) => (spp, times.to_vec(), seeds),
+            None => (
+                reference_spp.unwrap_or(defaults.reference_spp),
+                times.unwrap_or_else(|| defaults.times.to_vec()),
+                repeats,
+            ),
+        };
         Self {
             scenes,
-            resolution,
+            resolution: resolution.unwrap_or(defaults.resolution),
             reference_spp,
             times,
             repeats,
             threads,
-            out,
+            out: out.unwrap_or_else(|| defaults.out.into()),
             charts,
         }
     }

@@ -18,8 +18,11 @@
 
 use std::path::Path;
 
+use glam::UVec2;
+
 use super::equal_time::{
-    ladder, median_curve, median_errors, spp_per_second, write_scene_charts, EqualTimeBench, Rung,
+    ladder, median_curve, median_errors, spp_per_second, write_scene_charts, EqualTimeBench,
+    EqualTimeDefaults, Rung,
 };
 use super::markdown::{error_cells, print_error_header};
 use super::metrics::ErrorMetric;
@@ -59,6 +62,16 @@ impl Measurement {
 /// Default scenes, in `scenes/`: the flame column and the canyon's fire
 /// (docs/benchmarks.md says how to write the VDB and the canyon they read).
 const DEFAULT_SCENES: [&str; 2] = ["bench/fire_lit.usda", "bench/canyon_fire.usda"];
+
+/// `bench fire`'s defaults; `--quick` is a smoke check in about a minute
+/// (numbers are noisy).
+pub const DEFAULTS: EqualTimeDefaults = EqualTimeDefaults {
+    resolution: UVec2::new(160, 90),
+    reference_spp: 4096,
+    times: &[5.0, 10.0, 20.0, 30.0],
+    out: "out/bench-fire",
+    quick: Some((64, &[0.2, 0.5], 1)),
+};
 
 /// Runs the benchmark and prints its tables (on [`DEFAULT_SCENES`] when
 /// `bench.scenes` is empty); each chart also goes to `bench.charts` as

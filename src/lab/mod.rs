@@ -61,17 +61,17 @@ use crate::volumes::grid::VolumeError;
 pub use adaptive::run as bench_adaptive;
 pub use aovs::{run as bench_aovs, AovsBench};
 pub use converge::{parse_method, run as converge, ConvergeOptions, Method};
-pub use equal_time::EqualTimeBench;
-pub use fire::run as bench_fire;
+pub use equal_time::{EqualTimeBench, EqualTimeDefaults};
+pub use fire::{run as bench_fire, DEFAULTS as FIRE_DEFAULTS};
 pub use instances::{print_memory as instances_memory, run as bench_instances, InstancesBench};
 pub use looks::{print_memory as looks_memory, run as bench_looks, LooksBench};
 pub use motion::{run as bench_motion, MotionBench};
 pub use peers::Peer;
 pub use points_curves::{run as bench_points_curves, PointsCurvesBench};
-pub use render::run as bench_render;
+pub use render::{run as bench_render, DEFAULTS as RENDER_DEFAULTS};
 pub use subdivision::run as bench_subdivision;
 pub use vdb::{run as bench_vdb, VdbBench};
-pub use volumes::run as bench_volumes;
+pub use volumes::{run as bench_volumes, DEFAULTS as VOLUMES_DEFAULTS};
 
 /// Why a benchmark or study stopped. Printed with its causes (`{e:#}`),
 /// each variant reads as the one line it replaces.

@@ -6,9 +6,11 @@
 //! time. References are kept in the output folder, named by scene,
 //! resolution and spp: delete them after changing the renderer.
 
+use glam::UVec2;
+
 use super::chart::{write_chart, TIME_AXIS};
 use super::equal_time::{
-    ladder, median_curve, median_errors, spp_per_second, EqualTimeBench, Rung,
+    ladder, median_curve, median_errors, spp_per_second, EqualTimeBench, EqualTimeDefaults, Rung,
 };
 use super::machine::{machine_line, with_threads};
 use super::markdown::{error_cells, print_error_header};
@@ -33,6 +35,15 @@ const METHODS: [(Strategy, SamplerKind); 6] = [
     (Strategy::Mis, SamplerKind::Independent),
     (Strategy::Mis, SamplerKind::Sobol),
 ];
+
+/// `bench render`'s (and `--adaptive`'s) defaults.
+pub const DEFAULTS: EqualTimeDefaults = EqualTimeDefaults {
+    resolution: UVec2::new(160, 120),
+    reference_spp: 4096,
+    times: &[0.5, 1.0, 2.0, 4.0, 8.0],
+    out: "out/bench-render",
+    quick: None,
+};
 
 /// Runs the benchmark on `bench.threads` workers and prints its tables.
 pub fn run(bench: &EqualTimeBench) -> Result<()> {

@@ -14,8 +14,11 @@ use std::path::Path;
 
 use crate::choice::Choice;
 
+use glam::UVec2;
+
 use super::equal_time::{
-    ladder, median_curve, median_errors, spp_per_second, write_scene_charts, EqualTimeBench, Rung,
+    ladder, median_curve, median_errors, spp_per_second, write_scene_charts, EqualTimeBench,
+    EqualTimeDefaults, Rung,
 };
 use super::markdown::{error_cells, error_columns, print_error_header};
 use super::metrics::ErrorMetric;
@@ -80,6 +83,16 @@ impl Measurement {
 
 /// Default scenes, in `scenes/`: the teapot cloud and the smoke plume.
 const DEFAULT_SCENES: [&str; 2] = ["bench/teapot_cloud.usda", "bench/smoke.usda"];
+
+/// `bench volumes`' defaults; `--quick` is a smoke check in under a minute
+/// (numbers are noisy).
+pub const DEFAULTS: EqualTimeDefaults = EqualTimeDefaults {
+    resolution: UVec2::new(160, 120),
+    reference_spp: 1024,
+    times: &[0.5, 1.0, 2.0, 4.0],
+    out: "out/bench-volumes",
+    quick: Some((32, &[0.1, 0.2], 1)),
+};
 
 /// Runs the benchmark and prints its tables (on [`DEFAULT_SCENES`] when
 /// `bench.scenes` is empty); each chart also goes to `bench.charts` as
