@@ -7,7 +7,6 @@ mod converge;
 mod farm;
 mod info;
 mod render;
-mod signal;
 mod split;
 
 use std::path::{Path, PathBuf};
@@ -110,7 +109,7 @@ pub fn run() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => match e.downcast_ref::<signal::Interrupted>() {
+        Err(e) => match e.downcast_ref::<render::Interrupted>() {
             Some(stop) => {
                 eprintln!("{stop}");
                 ExitCode::from((128 + stop.signal) as u8)

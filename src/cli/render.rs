@@ -9,12 +9,11 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use glam::UVec2;
 
-use super::signal::{Interrupted, StopSignal};
 use super::split::PartArgs;
 use cirrus::film::{AdaptiveSampling, AovSet, FilterKind};
 use cirrus::image::Compression;
 use cirrus::integrator::{PathSettings, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH};
-use cirrus::job::{self, FrameOutcome, FrameRange, JobControl, JobError, RenderJob};
+use cirrus::job::{self, FrameOutcome, FrameRange, JobControl, JobError, RenderJob, StopSignal};
 use cirrus::memory;
 use cirrus::output::AovFiles;
 use cirrus::sampling::SamplerKind;
@@ -174,12 +173,24 @@ pub fn run(args: RenderArgs) -> Result<()> {
         done: &done,
     };
     match job::render(&args.job(), &control) {
-        Err(JobError::Interrupted(message)) => {
-            let signal = signal.signal().unwrap_or(signal_hook::consts::SIGINT);
-            Err(Interrupted { signal, message }.into())
+        Err(JobError::Interrupted(message)) => Err(Interrupted {
+            signal: signal.signal(),
+            message,
         }
+        .into()),
         result => Ok(result?),
     }
+}
+
+/// A render stopped by a signal after saving its checkpoint: exits with
+/// 128 + the signal number, like a shell reports it.
+#[derive(Debug, thiserror::Error)]
+#[error("{message}")]
+pub(super) struct Interrupted {
+    /// The signal that stopped the render.
+    pub signal: i32,
+    /// What was saved and how to resume.
+    pub message: String,
 }
 
 impl RenderArgs {

@@ -13,7 +13,8 @@
 //! which `--resume` continues bit-identically. A finished frame is written,
 //! or, when that fails, rescued as a film state with the command that
 //! writes it; a frame stopped by its caller saves its checkpoint and
-//! partial image (`rescue.rs`).
+//! partial image (`rescue.rs`); SIGINT and SIGTERM can be that caller
+//! (`signal.rs`).
 //!
 //! The job sits above the pipeline (scene, render state, integrator, film,
 //! output) and the memory estimate, and below the command line and `farm`,
@@ -28,6 +29,7 @@ mod part;
 mod products;
 mod rescue;
 mod sequence;
+mod signal;
 mod snapshot;
 
 use std::path::PathBuf;
@@ -59,6 +61,7 @@ pub use part::{PartInfo, PartRequest};
 pub use products::{plan_outputs, OutputFlags, OutputPlan, ProductOutput};
 pub use rescue::{save_interrupted, shell_quote, write_finished, ImageFormat};
 pub use sequence::render;
+pub use signal::StopSignal;
 pub use snapshot::{
     read_snapshot, resume, write_snapshot, Fingerprint, RenderIdentity, SnapshotHeader,
 };
