@@ -9,16 +9,13 @@ use anyhow::Result;
 use cirrus::scene;
 use cirrus::volumes::grid::{grid_table, VdbFile};
 
+/// Prints `file`'s summary: a scene's counts, else a VDB's grid table.
 pub fn run(file: &Path) -> Result<()> {
-    let is_scene = file.is_dir() || file.file_name().is_some_and(|n| n == scene::MANIFEST_FILE);
-    if is_scene || scene::is_usd(file) {
-        print!(
-            "{}",
-            scene::summary(&cirrus::job::open(file, &Default::default(), None)?)
-        );
+    if scene::is_scene(file) {
+        let scene = cirrus::job::open(file, &Default::default(), None)?;
+        print!("{}", scene::summary(&scene));
     } else {
-        let vdb = VdbFile::open(file)?;
-        print!("{}", grid_table(&vdb));
+        print!("{}", grid_table(&VdbFile::open(file)?));
     }
     Ok(())
 }

@@ -341,3 +341,9 @@ impl Scene {
         ArrayBytes { meshes, instances }
     }
 }
+
+/// Whether `path` names what [`Scene::open`] opens: a USD file (by its
+/// extension), a folder (an exported scene) or its `scene.json`.
+pub fn is_scene(path: &Path) -> bool {
+    is_usd(path) || path.is_dir() || path.file_name().is_some_and(|n| n == MANIFEST_FILE)
+}
