@@ -61,14 +61,9 @@ pub struct SubmitArgs {
     dry_run: bool,
 }
 
-/// Runs `cirrus farm`.
-pub fn run(farm: Farm) -> Result<()> {
-    match farm {
-        Farm::Submit(args) => submit(args),
-    }
-}
-
-fn submit(args: SubmitArgs) -> Result<()> {
+/// Runs `cirrus farm submit`: writes (and submits) the job scripts and
+/// prints the sbatch commands or the submitted jobs ([`farm::Submitted`]).
+pub fn submit(args: SubmitArgs) -> Result<()> {
     let job = SlurmJob {
         scene: args.scene,
         output: args.output,
@@ -83,22 +78,6 @@ fn submit(args: SubmitArgs) -> Result<()> {
         job_dir: args.job_dir,
         dry_run: args.dry_run,
     };
-    let submitted = farm::submit(&job)?;
-    let [parts, merge] = &submitted.scripts;
-    let dir = submitted.dir.display();
-    match &submitted.jobs {
-        None => {
-            println!("sbatch --parsable {}", parts.display());
-            println!(
-                "sbatch --parsable --dependency=afterok:<parts job> --kill-on-invalid-dep=yes {}",
-                merge.display()
-            );
-        }
-        Some([parts_job, merge_job]) => println!(
-            "submitted parts job {parts_job} ({} tasks) and merge job {merge_job} ({} frames); \
-             logs in {dir}/logs, exit codes in {dir}/status",
-            submitted.tasks, submitted.frames
-        ),
-    }
+    println!("{}", farm::submit(&job)?);
     Ok(())
 }

@@ -1,44 +1,14 @@
-//! Flags for one frame over many processes: `cirrus render --tile I/N |
-//! --crop | --sample-range A..B -o PART.film` and `cirrus merge PARTS... -o
-//! OUT.exr` (the work is `job::PartRequest` and `farm::merge`).
+//! `cirrus merge PARTS... -o OUT.exr`: joins the film states of one frame's
+//! parts (`cirrus render --tile I/N | --crop | --sample-range A..B -o
+//! PART.film`) into its EXR (the work is `farm::merge`).
 
-use std::ops::Range;
 use std::path::PathBuf;
 
 use anyhow::Result;
 
 use cirrus::farm;
 use cirrus::image::Compression;
-use cirrus::job::{self, PartRequest};
 use cirrus::output::AovFiles;
-
-/// Which part of a frame `cirrus render` takes (all of it by default).
-#[derive(clap::Args, Clone, Debug, Default)]
-pub struct PartArgs {
-    /// Render only horizontal band I of N (0-based, e.g. 2/4: the third of
-    /// four bands of rows) into a film state (-o PART.film).
-    #[arg(long, value_name = "I/N", value_parser = job::parse_tile, conflicts_with = "crop")]
-    tile: Option<(u32, u32)>,
-    /// Render only the pixels x0 <= x < x1, y0 <= y < y1 into a film state
-    /// (-o PART.film).
-    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = job::parse_crop)]
-    crop: Option<[u32; 4]>,
-    /// Take only sample indices START..END (END exclusive, at most --spp) of
-    /// the frame's sequence into a film state (-o PART.film).
-    #[arg(long, value_name = "START..END", value_parser = job::parse_sample_range)]
-    sample_range: Option<Range<u32>>,
-}
-
-impl PartArgs {
-    /// The part asked for.
-    pub fn request(&self) -> PartRequest {
-        PartRequest {
-            tile: self.tile,
-            crop: self.crop,
-            sample_range: self.sample_range.clone(),
-        }
-    }
-}
 
 /// `cirrus merge` arguments.
 #[derive(clap::Args, Debug)]

@@ -6,10 +6,10 @@ mod bench;
 mod converge;
 mod farm;
 mod info;
+mod merge;
 mod render;
-mod split;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Result;
@@ -36,30 +36,12 @@ enum Command {
         file: PathBuf,
     },
     /// Export a USD file to a Cirrus scene folder (scene.json + scene.bin).
-    Export {
-        /// The USD file (.usd, .usda, .usdc, .usdz).
-        input: PathBuf,
-        /// The scene folder to write; replaced if it exists.
-        #[arg(short, long)]
-        output: PathBuf,
-        /// USD time code to export (default: the stage's default time).
-        #[arg(long)]
-        frame: Option<f64>,
-        /// Camera prim to export (default: the render settings' camera, else the first).
-        #[arg(long)]
-        camera: Option<String>,
-        /// Shutter OPEN,CLOSE (frames) to key motion over (default: the camera's).
-        #[arg(long, value_name = "OPEN,CLOSE", allow_hyphen_values = true)]
-        shutter: Option<cirrus::motion::Shutter>,
-        /// UsdRender.Settings prim to export (default: renderSettingsPrimPath, else the only one).
-        #[arg(long)]
-        settings: Option<String>,
-    },
+    Export(ExportArgs),
     /// Render a scene to an EXR (and a PNG preview beside it).
     Render(render::RenderArgs),
     /// Join film states of parts of one frame (`cirrus render --tile/--crop/
     /// --sample-range -o PART.film`) into its EXR, checking that they fit.
-    Merge(split::MergeArgs),
+    Merge(merge::MergeArgs),
     /// Tile every layer of an EXR (beauty, AOVs, Cryptomattes) into one PNG
     /// contact sheet and list the layers.
     Aovs(aovs::AovsArgs),
@@ -74,8 +56,31 @@ enum Command {
     Converge(converge::ConvergeArgs),
 }
 
+/// `cirrus export` arguments.
+#[derive(clap::Args, Debug)]
+struct ExportArgs {
+    /// The USD file (.usd, .usda, .usdc, .usdz).
+    input: PathBuf,
+    /// The scene folder to write; replaced if it exists.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// USD time code to export (default: the stage's default time).
+    #[arg(long)]
+    frame: Option<f64>,
+    /// Camera prim to export (default: the render settings' camera, else the first).
+    #[arg(long)]
+    camera: Option<String>,
+    /// Shutter OPEN,CLOSE (frames) to key motion over (default: the camera's).
+    #[arg(long, value_name = "OPEN,CLOSE", allow_hyphen_values = true)]
+    shutter: Option<cirrus::motion::Shutter>,
+    /// UsdRender.Settings prim to export (default: renderSettingsPrimPath, else the only one).
+    #[arg(long)]
+    settings: Option<String>,
+}
+
 /// Parses the command line, runs it, and returns the process exit code:
-/// 0 on success, 1 on any error (printed with its full cause chain), 2 on bad usage.
+/// 0 on success, 1 on any error (printed with its full cause chain), 2 on bad usage
+/// (`cirrus render` stopped by a signal exits with 128 + its number).
 pub fn run() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("info"))
         .format_timestamp(None)
@@ -83,42 +88,20 @@ pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info { file } => info::run(&file),
-        Command::Export {
-            input,
-            output,
-            frame,
-            camera,
-            settings,
-            shutter,
-        } => {
-            let (camera, settings) = (camera.as_deref(), settings.as_deref());
-            let options = cirrus::scene::ExportOptions {
-                frame,
-                camera,
-                settings,
-                shutter,
-            };
-            export(&input, &output, &options)
-        }
+        Command::Export(args) => export(args),
         Command::Render(args) => render::run(args),
-        Command::Merge(args) => split::merge(args),
-        Command::Farm(f) => farm::run(f),
+        Command::Merge(args) => merge::merge(args),
+        Command::Farm(farm::Farm::Submit(args)) => farm::submit(args),
         Command::Aovs(args) => aovs::run(args),
         Command::Bench(b) => bench::run(b),
         Command::Converge(args) => converge::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => match e.downcast_ref::<render::Interrupted>() {
-            Some(stop) => {
-                eprintln!("{stop}");
-                ExitCode::from((128 + stop.signal) as u8)
-            }
-            None => {
-                eprintln!("error: {e:#}");
-                ExitCode::FAILURE
-            }
-        },
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
     }
 }
 
@@ -129,15 +112,20 @@ fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Val
         .map(|name| T::from_name(&name).expect("only offered names reach here"))
 }
 
-/// `cirrus export`: runs the exporter, then loads the result so a scene that
-/// the renderer would refuse is reported now rather than at render time.
-fn export(input: &Path, output: &Path, options: &cirrus::scene::ExportOptions) -> Result<()> {
-    cirrus::scene::export(input, output, options)?;
-    let scene = cirrus::job::open(output, &Default::default(), None)?;
+/// `cirrus export`: exports and checks the scene ([`cirrus::job::export`]),
+/// then prints its counts.
+fn export(args: ExportArgs) -> Result<()> {
+    let options = cirrus::scene::ExportOptions {
+        frame: args.frame,
+        camera: args.camera.as_deref(),
+        settings: args.settings.as_deref(),
+        shutter: args.shutter,
+    };
+    let scene = cirrus::job::export(&args.input, &args.output, &options)?;
     let m = &scene.manifest;
     println!(
         "{}: {} prototype(s), {} instance(s), {} warning(s)",
-        output.display(),
+        args.output.display(),
         m.prototypes.len(),
         m.instances.count,
         m.warnings.len()

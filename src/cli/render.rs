@@ -3,17 +3,19 @@
 //! scene; the beauty (linear, float RGBA) and the chosen AOVs go to OUT.exr
 //! (or one file per AOV) and a tone-mapped preview beside it (OUT.png).
 
+use std::ops::Range;
 use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{Context, Result};
 use glam::UVec2;
 
-use super::split::PartArgs;
 use cirrus::film::{AdaptiveSampling, AovSet, FilterKind};
 use cirrus::image::Compression;
 use cirrus::integrator::{PathSettings, Strategy, VolumeEstimator, DEFAULT_MAX_DEPTH};
-use cirrus::job::{self, FrameOutcome, FrameRange, JobControl, JobError, RenderJob, StopSignal};
+use cirrus::job::{
+    self, FrameOutcome, FrameRange, JobControl, JobError, PartRequest, RenderJob, StopSignal,
+};
 use cirrus::memory;
 use cirrus::output::AovFiles;
 use cirrus::sampling::SamplerKind;
@@ -127,8 +129,18 @@ pub struct RenderArgs {
     /// Subdivision level of meshes that do not author primvars:cirrus:subdivisionLevel.
     #[arg(long, default_value_t = cirrus::subdivision::DEFAULT_LEVEL)]
     subdiv_level: u32,
-    #[command(flatten)]
-    part: PartArgs,
+    /// Render only horizontal band I of N (0-based, e.g. 2/4: the third of
+    /// four bands of rows) into a film state (-o PART.film).
+    #[arg(long, value_name = "I/N", value_parser = job::parse_tile, conflicts_with = "crop")]
+    tile: Option<(u32, u32)>,
+    /// Render only the pixels x0 <= x < x1, y0 <= y < y1 into a film state
+    /// (-o PART.film).
+    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = job::parse_crop)]
+    crop: Option<[u32; 4]>,
+    /// Take only sample indices START..END (END exclusive, at most --spp) of
+    /// the frame's sequence into a film state (-o PART.film).
+    #[arg(long, value_name = "START..END", value_parser = job::parse_sample_range)]
+    sample_range: Option<Range<u32>>,
     /// Render nothing when the output is complete (it exists, no checkpoint beside it).
     #[arg(long)]
     skip_existing: bool,
@@ -153,7 +165,8 @@ pub struct RenderArgs {
 }
 
 /// Runs `cirrus render`: the flags as a [`RenderJob`], run until done or
-/// stopped by SIGINT or SIGTERM; prints what each frame wrote.
+/// stopped by SIGINT or SIGTERM ([`StopSignal`]; the process then exits with
+/// 128 + the signal number); prints what each frame wrote.
 pub fn run(args: RenderArgs) -> Result<()> {
     let signal = StopSignal::install().context("cannot install the SIGINT/SIGTERM handlers")?;
     let done = |outcome: &FrameOutcome| match outcome {
@@ -173,24 +186,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
         done: &done,
     };
     match job::render(&args.job(), &control) {
-        Err(JobError::Interrupted(message)) => Err(Interrupted {
-            signal: signal.signal(),
-            message,
+        Err(JobError::Interrupted(message)) => {
+            // Stopped by a signal, its checkpoint saved: the exit code a
+            // shell reports for it.
+            eprintln!("{message}");
+            std::process::exit(128 + signal.signal())
         }
-        .into()),
         result => Ok(result?),
     }
-}
-
-/// A render stopped by a signal after saving its checkpoint: exits with
-/// 128 + the signal number, like a shell reports it.
-#[derive(Debug, thiserror::Error)]
-#[error("{message}")]
-pub(super) struct Interrupted {
-    /// The signal that stopped the render.
-    pub signal: i32,
-    /// What was saved and how to resume.
-    pub message: String,
 }
 
 impl RenderArgs {
@@ -226,7 +229,11 @@ impl RenderArgs {
             camera: self.camera,
             settings: self.settings,
             subdiv_level: self.subdiv_level,
-            part: self.part.request(),
+            part: PartRequest {
+                tile: self.tile,
+                crop: self.crop,
+                sample_range: self.sample_range,
+            },
             skip_existing: self.skip_existing,
             checkpoint_every: self.checkpoint_every,
             preview_every: self.preview_every,

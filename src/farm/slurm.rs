@@ -11,6 +11,7 @@
 //! `sbatch --array=K parts.sbatch`, then its frame's merge with
 //! `sbatch --array=F merge.sbatch`.
 
+use std::fmt;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -83,6 +84,39 @@ pub struct Submitted {
     pub scripts: [PathBuf; 2],
     /// The parts and merge job ids; `None` for a dry run.
     pub jobs: Option<[String; 2]>,
+}
+
+impl fmt::Display for Submitted {
+    /// The two sbatch commands that submit the scripts (a dry run), or the
+    /// submitted jobs and where their logs and exit codes go.
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        let [parts, merge] = &self.scripts;
+        let dir = self.dir.display();
+        match &self.jobs {
+            None => write!(
+                f,
+                "sbatch --parsable {}\nsbatch --parsable {} {}",
+                parts.display(),
+                merge_flags("<parts job>").join(" "),
+                merge.display()
+            ),
+            Some([parts_job, merge_job]) => write!(
+                f,
+                "submitted parts job {parts_job} ({} tasks) and merge job {merge_job} ({} frames); \
+                 logs in {dir}/logs, exit codes in {dir}/status",
+                self.tasks, self.frames
+            ),
+        }
+    }
+}
+
+/// The sbatch flags of the merge job: it runs once every task of
+/// `parts_job` succeeded, and is cancelled when one failed.
+fn merge_flags(parts_job: &str) -> [String; 2] {
+    [
+        format!("--dependency=afterok:{parts_job}"),
+        "--kill-on-invalid-dep=yes".into(),
+    ]
 }
 
 /// A path quoted for bash.
@@ -242,13 +276,7 @@ exit "$code"
     }
     let [parts_path, merge_path] = &submitted.scripts;
     let parts_job = sbatch(&[], parts_path)?;
-    let merge_job = sbatch(
-        &[
-            format!("--dependency=afterok:{parts_job}"),
-            "--kill-on-invalid-dep=yes".into(),
-        ],
-        merge_path,
-    )?;
+    let merge_job = sbatch(&merge_flags(&parts_job), merge_path)?;
     submitted.jobs = Some([parts_job, merge_job]);
     Ok(submitted)
 }

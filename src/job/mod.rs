@@ -52,7 +52,7 @@ use crate::volumes::majorant::MajorantKind;
 
 pub use files::{is_film_output, prepare_folder, Claim, OutputFiles};
 pub use frame_range::{frame_output, has_frame_number, FrameRange};
-pub use open::open;
+pub use open::{export, open};
 pub use parse::{
     parse_crop, parse_noise_threshold, parse_on_off, parse_resolution, parse_sample_range,
     parse_seconds, parse_tile,

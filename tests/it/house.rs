@@ -2,7 +2,8 @@
 //! sources: no import cycle between top-level modules or between the files
 //! of one folder, the lab imported by the command line only, `clap` and
 //! `anyhow` only under `src/cli/`, no file over 800 lines and `src/cli/`
-//! under 1,500 lines. Imports are read from `use` paths and qualified paths
+//! under 1,000 lines (every line, comments included: the command line
+//! parses flags and prints, the library does the work). Imports are read from `use` paths and qualified paths
 //! (`crate::lights::...`, `super::...`, and `cirrus::...` in the binary's
 //! files), comments excluded.
 
@@ -10,7 +11,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 const MAX_FILE_LINES: usize = 800;
-const MAX_CLI_LINES: usize = 1500;
+const MAX_CLI_LINES: usize = 1000;
 
 /// One source file: its path under `src/` split into components without
 /// `.rs` (`["integrator", "path"]`, `["film", "mod"]`), and its code with
