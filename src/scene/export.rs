@@ -189,7 +189,12 @@ impl Exporter {
     /// and its executable.
     fn find() -> Result<Self, ExportError> {
         let exe = std::env::current_exe().ok();
-        Self::locate(|name| std::env::var_os(name), exe.as_deref())
+        let built_from = Path::new(env!("CARGO_MANIFEST_DIR"));
+        Self::locate(
+            |name| std::env::var_os(name),
+            exe.as_deref(),
+            Some(built_from),
+        )
     }
 
     /// Finds the exporter folder, the first of these holding `export_usd.py`:
@@ -200,7 +205,10 @@ impl Exporter {
     ///    CHECKOUT/target/PROFILE/cirrus: `PREFIX/share/cirrus/exporter`
     ///    (installed by `.ci/install`), `CHECKOUT/exporter` (cargo's build
     ///    tree), and `CHECKOUT/exporter` for cargo's test binaries, one folder
-    ///    deeper (`target/PROFILE/deps/`).
+    ///    deeper (`target/PROFILE/deps/`);
+    /// 4. else, last, the `exporter/` of `built_from`, the checkout this binary
+    ///    was built from, for a build whose target folder lies elsewhere
+    ///    (`CARGO_TARGET_DIR`); an installed binary never reaches it.
     ///
     /// Then its Python: `$CIRRUS_PYTHON` when set (a path, or a name looked
     /// up on `PATH`), else `.venv/bin/python` beside the exporter folder (the
@@ -211,6 +219,7 @@ impl Exporter {
     fn locate(
         var: impl Fn(&str) -> Option<OsString>,
         exe: Option<&Path>,
+        built_from: Option<&Path>,
     ) -> Result<Self, ExportError> {
         let var = |name: &str| var(name).filter(|v| !v.is_empty()).map(PathBuf::from);
         let beside_exe = |up: usize, rel: &str| exe?.ancestors().nth(up).map(|p| p.join(rel));
@@ -223,6 +232,7 @@ impl Exporter {
                 beside_exe(2, "share/cirrus/exporter"),
                 beside_exe(3, "exporter"),
                 beside_exe(4, "exporter"),
+                built_from.map(|checkout| checkout.join("exporter")),
             ]
             .into_iter()
             .flatten()
@@ -426,7 +436,7 @@ mod tests {
 
         // Beside the executable: the build tree, a test binary, an install.
         let in_checkout = found(&checkout.join("exporter"), &venv(&checkout));
-        let locate = |exe: &Path| Exporter::locate(|_| None, Some(exe)).unwrap();
+        let locate = |exe: &Path| Exporter::locate(|_| None, Some(exe), None).unwrap();
         assert_eq!(locate(&build_exe), in_checkout);
         assert_eq!(
             locate(&checkout.join("target/release/deps/t-1")),
@@ -438,21 +448,27 @@ mod tests {
 
         // CIRRUS_HOME, then CIRRUS_EXPORTER, win over the executable's place;
         // CIRRUS_PYTHON over the .venv.
-        let home = Exporter::locate(vars(&[("CIRRUS_HOME", "checkout")]), Some(&prefix));
+        let home = Exporter::locate(vars(&[("CIRRUS_HOME", "checkout")]), Some(&prefix), None);
         assert_eq!(home.unwrap(), in_checkout);
         let both = &[
             ("CIRRUS_HOME", "prefix"),
             ("CIRRUS_EXPORTER", "checkout/exporter"),
         ];
-        assert_eq!(Exporter::locate(vars(both), None).unwrap(), in_checkout);
+        assert_eq!(
+            Exporter::locate(vars(both), None, None).unwrap(),
+            in_checkout
+        );
         let copy = &[("CIRRUS_EXPORTER", "copy"), ("CIRRUS_PYTHON", "py")];
-        let copied = Exporter::locate(vars(copy), Some(&build_exe)).unwrap();
+        let copied = Exporter::locate(vars(copy), Some(&build_exe), None).unwrap();
         assert_eq!(copied, found(&root.join("copy"), &root.join("py")));
 
         // Not found: every place looked, and the variables to set.
         let message = |result: Result<Exporter, ExportError>| result.unwrap_err().to_string();
         let far = root.join("far/target/release/cirrus");
-        let nowhere = message(Exporter::locate(|_| None, Some(&far)));
+        // Last, the checkout the binary was built from (a target folder elsewhere).
+        let built_elsewhere = Exporter::locate(|_| None, Some(&far), Some(&checkout));
+        assert_eq!(built_elsewhere.unwrap(), in_checkout);
+        let nowhere = message(Exporter::locate(|_| None, Some(&far), None));
         for looked in [
             "far/target/share/cirrus/exporter",
             "far/exporter",
@@ -467,10 +483,15 @@ mod tests {
         let missing = message(Exporter::locate(
             vars(&[("CIRRUS_EXPORTER", "none")]),
             Some(&build_exe),
+            None,
         ));
         let expected = format!("looked at {} (", root.join("none/export_usd.py").display());
         assert!(missing.contains(&expected), "{missing}");
-        let no_python = message(Exporter::locate(vars(&[("CIRRUS_EXPORTER", "copy")]), None));
+        let no_python = message(Exporter::locate(
+            vars(&[("CIRRUS_EXPORTER", "copy")]),
+            None,
+            None,
+        ));
         assert!(
             no_python.contains(&venv(&root).display().to_string()),
             "{no_python}"
