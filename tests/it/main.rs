@@ -12,6 +12,7 @@ mod aovs;
 mod aovs_card;
 mod aovs_sheet;
 mod bad_input;
+mod conformance;
 mod converge;
 mod cryptomatte;
 mod export;

@@ -1,0 +1,489 @@
+//! UsdLux rows: lights over a Lambert ground of albedo 0.5 (radiance 0.5 /
+//! pi x irradiance) seen straight down, judged against the irradiance each
+//! light's shape gives in closed form (a sphere's pi L r^2 cos / d^2, a
+//! polygon's Lambert formula; docs/conventions.md's emission table). Local
+//! lights hang 0.5 above the ground, six to a stage, 5 and 6 units apart,
+//! each measured 0.5..1 unit beside it (the others add under 2%).
+
+use super::sheet::{self, ensure, near, Rgb, Shot};
+use super::{row, Honoured, Pending, Row};
+use std::f64::consts::PI;
+use std::sync::OnceLock;
+
+/// Where the six lights of a stage hang: (x, y) of slot 0..6.
+const SLOTS: [(f64, f64); 6] = [
+    (-5.0, 3.0),
+    (0.0, 3.0),
+    (5.0, 3.0),
+    (-5.0, -3.0),
+    (0.0, -3.0),
+    (5.0, -3.0),
+];
+/// Height of the local lights above the ground.
+const HEIGHT: f64 = 0.5;
+
+/// A stage: the top camera, a Lambert ground of albedo 0.5 at z = 0, and
+/// `lights` (usda at the root; `$X`, `$Y` of a light are filled from its
+/// slot by [`at`]).
+fn stage(lights: &str) -> String {
+    format!(
+        "#usda 1.0\n(\n    upAxis = \"Z\"\n    metersPerUnit = 1\n)\n\n{}\n\
+         def Mesh \"Ground\" (prepend apiSchemas = [\"MaterialBindingAPI\"])\n{{\n    \
+         point3f[] points = [(-40, -40, 0), (40, -40, 0), (40, 40, 0), (-40, 40, 0)]\n    \
+         int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n    \
+         rel material:binding = </GroundLook>\n}}\n\n{}\n{lights}\n",
+        sheet::top_camera("Camera", ""),
+        sheet::material("GroundLook", &sheet::lambert((0.5, 0.5, 0.5)))
+    )
+}
+
+/// A light prim `kind` named `name` in slot `slot`, `HEIGHT` up, with
+/// `body` lines (and `schemas` applied).
+fn at(slot: usize, kind: &str, name: &str, schemas: &str, body: &str) -> String {
+    let (x, y) = SLOTS[slot];
+    let api = if schemas.is_empty() {
+        String::new()
+    } else {
+        format!(" (prepend apiSchemas = [{schemas}])")
+    };
+    format!(
+        "def {kind} \"{name}\"{api}\n{{\n    double3 xformOp:translate = ({x}, {y}, {HEIGHT})\n    \
+         uniform token[] xformOpOrder = [\"xformOp:translate\"]\n    {}\n}}\n",
+        body.replace('\n', "\n    ")
+    )
+}
+
+/// The pixel column and row of world (x, y) (top camera, 4 pixels a unit).
+fn pixel(x: f64, y: f64) -> (usize, usize) {
+    (
+        ((x + 8.0) * 4.0).round() as usize,
+        ((6.0 - y) * 4.0).round() as usize,
+    )
+}
+
+/// The measured region of slot `slot`: pixels 2..4 right of the light,
+/// rows -1..1 (world offsets 0.5..1 in x, -0.25..0.25 in y).
+fn region(slot: usize) -> ((usize, usize), (usize, usize)) {
+    let (px, py) = pixel(SLOTS[slot].0, SLOTS[slot].1);
+    ((px + 2, px + 4), (py - 1, py + 1))
+}
+
+/// The mean over the pixels `region` (relative to slot `slot`'s light, in
+/// world offsets) of the ground radiance 0.5 / pi x `irradiance(dx, dy)`,
+/// 8 x 8 points a pixel.
+fn expected(slot: usize, irradiance: impl Fn(f64, f64) -> f64) -> f64 {
+    let ((x0, x1), (y0, y1)) = region(slot);
+    let (lx, ly) = SLOTS[slot];
+    let mut sum = 0.0;
+    let mut n = 0.0;
+    for px in x0..x1 {
+        for py in y0..y1 {
+            for i in 0..8 {
+                for j in 0..8 {
+                    let x = (px as f64 + (i as f64 + 0.5) / 8.0) / 4.0 - 8.0;
+                    let y = 6.0 - (py as f64 + (j as f64 + 0.5) / 8.0) / 4.0;
+                    sum += irradiance(x - lx, y - ly);
+                    n += 1.0;
+                }
+            }
+        }
+    }
+    0.5 / PI * sum / n
+}
+
+/// Irradiance on the ground at offset (dx, dy) from below a sphere of
+/// radius `r` and radiance `l` (fully above the horizon): pi l r^2 cos / d^2.
+fn sphere(l: f64, r: f64) -> impl Fn(f64, f64) -> f64 {
+    move |dx, dy| {
+        let d2 = dx * dx + dy * dy + HEIGHT * HEIGHT;
+        PI * l * r * r * (HEIGHT / d2.sqrt()) / d2
+    }
+}
+
+/// Irradiance on the ground at offset (dx, dy) from below a downward-facing
+/// polygon `vertices` (x, y at height HEIGHT) of radiance `l`: Lambert's
+/// formula, l / 2 x sum over edges of the angle they subtend times the
+/// cosine of their plane's normal with the ground's.
+fn polygon(l: f64, vertices: Vec<(f64, f64)>) -> impl Fn(f64, f64) -> f64 {
+    move |dx, dy| {
+        let v: Vec<[f64; 3]> = vertices
+            .iter()
+            .map(|&(x, y)| {
+                let p = [x - dx, y - dy, HEIGHT];
+                let len = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+                p.map(|c| c / len)
+            })
+            .collect();
+        let mut total = 0.0;
+        for i in 0..v.len() {
+            let (a, b) = (v[i], v[(i + 1) % v.len()]);
+            let cross = [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ];
+            let len = (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt();
+            let angle = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+                .clamp(-1.0, 1.0)
+                .acos();
+            total += angle * cross[2] / len;
+        }
+        0.5 * l * total.abs()
+    }
+}
+
+/// A disk of radius `r` as a 256-gon of the same area.
+fn disk(l: f64, r: f64) -> impl Fn(f64, f64) -> f64 {
+    let n = 256;
+    let scale = r * ((2.0 * PI / n as f64) / (2.0 * PI / n as f64).sin()).sqrt();
+    polygon(
+        l,
+        (0..n)
+            .map(|i| {
+                let t = 2.0 * PI * i as f64 / n as f64;
+                (scale * t.cos(), scale * t.sin())
+            })
+            .collect(),
+    )
+}
+
+/// A `w` x `h` rectangle.
+fn rect(l: f64, w: f64, h: f64) -> impl Fn(f64, f64) -> f64 {
+    polygon(
+        l,
+        vec![
+            (-w / 2.0, -h / 2.0),
+            (w / 2.0, -h / 2.0),
+            (w / 2.0, h / 2.0),
+            (-w / 2.0, h / 2.0),
+        ],
+    )
+}
+
+/// Ok when slot `slot`'s region reads grey `value` within `relative`.
+fn reads(shot: &Shot, slot: usize, value: f64, relative: f64) -> Result<(), String> {
+    let (xs, ys) = region(slot);
+    near(
+        &format!("slot {slot}"),
+        shot.mean(xs, ys),
+        [value; 3],
+        relative,
+    )
+}
+
+/// The first stage: shapes and normalize, and two inputs being added.
+fn shapes() -> &'static Shot {
+    static SHOT: OnceLock<Shot> = OnceLock::new();
+    sheet::once(&SHOT, || {
+        let disk = "float inputs:radius = 0.3\nfloat inputs:intensity = 5";
+        let lights = [
+            at(0, "SphereLight", "Sphere", "", "float inputs:radius = 0.2\nfloat inputs:intensity = 10"),
+            at(1, "DiskLight", "Disk", "", disk),
+            at(2, "RectLight", "Rect", "", "float inputs:width = 0.6\nfloat inputs:height = 0.3\nfloat inputs:intensity = 8"),
+            at(3, "RectLight", "Normalized", "", "float inputs:width = 0.6\nfloat inputs:height = 0.3\nfloat inputs:intensity = 1.44\nbool inputs:normalize = 1"),
+            at(4, "DiskLight", "NoDiffuse", "", &format!("{disk}\nfloat inputs:diffuse = 0")),
+            at(5, "DiskLight", "Cone", "\"ShapingAPI\"", &format!("{disk}\nfloat inputs:shaping:cone:angle = 10")),
+        ];
+        sheet::render_sheet("lux_shapes", &stage(&lights.concat()), 32)
+    })
+}
+
+/// An occluder under slot `slot`'s light, between it and the measured
+/// region but out of the camera's view of it.
+fn occluder(slot: usize) -> String {
+    let (x, y) = SLOTS[slot];
+    format!(
+        "def Mesh \"Occluder{slot}\"\n{{\n    point3f[] points = [({a}, {c}, 0.25), ({b}, {c}, 0.25), ({b}, {d}, 0.25), ({a}, {d}, 0.25)]\n    \
+         int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n}}\n",
+        a = x + 0.15,
+        b = x + 0.7,
+        c = y - 0.3,
+        d = y + 0.3
+    )
+}
+
+/// The second stage: cylinder, point, shadows, specular, linking.
+fn more() -> &'static Shot {
+    static SHOT: OnceLock<Shot> = OnceLock::new();
+    sheet::once(&SHOT, || {
+        let disk = "float inputs:radius = 0.3\nfloat inputs:intensity = 5";
+        let (mx, my) = SLOTS[3];
+        let metal = format!(
+            "def Mesh \"Metal\" (prepend apiSchemas = [\"MaterialBindingAPI\"])\n{{\n    \
+             point3f[] points = [({a}, {c}, 0.001), ({b}, {c}, 0.001), ({b}, {d}, 0.001), ({a}, {d}, 0.001)]\n    \
+             int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n    rel material:binding = </MetalLook>\n}}\n{}",
+            sheet::material("MetalLook", "color3f inputs:diffuseColor = (1, 1, 1)\nfloat inputs:metallic = 1\nfloat inputs:roughness = 0.5"),
+            a = mx - 1.5,
+            b = mx + 1.5,
+            c = my - 1.0,
+            d = my + 1.0
+        );
+        let lights = [
+            at(
+                0,
+                "CylinderLight",
+                "Cylinder",
+                "",
+                "float inputs:radius = 0.05\nfloat inputs:length = 2\nfloat inputs:intensity = 20",
+            ),
+            at(
+                1,
+                "SphereLight",
+                "Point",
+                "",
+                "float inputs:radius = 0.2\nfloat inputs:intensity = 10\nbool treatAsPoint = 1",
+            ),
+            at(
+                2,
+                "DiskLight",
+                "Unshadowed",
+                "\"ShadowAPI\"",
+                &format!("{disk}\nbool inputs:shadow:enable = 0"),
+            ),
+            at(
+                3,
+                "DiskLight",
+                "NoSpecular",
+                "",
+                &format!("{disk}\nfloat inputs:specular = 0"),
+            ),
+            at(
+                4,
+                "DiskLight",
+                "Unlinked",
+                "",
+                &format!("{disk}\nuniform bool collection:lightLink:includeRoot = 0"),
+            ),
+            at(
+                5,
+                "DiskLight",
+                "ShadowUnlinked",
+                "",
+                &format!("{disk}\nuniform bool collection:shadowLink:includeRoot = 0"),
+            ),
+            occluder(2),
+            occluder(5),
+            metal,
+        ];
+        sheet::render_sheet("lux_more", &stage(&lights.concat()), 32)
+    })
+}
+
+/// The third stage: a distant light alone (colour, intensity, exposure,
+/// normalize), as it lights the whole ground.
+fn distant() -> &'static Shot {
+    static SHOT: OnceLock<Shot> = OnceLock::new();
+    sheet::once(&SHOT, || {
+        let light = "def DistantLight \"Sun\"\n{\n    float xformOp:rotateY = 30\n    \
+                     uniform token[] xformOpOrder = [\"xformOp:rotateY\"]\n    float inputs:intensity = 3\n    \
+                     float inputs:exposure = 1\n    color3f inputs:color = (1, 0.5, 0.25)\n    bool inputs:normalize = 1\n}\n";
+        sheet::render_sheet("lux_distant", &stage(light), 8)
+    })
+}
+
+/// The fourth stage: colour temperature and a mesh light.
+fn emitters() -> &'static Shot {
+    static SHOT: OnceLock<Shot> = OnceLock::new();
+    sheet::once(&SHOT, || {
+        let (x, y) = SLOTS[0];
+        let mesh_light = format!(
+            "def Mesh \"Panel\" (prepend apiSchemas = [\"MeshLightAPI\"])\n{{\n    \
+             point3f[] points = [({a}, {c}, {HEIGHT}), ({a}, {d}, {HEIGHT}), ({b}, {d}, {HEIGHT}), ({b}, {c}, {HEIGHT})]\n    \
+             int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n    float inputs:intensity = 10\n}}\n",
+            a = x - 0.2,
+            b = x + 0.2,
+            c = y - 0.2,
+            d = y + 0.2
+        );
+        let lights = [
+            mesh_light,
+            at(1, "DiskLight", "Warm", "", "float inputs:radius = 0.3\nfloat inputs:intensity = 5\nbool inputs:enableColorTemperature = 1\nfloat inputs:colorTemperature = 2500"),
+        ];
+        sheet::render_sheet("lux_emitters", &stage(&lights.concat()), 32)
+    })
+}
+
+/// A dome over a Y-up Lambert ground (albedo 0.5) seen from above, lit by
+/// `dome` (usda) whose texture `sky.exr` is written by `texture`.
+fn dome_shot(
+    name: &str,
+    cache: &'static OnceLock<Shot>,
+    dome: &'static str,
+    size: (usize, usize),
+    texel: fn(usize, usize) -> [f32; 3],
+) -> &'static Shot {
+    sheet::once(cache, || {
+        let usda = format!(
+            "#usda 1.0\n(\n    upAxis = \"Y\"\n    metersPerUnit = 1\n)\n\n\
+             def Camera \"Camera\"\n{{\n    double3 xformOp:translate = (0, 10, 0)\n    float xformOp:rotateX = -90\n    \
+             uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateX\"]\n    token projection = \"orthographic\"\n    \
+             float horizontalAperture = 160\n    float verticalAperture = 120\n}}\n\n\
+             def Mesh \"Ground\" (prepend apiSchemas = [\"MaterialBindingAPI\"])\n{{\n    \
+             point3f[] points = [(-40, 0, -40), (-40, 0, 40), (40, 0, 40), (40, 0, -40)]\n    \
+             int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n    rel material:binding = </GroundLook>\n}}\n\n{}\n{dome}\n",
+            sheet::material("GroundLook", &sheet::lambert((0.5, 0.5, 0.5)))
+        );
+        sheet::render(name, &usda, (16, &["--res", "64x48"], sheet::RES), |dir| {
+            sheet::write_texture(&dir.join("sky.exr"), size, texel)
+        })
+    })
+}
+
+/// A lat-long sky: blue radiance 1 above the horizon, red below; a portal
+/// high above (which must not change the image).
+fn latlong() -> &'static Shot {
+    static SHOT: OnceLock<Shot> = OnceLock::new();
+    dome_shot(
+        "lux_latlong",
+        &SHOT,
+        "def DomeLight \"Sky\"\n{\n    asset inputs:texture:file = @sky.exr@\n    token inputs:texture:format = \"latlong\"\n}\n\n\
+         def PortalLight \"Portal\"\n{\n    double3 xformOp:translate = (0, 30, 0)\n    float xformOp:rotateX = 90\n    \
+         uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateX\"]\n    float inputs:width = 200\n    float inputs:height = 200\n}\n",
+        (16, 8),
+        |_, y| if y < 4 { [0.0, 0.0, 1.0] } else { [1.0, 0.0, 0.0] },
+    )
+}
+
+/// A radially symmetric probe image of 64 x 64: blue inside radius `inner`
+/// (of the disk's radius 1), red out to the rim, black outside.
+fn probe(x: usize, y: usize, inner: f64) -> [f32; 3] {
+    let (u, v) = ((x as f64 + 0.5) / 32.0 - 1.0, (y as f64 + 0.5) / 32.0 - 1.0);
+    let r = (u * u + v * v).sqrt();
+    if r < inner {
+        [0.0, 0.0, 1.0]
+    } else if r < 1.0 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0; 3]
+    }
+}
+
+/// Ok when the ground (facing the probe's axis, the dome turned 90 degrees
+/// about X) sees one colour only, at 0.5 x radiance 1: the hemisphere
+/// around the probe's centre direction is one disk of the image (angular:
+/// radius 1/2, mirroredBall: radius sin 45 degrees), the other hemisphere
+/// the ring.
+fn one_hemisphere(shot: &Shot) -> Result<(), String> {
+    let c = shot.mean((16, 48), (12, 36));
+    let (hi, lo) = (c[0].max(c[2]), c[0].min(c[2]));
+    ensure((hi - 0.5).abs() < 0.05 && lo < 0.02, || {
+        format!("{c:.3?}: not one hemisphere of the probe")
+    })
+}
+
+fn angular() -> &'static Shot {
+    static SHOT: OnceLock<Shot> = OnceLock::new();
+    dome_shot(
+        "lux_angular",
+        &SHOT,
+        "def DomeLight \"Sky\"\n{\n    float xformOp:rotateX = 90\n    uniform token[] xformOpOrder = [\"xformOp:rotateX\"]\n    \
+         asset inputs:texture:file = @sky.exr@\n    token inputs:texture:format = \"angular\"\n}\n",
+        (64, 64),
+        |x, y| probe(x, y, 0.5),
+    )
+}
+
+fn mirrored_ball() -> &'static Shot {
+    static SHOT: OnceLock<Shot> = OnceLock::new();
+    dome_shot(
+        "lux_mirrored_ball",
+        &SHOT,
+        "def DomeLight \"Sky\"\n{\n    float xformOp:rotateX = 90\n    uniform token[] xformOpOrder = [\"xformOp:rotateX\"]\n    \
+         asset inputs:texture:file = @sky.exr@\n    token inputs:texture:format = \"mirroredBall\"\n}\n",
+        (64, 64),
+        |x, y| probe(x, y, std::f64::consts::FRAC_1_SQRT_2),
+    )
+}
+
+/// The region beside slot `slot`'s light at world offsets `dx`, `dy` (a
+/// 2 x 2 pixel patch).
+fn beside(shot: &Shot, slot: usize, dx: f64, dy: f64) -> Rgb {
+    let (px, py) = pixel(SLOTS[slot].0 + dx, SLOTS[slot].1 + dy);
+    shot.mean((px - 1, px + 1), (py - 1, py + 1))
+}
+
+pub fn rows() -> Vec<Row> {
+    vec![
+        row("LightAPI", "inputs:intensity, inputs:exposure, inputs:color", Honoured,
+            "a distant light of intensity 3, exposure 1, colour (1, 0.5, 0.25) (normalized: irradiance 6 x colour facing it) lights the ground at 30 degrees to 0.5 / pi x 6 cos 30 x colour", || {
+                let v = 0.5 / PI * 6.0 * (PI / 6.0).cos();
+                near("distant", distant().mean((8, 56), (8, 40)), [v, v * 0.5, v * 0.25], 0.05)
+            }),
+        row("LightAPI", "inputs:enableColorTemperature, inputs:colorTemperature", Honoured,
+            "a 2500 K disk light lights the ground orange (red over 2.5 x blue)", || {
+                let (xs, ys) = region(1);
+                let c = emitters().mean(xs, ys);
+                ensure(c[0] > 2.5 * c[2] && c[1] > 0.0, || format!("{c:.4?}"))
+            }),
+        row("LightAPI", "inputs:normalize", Honoured, "a normalized rect light of intensity 1.44 and area 0.18 lights the ground as one of radiance 8", || {
+            reads(shapes(), 3, expected(3, rect(8.0, 0.6, 0.3)), 0.06)
+        }),
+        row("LightAPI", "inputs:diffuse", Pending("issue 46: inputs:diffuse is ignored"), "a light of diffuse 0 leaves a Lambert ground dark", || {
+            reads(shapes(), 4, 0.0, 0.0)
+        }),
+        row("LightAPI", "inputs:specular", Pending("issue 46: inputs:specular is ignored"), "a light of specular 0 leaves a rough metal dark", || {
+            let c = beside(more(), 3, 0.75, 0.0);
+            ensure(c[1] < 0.005, || format!("{c:.4?}"))
+        }),
+        row("LightAPI", "collection:lightLink", Pending("issue 46: light linking is ignored"), "a light whose lightLink collection excludes everything lights nothing", || {
+            reads(more(), 4, 0.0, 0.0)
+        }),
+        row("LightAPI", "collection:shadowLink", Pending("issue 46: shadow linking is ignored"), "an occluder outside a light's shadowLink collection casts no shadow from it", || {
+            let (px, py) = pixel(SLOTS[5].0 + 0.875, SLOTS[5].1);
+            let c = more().mean((px, px + 1), (py - 1, py + 1));
+            let open = 0.5 / PI * disk(5.0, 0.3)(0.875, 0.0);
+            ensure(c[1] > 0.7 * open, || format!("{c:.4?} against {open:.4} unshadowed"))
+        }),
+        row("ShadowAPI", "inputs:shadow:enable", Pending("issue 46: found by the suite: shadow:enable is ignored without a warning"),
+            "an occluder casts no shadow from a light with shadows off", || {
+                let (px, py) = pixel(SLOTS[2].0 + 0.875, SLOTS[2].1);
+                let c = more().mean((px, px + 1), (py - 1, py + 1));
+                let open = 0.5 / PI * disk(5.0, 0.3)(0.875, 0.0);
+                ensure(c[1] > 0.7 * open, || format!("{c:.4?} against {open:.4} unshadowed"))
+            }),
+        row("ShapingAPI", "inputs:shaping:cone:angle", Pending("issue 46: ShapingAPI is ignored"), "a disk light coned to 10 degrees leaves the ground 56 degrees off its axis dark", || {
+            reads(shapes(), 5, 0.0, 0.0)
+        }),
+        row("SphereLight", "inputs:radius", Honoured, "a sphere of radius 0.2, radiance 10 lights the ground as pi L r^2 cos / d^2", || {
+            reads(shapes(), 0, expected(0, sphere(10.0, 0.2)), 0.06)
+        }),
+        row("SphereLight", "treatAsPoint", Honoured, "a point light of the sphere's power: the same irradiance, no visible body", || {
+            let (px, py) = pixel(SLOTS[1].0, SLOTS[1].1);
+            let body = more().mean((px - 1, px + 1), (py - 1, py + 1));
+            reads(more(), 1, expected(1, sphere(10.0, 0.2)), 0.06)
+                .and(ensure(body[1] < 3.0, || format!("the point shows a body {body:.3?}")))
+        }),
+        row("DiskLight", "inputs:radius", Honoured, "a disk of radius 0.3, radiance 5 lights the ground as Lambert's formula says", || {
+            reads(shapes(), 1, expected(1, disk(5.0, 0.3)), 0.06)
+        }),
+        row("RectLight", "inputs:width, inputs:height", Honoured, "a 0.6 x 0.3 rect of radiance 8 lights the ground as Lambert's formula says", || {
+            reads(shapes(), 2, expected(2, rect(8.0, 0.6, 0.3)), 0.06)
+        }),
+        row("CylinderLight", "inputs:length, inputs:radius", Honoured, "a cylinder 2 long along X lights the ground beside its middle over 3 x more than 0.5..1 beyond its end", || {
+            let (side, end) = (beside(more(), 0, 0.0, -0.75)[1], beside(more(), 0, 1.75, 0.0)[1]);
+            ensure(side > 3.0 * end && side > 0.01, || format!("beside {side:.4}, beyond the end {end:.4}"))
+        }),
+        row("MeshLightAPI", "inputs:intensity (on a Mesh)", Pending("issue 46: MeshLightAPI is ignored"), "a 0.4 x 0.4 mesh light of intensity 10 lights the ground under it", || {
+            let open = expected(0, rect(10.0, 0.4, 0.4));
+            let (xs, ys) = region(0);
+            let c = emitters().mean(xs, ys);
+            ensure(c[1] > 0.5 * open, || format!("{c:.4?} against {open:.4}"))
+        }),
+        row("DomeLight", "inputs:texture:file", Honoured, "a lat-long sky, blue above the horizon, lights an upward ground blue (0.5 x 1)", || {
+            near("lat-long", latlong().mean((16, 48), (12, 36)), [0.0, 0.0, 0.5], 0.05)
+        }),
+        row("DomeLight", "inputs:texture:format angular", Pending("issue 46: angular is read as lat-long"),
+            "an angular probe (blue inside half its radius, red to the rim) turned to face the ground lights it with one colour", || one_hemisphere(angular())),
+        row("DomeLight", "inputs:texture:format mirroredBall", Pending("issue 46: mirroredBall is read as lat-long"),
+            "a mirrored-ball probe (blue inside radius sin 45 degrees) turned to face the ground lights it with one colour", || one_hemisphere(mirrored_ball())),
+        row("PortalLight", "inputs:width, inputs:height", Pending("issue 46: PortalLight is ignored without a word"),
+            "a portal guides the dome's sampling: the log names it, and the image is the portal-less one", || {
+                latlong().warned(&["/Portal"])
+            }),
+    ]
+}
+
+#[test]
+fn rows_hold() {
+    super::check_rows(&rows());
+}
