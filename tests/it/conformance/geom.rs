@@ -95,6 +95,20 @@ fn cells() -> Vec<String> {
         "def Xform \"I\" (instanceable = true\n    references = </Protos/Ball>)\n{\n}".into(),
         instancer("int[] protoIndices = [0]\n    point3f[] positions = [(0, 0, 0)]\n    quath[] orientations = [(0.7071068, 0, 0, 0.7071068)]",
                   "def Cylinder \"P\"\n        {\n            double radius = 0.25\n            double height = 1.6\n            uniform token axis = \"X\"\n        }"),
+        "def NurbsCurves \"N\"\n{\n    int[] curveVertexCounts = [4]\n    point3f[] points = [(-0.7, -0.5, 0), (-0.7, 0.7, 0), (0.7, 0.7, 0), (0.7, -0.5, 0)]\n    \
+         int[] order = [4]\n    double[] knots = [0, 0, 0, 0, 1, 1, 1, 1]\n    float[] widths = [0.3] (interpolation = \"constant\")\n    \
+         color3f[] primvars:displayColor = [(1, 1, 1)]\n}"
+            .into(),
+        "def Cylinder_1 \"G\"\n{\n    double radiusTop = 0.1\n    double radiusBottom = 0.6\n    double height = 1\n}".into(),
+        "def Capsule_1 \"G\"\n{\n    double radiusTop = 0.2\n    double radiusBottom = 0.3\n    double height = 1\n    uniform token axis = \"X\"\n}".into(),
+        "def HermiteCurves \"H\"\n{\n    int[] curveVertexCounts = [2]\n    point3f[] points = [(-0.5, 0, 0), (0.5, 0, 0)]\n    \
+         vector3f[] tangents = [(1, 0, 0), (1, 0, 0)]\n}"
+            .into(),
+        "def NurbsPatch \"P\"\n{\n    int uVertexCount = 2\n    int vVertexCount = 2\n    int uOrder = 2\n    int vOrder = 2\n    \
+         double[] uKnots = [0, 0, 1, 1]\n    double[] vKnots = [0, 0, 1, 1]\n    \
+         point3f[] points = [(-0.5, -0.5, 0), (0.5, -0.5, 0), (-0.5, 0.5, 0), (0.5, 0.5, 0)]\n}"
+            .into(),
+        "def TetMesh \"T\"\n{\n    point3f[] points = [(0, 0, 0), (0.5, 0, 0), (0, 0.5, 0), (0, 0, 0.5)]\n    int4[] tetVertexIndices = [(0, 1, 2, 3)]\n}".into(),
     ]
 }
 
@@ -238,6 +252,20 @@ pub fn rows() -> Vec<Row> {
         }),
         row("PointInstancer", "prototypes (inactive)", Pending("issue 46: an instance of an inactive prototype still renders"), "an instance of an inactive prototype is not drawn", || empty(33)),
         row("PointInstancer", "orientations", Honoured, "an X-axis cylinder prototype turned 90 degrees about Z lies along the columns", || elongated(35, false, 6, 4)),
+        row("NurbsCurves", "points, order, knots", Approximated("drawn as the control polygon (a linear curve)"),
+            "drawn, with a warning naming the prim", || {
+                shot().warned(&["/Sheet/C36/N", "control polygon"]).and(coverage(36, 4, 64))
+            }),
+        row("Cylinder_1", "radiusTop, radiusBottom", Pending("issue 46: found by the suite: Cylinder_1 renders nothing, without a warning"),
+            "a Z-axis cone frustum of radii 0.1 and 0.6 seen from above covers its bottom's 18-pixel disk", || coverage(37, 12, 30)),
+        row("Capsule_1", "radiusTop, radiusBottom", Pending("issue 46: found by the suite: Capsule_1 renders nothing, without a warning"),
+            "an X-axis capsule of radii 0.2 and 0.3 and height 1 lies along the rows", || elongated(38, true, 5, 4)),
+        row("HermiteCurves, NurbsPatch, TetMesh", "(the prim)", Warned, "not rendered: a warning names each prim", || {
+            let s = shot();
+            s.warned(&["/Sheet/C39/H", "not rendered"])
+                .and(s.warned(&["/Sheet/C40/P", "not rendered"]))
+                .and(s.warned(&["/Sheet/C41/T", "not rendered"]))
+        }),
         row("Prim", "instanceable", Honoured, "a native instance of a referenced ball is drawn (each prototype stored once)", || coverage(34, 8, 24)),
     ]
 }

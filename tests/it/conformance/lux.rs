@@ -281,7 +281,8 @@ fn distant() -> &'static Shot {
     })
 }
 
-/// The fourth stage: colour temperature and a mesh light.
+/// The fourth stage: a mesh light, colour temperature, focus, an
+/// invisible light.
 fn emitters() -> &'static Shot {
     static SHOT: OnceLock<Shot> = OnceLock::new();
     sheet::once(&SHOT, || {
@@ -298,6 +299,8 @@ fn emitters() -> &'static Shot {
         let lights = [
             mesh_light,
             at(1, "DiskLight", "Warm", "", "float inputs:radius = 0.3\nfloat inputs:intensity = 5\nbool inputs:enableColorTemperature = 1\nfloat inputs:colorTemperature = 2500"),
+            at(2, "DiskLight", "Focused", "\"ShapingAPI\"", "float inputs:radius = 0.3\nfloat inputs:intensity = 5\nfloat inputs:shaping:focus = 10"),
+            at(3, "DiskLight", "Hidden", "", "float inputs:radius = 0.3\nfloat inputs:intensity = 5\ntoken visibility = \"invisible\""),
         ];
         sheet::render_sheet("lux_emitters", &stage(&lights.concat()), 32)
     })
@@ -444,6 +447,14 @@ pub fn rows() -> Vec<Row> {
         row("ShapingAPI", "inputs:shaping:cone:angle", Pending("issue 46: ShapingAPI is ignored"), "a disk light coned to 10 degrees leaves the ground 56 degrees off its axis dark", || {
             reads(shapes(), 5, 0.0, 0.0)
         }),
+        row("ShapingAPI", "inputs:shaping:focus", Pending("issue 46: ShapingAPI is ignored"),
+            "focus 10 (an off-axis cosine power) leaves the ground 56 degrees off the axis under a fifth of the unshaped light", || {
+                let (xs, ys) = region(2);
+                let c = emitters().mean(xs, ys);
+                let open = expected(2, disk(5.0, 0.3));
+                ensure(c[1] < 0.2 * open, || format!("{c:.4?} against {open:.4} unshaped"))
+            }),
+        row("LightAPI", "visibility (Imageable)", Honoured, "an invisible disk light lights nothing", || reads(emitters(), 3, 0.0, 0.0)),
         row("SphereLight", "inputs:radius", Honoured, "a sphere of radius 0.2, radiance 10 lights the ground as pi L r^2 cos / d^2", || {
             reads(shapes(), 0, expected(0, sphere(10.0, 0.2)), 0.06)
         }),
