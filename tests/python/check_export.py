@@ -23,7 +23,7 @@ import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
 
 PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
-PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Volume"}
+PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Plane", "Volume"}
 NO_MATERIAL = 0xFFFFFFFF
 MATRIX_TOL = 1e-5
 BOUNDS_TOL = 1e-4

@@ -1,0 +1,116 @@
+//! USD to the letter (issue 46): authored features the exporter used to drop
+//! silently, each on the smallest stage that shows it, written here in code
+//! and judged from the pixels or from the exported manifest. Each test stands
+//! alone, so the conformance suite can take them over one by one.
+
+use std::path::{Path, PathBuf};
+
+use crate::common;
+use crate::common::render::{Image, Render, RenderLog};
+
+/// A Y-up stage in metres: `body` after the layer header, with `metadata`
+/// (e.g. `renderSettingsPrimPath`) inside its parentheses.
+fn stage(metadata: &str, body: &str) -> String {
+    format!("#usda 1.0\n(\n    upAxis = \"Y\"\n    metersPerUnit = 1\n{metadata}\n)\n{body}\n")
+}
+
+/// An orthographic camera at `/Cam`, 5 units up +Z looking down -Z, viewing
+/// `width` x `height` scene units (10 pixels per unit at the test's
+/// resolutions), with further `attributes`.
+fn camera(width: f32, height: f32, attributes: &str) -> String {
+    format!(
+        "def Camera \"Cam\" {{\n token projection = \"orthographic\"\n float horizontalAperture = {}\n \
+         float verticalAperture = {}\n double3 xformOp:translate = (0, 0, 5)\n \
+         uniform token[] xformOpOrder = [\"xformOp:translate\"]\n{attributes}\n}}\n",
+        width * 10.0,
+        height * 10.0
+    )
+}
+
+/// A UsdPreviewSurface material `/Looks/NAME` emitting `rgb` (radiance,
+/// W/m2/sr) with a black diffuse: seen under [`DARK`], pixels are `rgb`.
+fn emitter(name: &str, rgb: &str) -> String {
+    format!(
+        "def Material \"{name}\" {{\n token outputs:surface.connect = </Looks/{name}/S.outputs:surface>\n \
+         def Shader \"S\" {{\n uniform token info:id = \"UsdPreviewSurface\"\n \
+         color3f inputs:diffuseColor = (0, 0, 0)\n color3f inputs:emissiveColor = {rgb}\n \
+         token outputs:surface\n }}\n}}\n"
+    )
+}
+
+/// A dome of radiance 0: a light, so no default white dome lights the stage.
+const DARK: &str = "def DomeLight \"Dark\" {\n float inputs:intensity = 0\n}\n";
+
+/// `text` written to a fresh scratch folder `name` as `stage.usda`.
+fn write(name: &str, text: &str) -> PathBuf {
+    let dir = common::scratch(name);
+    let usda = dir.join("stage.usda");
+    std::fs::write(&usda, text).unwrap();
+    usda
+}
+
+/// `usda` rendered at `res`, 4 spp, seed 1, box filter, into its folder:
+/// the log and the image.
+fn render(usda: &Path, res: (u32, u32), extra: &[&str]) -> (RenderLog, Image) {
+    let render = Render {
+        scene: usda.to_str().unwrap(),
+        res,
+        spp: 4,
+        seed: 1,
+        extra,
+    };
+    let (log, image) = render.run_logged(usda.parent().unwrap());
+    (log, image.expect("a whole image"))
+}
+
+/// The (x, y) of the pixels whose red exceeds one half.
+fn lit(image: &Image) -> Vec<(usize, usize)> {
+    (0..image.height)
+        .flat_map(|y| (0..image.width).map(move |x| (x, y)))
+        .filter(|&(x, y)| image.rgb[0][y * image.width + x] > 0.5)
+        .collect()
+}
+
+/// A `UsdGeomPlane` renders as the schema defines it: `width` x `length`
+/// about the origin, for axis X along z and y (here 2 x 1 units, turned by
+/// 90 degrees about y so width runs along the image's x: 20 x 10 pixels,
+/// nothing else lit), where it used to render nothing (and `cirrus info`
+/// counts it as a mesh).
+#[test]
+fn plane_renders_width_by_length_across_its_axis() {
+    let body = format!(
+        "{}{DARK}def Scope \"Looks\" {{\n{}}}\n\
+         def Plane \"Card\" (\n prepend apiSchemas = [\"MaterialBindingAPI\"]\n) {{\n double width = 2\n \
+         double length = 1\n uniform token axis = \"X\"\n float3[] extent = [(0, -0.5, -1), (0, 0.5, 1)]\n \
+         float xformOp:rotateY = 90\n uniform token[] xformOpOrder = [\"xformOp:rotateY\"]\n \
+         rel material:binding = </Looks/Glow>\n}}\n",
+        camera(4.0, 4.0, ""),
+        emitter("Glow", "(1, 1, 1)")
+    );
+    let usda = write("usd_letter_plane", &stage("", &body));
+    let info = common::cirrus_ok(&["info".as_ref(), usda.as_os_str()]);
+    assert!(
+        info.contains("  meshes       1\n"),
+        "cirrus info counts the plane:\n{info}"
+    );
+    let (_, image) = render(&usda, (40, 40), &[]);
+    let lit = lit(&image);
+    let columns = lit.iter().map(|p| p.0);
+    let rows = lit.iter().map(|p| p.1);
+    let span = |v: Vec<usize>| (v.iter().min().copied(), v.iter().max().copied());
+    assert_eq!(
+        lit.len(),
+        200,
+        "lit pixels of a 2 x 1 plane at 10 px per unit"
+    );
+    assert_eq!(
+        span(columns.collect()),
+        (Some(10), Some(29)),
+        "columns: width 2 along x"
+    );
+    assert_eq!(
+        span(rows.collect()),
+        (Some(15), Some(24)),
+        "rows: length 1 along y"
+    );
+}
