@@ -226,6 +226,12 @@ def constant_primvars(prim: Usd.Prim, names: list[str], time: Usd.TimeCode) -> d
     return {name: value for name, value in found.items() if value is not None}
 
 
+def deactivated(stage: Usd.Stage, path) -> bool:
+    """Whether the prim at `path` or an ancestor is inactive (an inactive prim's descendants
+    are not on the composed stage at all)."""
+    return any(not prim.IsActive() for prim in map(stage.GetPrimAtPath, path.GetPrefixes()) if prim)
+
+
 class Walker:
     """Depth-first traversal honouring visibility and purpose at one time code."""
 
@@ -341,7 +347,8 @@ class Walker:
 
         Instance transforms come from ComputeInstanceTransformsAtTime (prototype root
         xform included, mask applied), so each prototype group leaves its root's own
-        transform out.
+        transform out. Instances of an inactive prototype are not rendered (deactivating is
+        authored intent, as for any prim); those of a target that is no prim are warned about.
         """
         instancer = UsdGeom.PointInstancer(prim)
         matrices = np.array(instancer.ComputeInstanceTransformsAtTime(self._time, self._time),
@@ -358,10 +365,15 @@ class Walker:
         stage = prim.GetStage()
         groups = {}
         for j, target in enumerate(targets):
-            if (proto_indices[mask] == j).any():
-                root = stage.GetPrimAtPath(target)
-                key = (prototype_path(root), self._skinning.signature(root))
-                groups[j] = self._group(key, str(target), root, [root], False)
+            root = stage.GetPrimAtPath(target)
+            if not (proto_indices[mask] == j).any() or deactivated(stage, target):
+                continue
+            if not root.IsValid():
+                self._report.warn(f"PointInstancer {prim.GetPath()}: prototypes target {target} is not a "
+                                  f"prim; its instances are skipped")
+                continue
+            key = (prototype_path(root), self._skinning.signature(root))
+            groups[j] = self._group(key, str(target), root, [root], False)
         wanted = {name for group in groups.values() for leaf in group for name in leaf.unset()}
         per_instance = {name: values[mask] for name, values in
                         self._instancer_primvars(prim, wanted, proto_indices.size).items()}

@@ -63,6 +63,22 @@ fn render(usda: &Path, res: (u32, u32), extra: &[&str]) -> (RenderLog, Image) {
     (log, image.expect("a whole image"))
 }
 
+/// The manifest of `text` exported by `cirrus export` in scratch folder `name`.
+fn manifest(name: &str, text: &str) -> serde_json::Value {
+    let out = common::export_usda(&common::scratch(name), text);
+    let json = std::fs::read_to_string(out.join("scene.json")).unwrap();
+    serde_json::from_str(&json).unwrap()
+}
+
+/// The `path` of every record of the manifest list `key`.
+fn paths(manifest: &serde_json::Value, key: &str) -> Vec<String> {
+    let records = manifest[key].as_array().unwrap();
+    records
+        .iter()
+        .map(|r| r["path"].as_str().unwrap().to_owned())
+        .collect()
+}
+
 /// The (x, y) of the pixels whose red exceeds one half.
 fn lit(image: &Image) -> Vec<(usize, usize)> {
     (0..image.height)
@@ -113,4 +129,16 @@ fn plane_renders_width_by_length_across_its_axis() {
         (Some(15), Some(24)),
         "rows: length 1 along y"
     );
+}
+
+/// A PointInstancer's instances of an inactive prototype are not exported
+/// (they used to render); the active prototype's are.
+#[test]
+fn inactive_prototype_instances_are_not_rendered() {
+    let body = "def PointInstancer \"Scatter\" {\n point3f[] positions = [(0, 0, 0), (3, 0, 0), (6, 0, 0)]\n \
+                int[] protoIndices = [0, 1, 1]\n rel prototypes = [</Scatter/Protos/On>, </Scatter/Protos/Off>]\n \
+                def Scope \"Protos\" {\n def Cube \"On\" {}\n def Cube \"Off\" ( active = false ) {}\n }\n}\n";
+    let manifest = manifest("usd_letter_inactive_prototype", &stage("", body));
+    assert_eq!(manifest["instances"]["count"], 1, "{manifest}");
+    assert_eq!(paths(&manifest, "meshes"), ["/Scatter/Protos/On"]);
 }
