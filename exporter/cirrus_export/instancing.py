@@ -36,7 +36,6 @@ from .xforms import compose, local_transform, to_3x4
 
 PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Plane", "Volume", "Points",
               "BasisCurves", "NurbsCurves"}
-SKIPPED_PURPOSES = {UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy}
 # Renderable prim types Cirrus does not render yet: each is warned about by name.
 UNRENDERED_TYPES = {"HermiteCurves", "NurbsPatch", "TetMesh"}
 # Parts stored as meshes (whose materials' primvars instances may carry).
@@ -233,9 +232,12 @@ def deactivated(stage: Usd.Stage, path) -> bool:
 
 
 class Walker:
-    """Depth-first traversal honouring visibility and purpose at one time code."""
+    """Depth-first traversal honouring visibility and purpose at one time code: `purposes`
+    are the render settings' includedPurposes (render_settings.included_purposes)."""
 
-    def __init__(self, prototypes: Prototypes, skinning: Skinning, report: Report, time: Usd.TimeCode) -> None:
+    def __init__(self, prototypes: Prototypes, skinning: Skinning, report: Report, time: Usd.TimeCode,
+                 purposes: frozenset[str]) -> None:
+        self._purposes = purposes
         self._prototypes = prototypes
         self._skinning = skinning
         self._report = report
@@ -250,14 +252,15 @@ class Walker:
         sink.warn_lacking(self._report)
         return sink
 
-    def _renderable(self, prim: Usd.Prim) -> bool:
-        """False for invisible prims and guide/proxy purpose (render and default are kept)."""
+    def _invisible(self, prim: Usd.Prim) -> bool:
+        """Whether `prim` is invisible at the time: it and everything below it go unrendered."""
         imageable = UsdGeom.Imageable(prim)
-        if not imageable:
-            return True
-        if imageable.GetVisibilityAttr().Get(self._time) == UsdGeom.Tokens.invisible:
-            return False
-        return imageable.GetPurposeAttr().Get() not in SKIPPED_PURPOSES
+        return bool(imageable) and imageable.GetVisibilityAttr().Get(self._time) == UsdGeom.Tokens.invisible
+
+    def _included(self, prim: Usd.Prim) -> bool:
+        """Whether the gprim's computed purpose (its own authored one, else its nearest
+        ancestor's: UsdGeomImageable.ComputePurpose) is among the included purposes."""
+        return UsdGeom.Imageable(prim).ComputePurpose() in self._purposes
 
     def _walk(self, prim: Usd.Prim, parent: np.ndarray, sink: GroupSink | TopSink,
               apply_local: bool = True) -> None:
@@ -266,7 +269,7 @@ class Walker:
         A prim that resets the xform stack is placed relative to the holder (the world at
         the top level, the prototype root inside a prototype).
         """
-        if not self._renderable(prim):
+        if self._invisible(prim):
             return
         matrix = parent
         if apply_local:
@@ -279,7 +282,8 @@ class Walker:
             sink.nested(prim, self._inheriting(prim, self._point_instancer_leaves(prim)), matrix)
             return
         if prim.GetTypeName() in PART_TYPES:
-            sink.part(prim, self._skinning.placed(prim, sink.holder, matrix))
+            if self._included(prim):
+                sink.part(prim, self._skinning.placed(prim, sink.holder, matrix))
         elif prim.GetTypeName() in UNRENDERED_TYPES:
             self._report.not_rendered(prim.GetTypeName(), f"{prim.GetTypeName()} {prim.GetPath()} is not rendered: "
                                       f"{prim.GetTypeName()} prims are not supported yet")

@@ -160,3 +160,27 @@ def warn_settings_without_products(settings: UsdRender.Settings, time: Usd.TimeC
         report.warn(f"{where}: dataWindowNDC {window} is not used; the whole image is rendered "
                     "(give the settings a RenderProduct to crop it)")
     _warn_conform_policy(where, settings.GetAspectRatioConformPolicyAttr().Get(time), report)
+
+
+# UsdGeomImageable's purposes, and UsdRenderSettings.includedPurposes' fallback.
+PURPOSES = ("default", "render", "proxy", "guide")
+DEFAULT_INCLUDED_PURPOSES = frozenset({"default", "render"})
+
+
+def _known_tokens(settings: UsdRender.Settings, attr: Usd.Attribute, known: tuple[str, ...],
+                  report: Report) -> list[str]:
+    """An uniform token[] attribute of the settings, without the tokens not in `known` (one
+    warning naming settings, attribute and those tokens)."""
+    tokens = [str(t) for t in attr.Get() or []]
+    unknown = [t for t in tokens if t not in known]
+    if unknown:
+        report.warn(f"render settings {settings.GetPath()}: {attr.GetName()} {unknown} not among "
+                    f"{list(known)}; ignored")
+    return [t for t in tokens if t in known]
+
+
+def included_purposes(settings: UsdRender.Settings | None, report: Report) -> frozenset[str]:
+    """`includedPurposes`: the UsdGeomImageable purposes rendered (fallback default and render)."""
+    if settings is None:
+        return DEFAULT_INCLUDED_PURPOSES
+    return frozenset(_known_tokens(settings, settings.GetIncludedPurposesAttr(), PURPOSES, report))

@@ -70,6 +70,11 @@ fn manifest(name: &str, text: &str) -> serde_json::Value {
     serde_json::from_str(&json).unwrap()
 }
 
+/// The manifest's warnings, one string.
+fn warnings(manifest: &serde_json::Value) -> String {
+    manifest["warnings"].to_string()
+}
+
 /// The `path` of every record of the manifest list `key`.
 fn paths(manifest: &serde_json::Value, key: &str) -> Vec<String> {
     let records = manifest[key].as_array().unwrap();
@@ -141,4 +146,48 @@ fn inactive_prototype_instances_are_not_rendered() {
     let manifest = manifest("usd_letter_inactive_prototype", &stage("", body));
     assert_eq!(manifest["instances"]["count"], 1, "{manifest}");
     assert_eq!(paths(&manifest, "meshes"), ["/Scatter/Protos/On"]);
+}
+
+/// Three cubes with purposes default, render and proxy, exported with
+/// `settings` (a RenderSettings body, or none): the mesh paths exported.
+fn purpose_meshes(name: &str, settings: Option<&str>) -> (Vec<String>, String) {
+    let cubes =
+        "def Cube \"Plain\" {}\ndef Cube \"Full\" {\n uniform token purpose = \"render\"\n}\n\
+                 def Cube \"Stand\" {\n uniform token purpose = \"proxy\"\n}\n";
+    let text = match settings {
+        Some(settings) => stage(
+            "    renderSettingsPrimPath = \"/Settings\"",
+            &format!("{cubes}def RenderSettings \"Settings\" {{\n{settings}\n}}\n"),
+        ),
+        None => stage("", cubes),
+    };
+    let manifest = manifest(name, &text);
+    (paths(&manifest, "meshes"), warnings(&manifest))
+}
+
+/// `includedPurposes` decides which purposes render: by default (and
+/// with no settings) default and render geometry; a proxy render
+/// (`["default", "proxy"]`) shows the proxy and not the render geometry.
+#[test]
+fn included_purposes_choose_proxy_or_render_geometry() {
+    let (meshes, _) = purpose_meshes("usd_letter_purposes_none", None);
+    assert_eq!(meshes, ["/Plain", "/Full"]);
+    let (meshes, _) = purpose_meshes("usd_letter_purposes_fallback", Some(""));
+    assert_eq!(meshes, ["/Plain", "/Full"]);
+    let proxy = "uniform token[] includedPurposes = [\"default\", \"proxy\"]";
+    let (meshes, _) = purpose_meshes("usd_letter_purposes_proxy", Some(proxy));
+    assert_eq!(meshes, ["/Plain", "/Stand"]);
+}
+
+/// An `includedPurposes` token that is no purpose is warned about, naming
+/// the settings and attribute, and ignored.
+#[test]
+fn unknown_included_purpose_is_warned_and_ignored() {
+    let settings = "uniform token[] includedPurposes = [\"render\", \"finals\"]";
+    let (meshes, warnings) = purpose_meshes("usd_letter_purposes_unknown", Some(settings));
+    assert_eq!(meshes, ["/Full"]);
+    assert!(
+        warnings.contains("/Settings: includedPurposes [") && warnings.contains("finals"),
+        "{warnings}"
+    );
 }

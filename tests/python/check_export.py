@@ -73,10 +73,15 @@ class Expected:
         self._scan(stage.GetPseudoRoot(), None)
 
     def _hidden(self, prim: Usd.Prim) -> bool:
-        """Invisible, guide or proxy purpose: not rendered."""
+        """Invisible (with everything below it): not rendered."""
         img = UsdGeom.Imageable(prim)
-        return bool(img) and (img.GetVisibilityAttr().Get(self.time) == UsdGeom.Tokens.invisible
-                              or img.GetPurposeAttr().Get() in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy))
+        return bool(img) and img.GetVisibilityAttr().Get(self.time) == UsdGeom.Tokens.invisible
+
+    @staticmethod
+    def _part(prim: Usd.Prim) -> bool:
+        """A gprim rendered by default: its computed purpose is default or render."""
+        return prim.GetTypeName() in PART_TYPES and \
+            UsdGeom.Imageable(prim).ComputePurpose() in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)
 
     def _scan(self, root: Usd.Prim, source: str | None) -> None:
         """Copies under a stage prim at their XformCache world transforms."""
@@ -95,7 +100,7 @@ class Expected:
             elif prim.IsInstance():
                 it.PruneChildren()
                 self._scan_instance(prim, here)
-            elif prim.GetTypeName() in PART_TYPES:
+            elif self._part(prim):
                 world = gf(self.cache.GetLocalToWorldTransform(prim))
                 self.copies[(here or str(prim.GetPath()), prim.GetName())].append((prim, world[None]))
 
@@ -131,7 +136,7 @@ class Expected:
             if prim.IsA(UsdGeom.PointInstancer):
                 it.PruneChildren()
                 self._instancer(prim, rel @ placed, source)
-            elif prim.GetTypeName() in PART_TYPES:
+            elif self._part(prim):
                 self.copies[(source, prim.GetName())].append((prim, rel @ placed))
 
 
