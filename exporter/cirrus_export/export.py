@@ -21,7 +21,7 @@ from .motion import Recorder, add_motion, replaying_walker
 from .curves import CurvesTable
 from .points import PointsTable
 from .prototypes import MeshTable, Prototypes
-from .render_settings import chosen_settings, included_purposes, requested_primvars
+from .render_settings import chosen_settings, included_purposes, material_binding_purposes, requested_primvars
 from .round_shapes import RoundContext
 from .report import ExportError, Report
 from .skinning import Skinning
@@ -153,7 +153,7 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     writer = BinWriter()
     mtlx = MtlxDocuments(stage, report)
     mtlx.warn_unreadable()
-    materials = MaterialTable(resolver, mtlx, report, time)
+    materials = MaterialTable(resolver, mtlx, report, time, material_binding_purposes(settings, report))
     skinning = Skinning(report, time)
     aov_primvars = requested_primvars(settings, time, report)
     meshes = MeshTable(writer, materials, skinning, report, time, str(path), aov_primvars)

@@ -165,6 +165,10 @@ def warn_settings_without_products(settings: UsdRender.Settings, time: Usd.TimeC
 # UsdGeomImageable's purposes, and UsdRenderSettings.includedPurposes' fallback.
 PURPOSES = ("default", "render", "proxy", "guide")
 DEFAULT_INCLUDED_PURPOSES = frozenset({"default", "render"})
+# UsdShadeMaterialBindingAPI's purposes ("" is allPurpose), and
+# UsdRenderSettings.materialBindingPurposes' fallback.
+MATERIAL_PURPOSES = ("full", "preview", "")
+DEFAULT_MATERIAL_PURPOSES = ("full", "")
 
 
 def _known_tokens(settings: UsdRender.Settings, attr: Usd.Attribute, known: tuple[str, ...],
@@ -184,3 +188,12 @@ def included_purposes(settings: UsdRender.Settings | None, report: Report) -> fr
     if settings is None:
         return DEFAULT_INCLUDED_PURPOSES
     return frozenset(_known_tokens(settings, settings.GetIncludedPurposesAttr(), PURPOSES, report))
+
+
+def material_binding_purposes(settings: UsdRender.Settings | None, report: Report) -> tuple[str, ...]:
+    """`materialBindingPurposes`: the material purposes to resolve bindings for, in order of
+    preference ("" is allPurpose; fallback full, then allPurpose)."""
+    if settings is None:
+        return DEFAULT_MATERIAL_PURPOSES
+    return tuple(_known_tokens(settings, settings.GetMaterialBindingPurposesAttr(), MATERIAL_PURPOSES,
+                               report))

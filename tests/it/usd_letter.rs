@@ -191,3 +191,88 @@ fn unknown_included_purpose_is_warned_and_ignored() {
         "{warnings}"
     );
 }
+
+/// Two cubes seen side by side: /Left binds Red for purpose full, Green for
+/// preview and Blue for all purposes; /Right binds Green for preview and
+/// Blue for all purposes. `purposes` is the settings'
+/// `materialBindingPurposes` (none: no settings). Returns the render's log
+/// and each cube's centre pixel (R, G, B).
+fn bound_colours(name: &str, purposes: Option<&str>) -> (String, [[f32; 3]; 2]) {
+    let looks: String = [
+        ("Red", "(1, 0, 0)"),
+        ("Green", "(0, 1, 0)"),
+        ("Blue", "(0, 0, 1)"),
+    ]
+    .iter()
+    .map(|(name, rgb)| emitter(name, rgb))
+    .collect();
+    let cube = |name: &str, x: f32, bindings: &str| {
+        format!(
+            "def Cube \"{name}\" (\n prepend apiSchemas = [\"MaterialBindingAPI\"]\n) {{\n \
+             double size = 1.8\n double3 xformOp:translate = ({x}, 0, 0)\n \
+             uniform token[] xformOpOrder = [\"xformOp:translate\"]\n{bindings}\n}}\n"
+        )
+    };
+    let left =
+        "rel material:binding:full = </Looks/Red>\nrel material:binding:preview = </Looks/Green>\n\
+                rel material:binding = </Looks/Blue>";
+    let right =
+        "rel material:binding:preview = </Looks/Green>\nrel material:binding = </Looks/Blue>";
+    let mut body = format!(
+        "{}{DARK}def Scope \"Looks\" {{\n{looks}}}\n{}{}",
+        camera(4.0, 2.0, ""),
+        cube("Left", -1.0, left),
+        cube("Right", 1.0, right)
+    );
+    let mut metadata = "";
+    if let Some(purposes) = purposes {
+        body += &format!(
+            "def RenderSettings \"Settings\" {{\n uniform token[] materialBindingPurposes = {purposes}\n}}\n"
+        );
+        metadata = "    renderSettingsPrimPath = \"/Settings\"";
+    }
+    let (log, image) = render(&write(name, &stage(metadata, &body)), (40, 20), &[]);
+    let at = |x: usize| [0, 1, 2].map(|c| image.rgb[c][10 * image.width + x]);
+    (log.text, [at(10), at(30)])
+}
+
+/// Asserts each cube's centre shows the named primary, as emitted (1 in its
+/// channel, 0 in the others, within rounding).
+fn assert_colours(what: &str, got: [[f32; 3]; 2], want: [usize; 2]) {
+    for (pixel, channel) in got.iter().zip(want) {
+        let expected: Vec<f32> = (0..3).map(|c| f32::from(u8::from(c == channel))).collect();
+        let close = pixel
+            .iter()
+            .zip(&expected)
+            .all(|(a, b)| (a - b).abs() < 1e-3);
+        assert!(close, "{what}: pixels {got:?}, want channels {want:?}");
+    }
+}
+
+/// Final renders resolve purpose `full`, then all purposes (USD's fallback
+/// `materialBindingPurposes`, with or without settings), not the preview
+/// look; settings asking for `preview` get the preview bindings.
+#[test]
+fn material_binding_purposes_full_then_all_purpose() {
+    let (_, got) = bound_colours("usd_letter_binding_default", None);
+    assert_colours("no settings", got, [0, 2]);
+    let (_, got) = bound_colours("usd_letter_binding_preview", Some("[\"preview\", \"\"]"));
+    assert_colours("[preview, allPurpose]", got, [1, 1]);
+    let (_, got) = bound_colours("usd_letter_binding_all", Some("[\"\"]"));
+    assert_colours("[allPurpose]", got, [2, 2]);
+}
+
+/// A `materialBindingPurposes` token that is no material purpose is warned
+/// about (settings, attribute and token named) and the others resolved.
+#[test]
+fn unknown_material_binding_purpose_is_warned_and_ignored() {
+    let (log, got) = bound_colours(
+        "usd_letter_binding_unknown",
+        Some("[\"lookdev\", \"full\", \"\"]"),
+    );
+    assert_colours("[lookdev, full, allPurpose]", got, [0, 2]);
+    assert!(
+        log.contains("/Settings: materialBindingPurposes [") && log.contains("lookdev"),
+        "{log}"
+    );
+}

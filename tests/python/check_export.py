@@ -224,18 +224,14 @@ def without_prototype(path: str | None) -> str | None:
 
 
 def material_path(prim: Usd.Prim) -> str | None:
-    """usd-core's bound material (preview, then full) as a prototype-relative path; the
-    binding's target when it does not compose into a Material; None when unbound."""
-    api = UsdShade.MaterialBindingAPI(prim)
-    broken = None
-    for purpose in (UsdShade.Tokens.preview, UsdShade.Tokens.full):
-        material, relationship = api.ComputeBoundMaterial(purpose)
-        if material:
-            m = material.GetPrim()
-            return without_prototype(str(m.GetPrimInPrototype().GetPath() if m.IsInstanceProxy() else m.GetPath()))
-        if relationship and broken is None:
-            broken = str(relationship.GetTargets()[0])
-    return broken
+    """usd-core's bound material for final renders (purpose full, falling back to
+    allPurpose) as a prototype-relative path; the binding's target when it does not compose
+    into a Material; None when unbound."""
+    material, relationship = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(UsdShade.Tokens.full)
+    if material:
+        m = material.GetPrim()
+        return without_prototype(str(m.GetPrimInPrototype().GetPath() if m.IsInstanceProxy() else m.GetPath()))
+    return str(relationship.GetTargets()[0]) if relationship else None
 
 
 def check_materials(scene: Scene, prim: Usd.Prim, mesh: int, label: str) -> None:
