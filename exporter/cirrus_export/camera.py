@@ -11,7 +11,7 @@ import math
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdRender
 
-from .render_settings import render_products, warn_settings_without_products
+from .render_settings import depth_of_field_disabled, render_products, warn_settings_without_products
 from .report import ExportError, Report
 from .xforms import as_array, to_3x4_list
 
@@ -57,7 +57,8 @@ def export_render(stage: Usd.Stage, time: Usd.TimeCode, bounds: tuple[np.ndarray
                   report: Report, chosen: Usd.Prim | None = None,
                   settings: UsdRender.Settings | None = None) -> tuple[dict, dict]:
     """The manifest `camera` and `render` objects from `settings` (see chosen_settings);
-    `chosen` (see chosen_camera) overrides the stage's camera."""
+    `chosen` (see chosen_camera) overrides the stage's camera. The settings'
+    disableDepthOfField makes the camera a pinhole."""
     products = render_products(settings, time, report) if settings else []
     if settings and not products:
         warn_settings_without_products(settings, time, report)
@@ -69,7 +70,10 @@ def export_render(stage: Usd.Stage, time: Usd.TimeCode, bounds: tuple[np.ndarray
     prim = chosen or _camera_prim(stage, settings, products, report)
     if prim is None:
         return _default_camera(bounds, UsdGeom.GetStageUpAxis(stage)), render
-    return _usd_camera(prim, time), render
+    camera = _usd_camera(prim, time)
+    if depth_of_field_disabled(settings, products, time):
+        camera["f_stop"] = 0.0  # USD's "fStop infinite": a pinhole, as fStop 0 is
+    return camera, render
 
 
 def _usd_camera(prim: Usd.Prim, time: Usd.TimeCode) -> dict:

@@ -21,7 +21,8 @@ from .motion import Recorder, add_motion, replaying_walker
 from .curves import CurvesTable
 from .points import PointsTable
 from .prototypes import MeshTable, Prototypes
-from .render_settings import chosen_settings, included_purposes, material_binding_purposes, requested_primvars
+from .render_settings import (chosen_settings, included_purposes, material_binding_purposes, motion_blur_disabled,
+                              requested_primvars)
 from .round_shapes import RoundContext
 from .report import ExportError, Report
 from .skinning import Skinning
@@ -176,6 +177,8 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
         raise ExportError(f"{path}: nothing to export from /: {problems}")
     lo, hi = world_bounds(prototypes.boxes, prototype, matrices)
     camera, render = export_render(stage, time, (lo, hi), report, chosen, settings)
+    if shutter is None and motion_blur_disabled(settings, render["products"], time, report):
+        shutter = (0.0, 0.0)
     add_motion(stage, time, shutter, replaying_walker(walker, recorder, skinning, stage),
                (camera, instances), (matrices, sink.arrays()["source"]), writer, report, (meshes, skinning, points, curves),
                lights)

@@ -50,6 +50,37 @@ def _own_or_settings(product: UsdRender.Product, settings: UsdRender.Settings, n
     return source.Get(time)
 
 
+def _rendered(settings: UsdRender.Settings, products: list[dict], name: str, time: Usd.TimeCode):
+    """A RenderSettingsBase attribute as the render uses it: the first raster product's (whose
+    camera is rendered) when authored there, else the settings'."""
+    if not products:
+        return settings.GetPrim().GetAttribute(name).Get(time)
+    product = UsdRender.Product(settings.GetPrim().GetStage().GetPrimAtPath(products[0]["path"]))
+    return _own_or_settings(product, settings, name, time)
+
+
+def motion_blur_disabled(settings: UsdRender.Settings | None, products: list[dict], time: Usd.TimeCode,
+                         report: Report) -> bool:
+    """`disableMotionBlur` (the camera's shutter becomes [0, 0]), or the deprecated
+    `instantaneousShutter`, read as it (shutterClose = shutterOpen: no blur either, though at
+    shutter:open rather than the frame; warned)."""
+    if settings is None:
+        return False
+    if _rendered(settings, products, "disableMotionBlur", time):
+        return True
+    if _rendered(settings, products, "instantaneousShutter", time):
+        report.warn(f"render settings {settings.GetPath()}: instantaneousShutter (deprecated) is read as "
+                    "disableMotionBlur: no motion blur, the frame itself rendered (not the camera's shutter:open)")
+        return True
+    return False
+
+
+def depth_of_field_disabled(settings: UsdRender.Settings | None, products: list[dict],
+                            time: Usd.TimeCode) -> bool:
+    """`disableDepthOfField`: the camera's fStop becomes infinite (a pinhole)."""
+    return settings is not None and bool(_rendered(settings, products, "disableDepthOfField", time))
+
+
 def _camera(prim: Usd.Prim) -> str | None:
     """The first target of a settings or product's `camera` relationship."""
     targets = UsdRender.SettingsBase(prim).GetCameraRel().GetForwardedTargets()

@@ -276,3 +276,52 @@ fn unknown_material_binding_purpose_is_warned_and_ignored() {
         "{log}"
     );
 }
+
+/// A moving cube seen by a camera with depth of field and an open shutter,
+/// exported with `flags` authored on its render settings: the camera
+/// record, whether the instances move, and the warnings.
+fn camera_effects(name: &str, flags: &str) -> (serde_json::Value, bool, String) {
+    let lens = " float fStop = 2\n float focusDistance = 5\n double shutter:open = -0.25\n double shutter:close = 0.25";
+    let body = format!(
+        "{}def Cube \"Mover\" {{\n double3 xformOp:translate.timeSamples = {{ 0: (-1, 0, 0), 2: (1, 0, 0) }}\n \
+         uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}}\n\
+         def RenderSettings \"Settings\" {{\n rel camera = </Cam>\n{flags}\n}}\n",
+        camera(4.0, 4.0, lens)
+    );
+    let metadata =
+        "    startTimeCode = 1\n    endTimeCode = 1\n    renderSettingsPrimPath = \"/Settings\"";
+    let manifest = manifest(name, &stage(metadata, &body));
+    let moving = !manifest["instances"]["motion"].is_null();
+    (manifest["camera"].clone(), moving, warnings(&manifest))
+}
+
+/// `disableMotionBlur` closes the shutter (no camera shutter, nothing
+/// moving) and `disableDepthOfField` makes the camera a pinhole (fStop 0);
+/// without them the same stage blurs and has its lens.
+#[test]
+fn disable_motion_blur_and_depth_of_field() {
+    let (camera, moving, _) = camera_effects("usd_letter_effects_on", "");
+    assert_eq!(camera["shutter"], serde_json::json!([-0.25, 0.25]));
+    assert_eq!(camera["f_stop"], 2.0);
+    assert!(moving, "the cube moves over the open shutter");
+    let flags = " uniform bool disableMotionBlur = true\n uniform bool disableDepthOfField = true";
+    let (camera, moving, _) = camera_effects("usd_letter_effects_off", flags);
+    assert!(camera["shutter"].is_null(), "{camera}");
+    assert_eq!(camera["f_stop"], 0.0);
+    assert!(!moving, "nothing moves with motion blur disabled");
+}
+
+/// The deprecated `instantaneousShutter` closes the shutter as
+/// `disableMotionBlur` does, with a warning saying it is read so (the
+/// frame, not `shutter:open`, is rendered).
+#[test]
+fn instantaneous_shutter_is_read_as_disable_motion_blur() {
+    let flags = " uniform bool instantaneousShutter = true";
+    let (camera, moving, warnings) = camera_effects("usd_letter_effects_instant", flags);
+    assert!(camera["shutter"].is_null() && !moving, "{camera}");
+    assert_eq!(camera["f_stop"], 2.0, "the lens is kept");
+    assert!(
+        warnings.contains("instantaneousShutter (deprecated)"),
+        "{warnings}"
+    );
+}
