@@ -325,3 +325,80 @@ fn instantaneous_shutter_is_read_as_disable_motion_blur() {
         "{warnings}"
     );
 }
+
+/// An emitter of radiance 1 filling the view of a camera with `exposure`
+/// attributes, rendered at 8 x 8: its pixels and EXR header's
+/// `cirrus/exposure_scale`.
+fn exposed(name: &str, exposure: &str) -> (Image, String) {
+    let body = format!(
+        "{}{DARK}def Scope \"Looks\" {{\n{}}}\n\
+         def Cube \"Wall\" (\n prepend apiSchemas = [\"MaterialBindingAPI\"]\n) {{\n double size = 4\n \
+         rel material:binding = </Looks/Glow>\n}}\n",
+        camera(0.8, 0.8, exposure),
+        emitter("Glow", "(1, 1, 1)")
+    );
+    let usda = write(name, &stage("", &body));
+    let (_, image) = render(&usda, (8, 8), &[]);
+    let exr = usda.parent().unwrap().join("stage-8x8-4spp-seed1-.exr");
+    let meta = exr::meta::MetaData::read_from_file(&exr, false).unwrap();
+    let attribute = meta.headers[0]
+        .own_attributes
+        .other
+        .get(&exr::prelude::Text::from("cirrus/exposure_scale"))
+        .cloned();
+    let header = match attribute {
+        Some(exr::meta::attribute::AttributeValue::Text(t)) => t.to_string(),
+        other => panic!("cirrus/exposure_scale is {other:?}"),
+    };
+    (image, header)
+}
+
+/// The camera's exposure scales the image by UsdGeomCamera's linear
+/// exposure scale, responsivity x time x iso/100 x 2^exposure / fStop^2
+/// (here 1 x 0.5 x 1 x 2 / 4 = 0.25), and the EXR header states it; the
+/// fallbacks scale by exactly 1.
+#[test]
+fn camera_exposure_scales_the_image() {
+    let attributes = " float exposure = 1\n float exposure:fStop = 2\n float exposure:time = 0.5";
+    let (image, header) = exposed("usd_letter_exposure", attributes);
+    assert_eq!(header, "0.25");
+    assert!(
+        image.rgb.iter().flatten().all(|&v| (v - 0.25).abs() < 1e-5),
+        "{:?}",
+        image.rgb
+    );
+    let (image, header) = exposed("usd_letter_exposure_fallback", "");
+    assert_eq!(header, "1");
+    assert!(
+        image.rgb.iter().flatten().all(|&v| (v - 1.0).abs() < 1e-5),
+        "{:?}",
+        image.rgb
+    );
+}
+
+/// A NaN `exposure` is refused by the export with an error naming the
+/// camera and the attribute.
+#[test]
+fn nan_camera_exposure_is_refused_naming_the_camera() {
+    let text = stage(
+        "",
+        &format!(
+            "{}def Cube \"C\" {{}}\n",
+            camera(4.0, 4.0, " float exposure = nan")
+        ),
+    );
+    let dir = common::scratch("usd_letter_exposure_nan");
+    std::fs::write(dir.join("stage.usda"), text).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cirrus"))
+        .args([
+            "export".as_ref(),
+            dir.join("stage.usda").as_os_str(),
+            "-o".as_ref(),
+        ])
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "the export succeeded:\n{stderr}");
+    assert!(stderr.contains("camera /Cam: exposure is nan"), "{stderr}");
+}
