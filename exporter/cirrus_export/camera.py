@@ -11,7 +11,7 @@ import math
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdRender
 
-from .render_settings import render_products, warn_settings_without_products
+from .render_settings import depth_of_field_disabled, render_products, warn_settings_without_products
 from .report import ExportError, Report
 from .xforms import as_array, to_3x4_list
 
@@ -57,7 +57,8 @@ def export_render(stage: Usd.Stage, time: Usd.TimeCode, bounds: tuple[np.ndarray
                   report: Report, chosen: Usd.Prim | None = None,
                   settings: UsdRender.Settings | None = None) -> tuple[dict, dict]:
     """The manifest `camera` and `render` objects from `settings` (see chosen_settings);
-    `chosen` (see chosen_camera) overrides the stage's camera."""
+    `chosen` (see chosen_camera) overrides the stage's camera. The settings'
+    disableDepthOfField makes the camera a pinhole."""
     products = render_products(settings, time, report) if settings else []
     if settings and not products:
         warn_settings_without_products(settings, time, report)
@@ -69,7 +70,10 @@ def export_render(stage: Usd.Stage, time: Usd.TimeCode, bounds: tuple[np.ndarray
     prim = chosen or _camera_prim(stage, settings, products, report)
     if prim is None:
         return _default_camera(bounds, UsdGeom.GetStageUpAxis(stage)), render
-    return _usd_camera(prim, time), render
+    camera = _usd_camera(prim, time)
+    if depth_of_field_disabled(settings, products, time):
+        camera["f_stop"] = 0.0  # USD's "fStop infinite": a pinhole, as fStop 0 is
+    return camera, render
 
 
 def _usd_camera(prim: Usd.Prim, time: Usd.TimeCode) -> dict:
@@ -82,7 +86,7 @@ def _usd_camera(prim: Usd.Prim, time: Usd.TimeCode) -> dict:
 
     near, far = camera.GetClippingRangeAttr().Get(time)
     world = as_array(UsdGeom.XformCache(time).GetLocalToWorldTransform(prim))
-    return {
+    record = {
         "path": str(prim.GetPath()),
         "transform": to_3x4_list(world),
         "projection": str(camera.GetProjectionAttr().Get(time)),
@@ -95,6 +99,29 @@ def _usd_camera(prim: Usd.Prim, time: Usd.TimeCode) -> dict:
         "f_stop": value(camera.GetFStopAttr()),
         "focus_distance": value(camera.GetFocusDistanceAttr()),
     }
+    exposure = _exposure_scale(camera, time)
+    if exposure != 1.0:
+        record["exposure_scale"] = exposure
+    return record
+
+
+def _exposure_scale(camera: UsdGeom.Camera, time: Usd.TimeCode) -> float:
+    """UsdGeomCamera's linear exposure scale, by which the image's brightness is multiplied
+    ("Camera Exposure Model"): responsivity x time x (iso / 100) x 2^exposure / fStop^2
+    (ComputeLinearExposureScale; 1 with the attributes' fallbacks). Raises ExportError,
+    naming the camera and attribute, for a non-finite attribute or a scale that is not
+    positive and finite."""
+    where = f"camera {camera.GetPath()}"
+    for attr in (camera.GetExposureAttr(), camera.GetExposureTimeAttr(), camera.GetExposureIsoAttr(),
+                 camera.GetExposureFStopAttr(), camera.GetExposureResponsivityAttr()):
+        value = float(attr.Get(time))
+        if not math.isfinite(value):
+            raise ExportError(f"{where}: {attr.GetName()} is {value}; the image cannot be exposed (it must be finite)")
+    scale = float(camera.ComputeLinearExposureScale(time))
+    if not (math.isfinite(scale) and scale > 0.0):
+        raise ExportError(f"{where}: exposure scale {scale} (exposure:responsivity x exposure:time x "
+                          f"exposure:iso / 100 x 2^exposure / exposure:fStop^2) must be positive and finite")
+    return scale
 
 
 def _default_camera(bounds: tuple[np.ndarray, np.ndarray], up_axis: str) -> dict:

@@ -4,6 +4,7 @@ import json
 import math
 import os
 import re
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +21,8 @@ from .motion import Recorder, add_motion, replaying_walker
 from .curves import CurvesTable
 from .points import PointsTable
 from .prototypes import MeshTable, Prototypes
-from .render_settings import chosen_settings, requested_primvars
+from .render_settings import (chosen_settings, included_purposes, material_binding_purposes, motion_blur_disabled,
+                              requested_primvars)
 from .round_shapes import RoundContext
 from .report import ExportError, Report
 from .skinning import Skinning
@@ -152,7 +154,7 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     writer = BinWriter()
     mtlx = MtlxDocuments(stage, report)
     mtlx.warn_unreadable()
-    materials = MaterialTable(resolver, mtlx, report, time)
+    materials = MaterialTable(resolver, mtlx, report, time, material_binding_purposes(settings, report))
     skinning = Skinning(report, time)
     aov_primvars = requested_primvars(settings, time, report)
     meshes = MeshTable(writer, materials, skinning, report, time, str(path), aov_primvars)
@@ -163,7 +165,8 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
                     **{kind: (curves, ("curves", "curves")) for kind in ("BasisCurves", "NurbsCurves")}}
     prototypes = Prototypes(meshes, volumes, round_shapes)
     recorder = Recorder(prototypes)
-    sink = Walker(recorder, skinning, report, time).walk_stage(stage)
+    walker = partial(Walker, purposes=included_purposes(settings, report))
+    sink = walker(recorder, skinning, report, time).walk_stage(stage)
     instances, prototype, matrices = instance_records(sink, writer)
     lights = export_lights(stage, time, resolver, report)
     if instances["count"] == 0 and not lights:
@@ -174,7 +177,9 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
         raise ExportError(f"{path}: nothing to export from /: {problems}")
     lo, hi = world_bounds(prototypes.boxes, prototype, matrices)
     camera, render = export_render(stage, time, (lo, hi), report, chosen, settings)
-    add_motion(stage, time, shutter, replaying_walker(Walker, recorder, skinning, stage),
+    if shutter is None and motion_blur_disabled(settings, render["products"], time, report):
+        shutter = (0.0, 0.0)
+    add_motion(stage, time, shutter, replaying_walker(walker, recorder, skinning, stage),
                (camera, instances), (matrices, sink.arrays()["source"]), writer, report, (meshes, skinning, points, curves),
                lights)
     manifest = {

@@ -34,13 +34,12 @@ from .report import Report
 from .skinning import Skinning
 from .xforms import compose, local_transform, to_3x4
 
-PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Volume", "Points", "BasisCurves",
-              "NurbsCurves"}
-SKIPPED_PURPOSES = {UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy}
+PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Plane", "Volume", "Points",
+              "BasisCurves", "NurbsCurves"}
 # Renderable prim types Cirrus does not render yet: each is warned about by name.
 UNRENDERED_TYPES = {"HermiteCurves", "NurbsPatch", "TetMesh"}
 # Parts stored as meshes (whose materials' primvars instances may carry).
-MESH_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule"}
+MESH_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Plane"}
 # PointInstancer primvar interpolations: one value per instance, or one for all of them.
 PER_INSTANCE = {UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying}
 ALL_INSTANCES = {UsdGeom.Tokens.constant, UsdGeom.Tokens.uniform}
@@ -226,10 +225,19 @@ def constant_primvars(prim: Usd.Prim, names: list[str], time: Usd.TimeCode) -> d
     return {name: value for name, value in found.items() if value is not None}
 
 
-class Walker:
-    """Depth-first traversal honouring visibility and purpose at one time code."""
+def deactivated(stage: Usd.Stage, path) -> bool:
+    """Whether the prim at `path` or an ancestor is inactive (an inactive prim's descendants
+    are not on the composed stage at all)."""
+    return any(not prim.IsActive() for prim in map(stage.GetPrimAtPath, path.GetPrefixes()) if prim)
 
-    def __init__(self, prototypes: Prototypes, skinning: Skinning, report: Report, time: Usd.TimeCode) -> None:
+
+class Walker:
+    """Depth-first traversal honouring visibility and purpose at one time code: `purposes`
+    are the render settings' includedPurposes (render_settings.included_purposes)."""
+
+    def __init__(self, prototypes: Prototypes, skinning: Skinning, report: Report, time: Usd.TimeCode,
+                 purposes: frozenset[str]) -> None:
+        self._purposes = purposes
         self._prototypes = prototypes
         self._skinning = skinning
         self._report = report
@@ -244,14 +252,15 @@ class Walker:
         sink.warn_lacking(self._report)
         return sink
 
-    def _renderable(self, prim: Usd.Prim) -> bool:
-        """False for invisible prims and guide/proxy purpose (render and default are kept)."""
+    def _invisible(self, prim: Usd.Prim) -> bool:
+        """Whether `prim` is invisible at the time: it and everything below it go unrendered."""
         imageable = UsdGeom.Imageable(prim)
-        if not imageable:
-            return True
-        if imageable.GetVisibilityAttr().Get(self._time) == UsdGeom.Tokens.invisible:
-            return False
-        return imageable.GetPurposeAttr().Get() not in SKIPPED_PURPOSES
+        return bool(imageable) and imageable.GetVisibilityAttr().Get(self._time) == UsdGeom.Tokens.invisible
+
+    def _included(self, prim: Usd.Prim) -> bool:
+        """Whether the gprim's computed purpose (its own authored one, else its nearest
+        ancestor's: UsdGeomImageable.ComputePurpose) is among the included purposes."""
+        return UsdGeom.Imageable(prim).ComputePurpose() in self._purposes
 
     def _walk(self, prim: Usd.Prim, parent: np.ndarray, sink: GroupSink | TopSink,
               apply_local: bool = True) -> None:
@@ -260,7 +269,7 @@ class Walker:
         A prim that resets the xform stack is placed relative to the holder (the world at
         the top level, the prototype root inside a prototype).
         """
-        if not self._renderable(prim):
+        if self._invisible(prim):
             return
         matrix = parent
         if apply_local:
@@ -273,7 +282,8 @@ class Walker:
             sink.nested(prim, self._inheriting(prim, self._point_instancer_leaves(prim)), matrix)
             return
         if prim.GetTypeName() in PART_TYPES:
-            sink.part(prim, self._skinning.placed(prim, sink.holder, matrix))
+            if self._included(prim):
+                sink.part(prim, self._skinning.placed(prim, sink.holder, matrix))
         elif prim.GetTypeName() in UNRENDERED_TYPES:
             self._report.not_rendered(prim.GetTypeName(), f"{prim.GetTypeName()} {prim.GetPath()} is not rendered: "
                                       f"{prim.GetTypeName()} prims are not supported yet")
@@ -341,7 +351,8 @@ class Walker:
 
         Instance transforms come from ComputeInstanceTransformsAtTime (prototype root
         xform included, mask applied), so each prototype group leaves its root's own
-        transform out.
+        transform out. Instances of an inactive prototype are not rendered (deactivating is
+        authored intent, as for any prim); those of a target that is no prim are warned about.
         """
         instancer = UsdGeom.PointInstancer(prim)
         matrices = np.array(instancer.ComputeInstanceTransformsAtTime(self._time, self._time),
@@ -358,10 +369,15 @@ class Walker:
         stage = prim.GetStage()
         groups = {}
         for j, target in enumerate(targets):
-            if (proto_indices[mask] == j).any():
-                root = stage.GetPrimAtPath(target)
-                key = (prototype_path(root), self._skinning.signature(root))
-                groups[j] = self._group(key, str(target), root, [root], False)
+            root = stage.GetPrimAtPath(target)
+            if not (proto_indices[mask] == j).any() or deactivated(stage, target):
+                continue
+            if not root.IsValid():
+                self._report.warn(f"PointInstancer {prim.GetPath()}: prototypes target {target} is not a "
+                                  f"prim; its instances are skipped")
+                continue
+            key = (prototype_path(root), self._skinning.signature(root))
+            groups[j] = self._group(key, str(target), root, [root], False)
         wanted = {name for group in groups.values() for leaf in group for name in leaf.unset()}
         per_instance = {name: values[mask] for name, values in
                         self._instancer_primvars(prim, wanted, proto_indices.size).items()}

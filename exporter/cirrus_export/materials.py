@@ -47,10 +47,24 @@ PREVIEW = "UsdPreviewSurface"
 OPEN_PBR = {"open_pbr_surface", "standard_surface"}
 
 
+def binding_purpose(relationship: Usd.Relationship) -> str:
+    """The material purpose of a binding relationship, "" for allPurpose: its name is
+    `material:binding[:purpose]` or `material:binding:collection[:purpose]:name`
+    (UsdShadeMaterialBindingAPI)."""
+    parts = relationship.GetName().split(":")[2:]
+    if parts[:1] == ["collection"]:
+        parts = parts[1:-1]
+    return parts[0] if parts else ""
+
+
 class MaterialTable:
     """Materials and textures of the manifest, each USD material and texture stored once."""
 
-    def __init__(self, resolver: AssetResolver, mtlx: MtlxDocuments, report: Report, time: Usd.TimeCode) -> None:
+    def __init__(self, resolver: AssetResolver, mtlx: MtlxDocuments, report: Report, time: Usd.TimeCode,
+                 purposes: tuple[str, ...]) -> None:
+        """`purposes`: the material purposes bindings are resolved for, in order of preference
+        ("" is allPurpose; render_settings.material_binding_purposes)."""
+        self._purposes = purposes
         self.materials: list[dict] = []
         self.textures: list[dict] = []
         self._by_path: dict[str, int] = {}
@@ -62,14 +76,19 @@ class MaterialTable:
         self._resolver, self._mtlx, self._report, self._time = resolver, mtlx, report, time
 
     def bound_index(self, prim: Usd.Prim) -> int:
-        """Material index bound to `prim` (preview purpose, then full), or NO_MATERIAL."""
+        """Material index bound to `prim` for the first purpose of `purposes` that binds one,
+        or NO_MATERIAL. usd-core resolves each purpose (ComputeBoundMaterial: inheritance,
+        strengths, collections); its fallback to an allPurpose binding counts only as the ""
+        entry, so `full, preview, ""` prefers any full binding to a nearer allPurpose one."""
         api = UsdShade.MaterialBindingAPI(prim)
         broken = None
-        for purpose in (UsdShade.Tokens.preview, UsdShade.Tokens.full):
+        for purpose in self._purposes:
             material, relationship = api.ComputeBoundMaterial(purpose)
+            if not relationship or binding_purpose(relationship) != purpose:
+                continue
             if material:
                 return self.index(material)
-            if relationship and broken is None:
+            if broken is None:
                 broken = str(relationship.GetTargets()[0])
         return NO_MATERIAL if broken is None else self._unloadable(broken)
 

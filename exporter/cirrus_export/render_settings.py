@@ -50,6 +50,37 @@ def _own_or_settings(product: UsdRender.Product, settings: UsdRender.Settings, n
     return source.Get(time)
 
 
+def _rendered(settings: UsdRender.Settings, products: list[dict], name: str, time: Usd.TimeCode):
+    """A RenderSettingsBase attribute as the render uses it: the first raster product's (whose
+    camera is rendered) when authored there, else the settings'."""
+    if not products:
+        return settings.GetPrim().GetAttribute(name).Get(time)
+    product = UsdRender.Product(settings.GetPrim().GetStage().GetPrimAtPath(products[0]["path"]))
+    return _own_or_settings(product, settings, name, time)
+
+
+def motion_blur_disabled(settings: UsdRender.Settings | None, products: list[dict], time: Usd.TimeCode,
+                         report: Report) -> bool:
+    """`disableMotionBlur` (the camera's shutter becomes [0, 0]), or the deprecated
+    `instantaneousShutter`, read as it (shutterClose = shutterOpen: no blur either, though at
+    shutter:open rather than the frame; warned)."""
+    if settings is None:
+        return False
+    if _rendered(settings, products, "disableMotionBlur", time):
+        return True
+    if _rendered(settings, products, "instantaneousShutter", time):
+        report.warn(f"render settings {settings.GetPath()}: instantaneousShutter (deprecated) is read as "
+                    "disableMotionBlur: no motion blur, the frame itself rendered (not the camera's shutter:open)")
+        return True
+    return False
+
+
+def depth_of_field_disabled(settings: UsdRender.Settings | None, products: list[dict],
+                            time: Usd.TimeCode) -> bool:
+    """`disableDepthOfField`: the camera's fStop becomes infinite (a pinhole)."""
+    return settings is not None and bool(_rendered(settings, products, "disableDepthOfField", time))
+
+
 def _camera(prim: Usd.Prim) -> str | None:
     """The first target of a settings or product's `camera` relationship."""
     targets = UsdRender.SettingsBase(prim).GetCameraRel().GetForwardedTargets()
@@ -160,3 +191,40 @@ def warn_settings_without_products(settings: UsdRender.Settings, time: Usd.TimeC
         report.warn(f"{where}: dataWindowNDC {window} is not used; the whole image is rendered "
                     "(give the settings a RenderProduct to crop it)")
     _warn_conform_policy(where, settings.GetAspectRatioConformPolicyAttr().Get(time), report)
+
+
+# UsdGeomImageable's purposes, and UsdRenderSettings.includedPurposes' fallback.
+PURPOSES = ("default", "render", "proxy", "guide")
+DEFAULT_INCLUDED_PURPOSES = frozenset({"default", "render"})
+# UsdShadeMaterialBindingAPI's purposes ("" is allPurpose), and
+# UsdRenderSettings.materialBindingPurposes' fallback.
+MATERIAL_PURPOSES = ("full", "preview", "")
+DEFAULT_MATERIAL_PURPOSES = ("full", "")
+
+
+def _known_tokens(settings: UsdRender.Settings, attr: Usd.Attribute, known: tuple[str, ...],
+                  report: Report) -> list[str]:
+    """An uniform token[] attribute of the settings, without the tokens not in `known` (one
+    warning naming settings, attribute and those tokens)."""
+    tokens = [str(t) for t in attr.Get() or []]
+    unknown = [t for t in tokens if t not in known]
+    if unknown:
+        report.warn(f"render settings {settings.GetPath()}: {attr.GetName()} {unknown} not among "
+                    f"{list(known)}; ignored")
+    return [t for t in tokens if t in known]
+
+
+def included_purposes(settings: UsdRender.Settings | None, report: Report) -> frozenset[str]:
+    """`includedPurposes`: the UsdGeomImageable purposes rendered (fallback default and render)."""
+    if settings is None:
+        return DEFAULT_INCLUDED_PURPOSES
+    return frozenset(_known_tokens(settings, settings.GetIncludedPurposesAttr(), PURPOSES, report))
+
+
+def material_binding_purposes(settings: UsdRender.Settings | None, report: Report) -> tuple[str, ...]:
+    """`materialBindingPurposes`: the material purposes to resolve bindings for, in order of
+    preference ("" is allPurpose; fallback full, then allPurpose)."""
+    if settings is None:
+        return DEFAULT_MATERIAL_PURPOSES
+    return tuple(_known_tokens(settings, settings.GetMaterialBindingPurposesAttr(), MATERIAL_PURPOSES,
+                               report))

@@ -1,9 +1,11 @@
-"""UsdGeom implicit gprims (Sphere, Cube, Cylinder, Cone, Capsule) tessellated to triangles.
+"""UsdGeom implicit gprims (Sphere, Cube, Cylinder, Cone, Capsule, Plane) tessellated to triangles.
 
 Round shapes are a lathe of a (radius, height) profile about the prim's axis with a
 multiple of 4 segments, so the tessellation touches the authored extent on every axis.
 Spheres and capsules carry smooth per-point normals (the exact surface's); cubes,
-cylinders and cones keep flat facets, since their edges are creases.
+cylinders and cones keep flat facets, since their edges are creases. A plane is two
+triangles, `width` by `length` about the origin, facing +`axis` (UsdGeomPlane's table:
+axis X spans z by y, Y spans x by z, Z spans x by y).
 """
 
 import numpy as np
@@ -18,6 +20,8 @@ RINGS = 16
 _CUBE_POINTS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
 _CUBE_QUADS = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1],
                         [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+# Plane: per axis, the axes its width and length run along (UsdGeomPlane's table).
+_PLANE_SPANS = {"X": (2, 1), "Y": (0, 2), "Z": (0, 1)}
 
 
 def _quads_to_triangles(quads: np.ndarray) -> np.ndarray:
@@ -40,6 +44,19 @@ def _lathe(radius: np.ndarray, height: np.ndarray, axis: str) -> tuple[np.ndarra
     nxt = (seg + 1) % SEGMENTS
     quads = np.stack([ring + seg, ring + nxt, ring + SEGMENTS + nxt, ring + SEGMENTS + seg], axis=-1)
     return points, _quads_to_triangles(quads.reshape(-1, 4))
+
+
+def _plane(width: float, length: float, axis: str) -> tuple[np.ndarray, np.ndarray]:
+    """A `width` x `length` rectangle about the origin, spanning UsdGeomPlane's axes for
+    `axis`, as two triangles CCW seen from +`axis`."""
+    u, v = _PLANE_SPANS[axis]
+    points = np.zeros((4, 3))
+    points[:, u] = 0.5 * width * np.array([-1.0, 1.0, 1.0, -1.0])
+    points[:, v] = 0.5 * length * np.array([-1.0, -1.0, 1.0, 1.0])
+    # (u, v, axis) right-handed: CCW in (u, v) faces +axis; otherwise the order reverses.
+    right_handed = np.cross(np.eye(3)[u], np.eye(3)[v])["XYZ".index(axis)] > 0
+    quad = np.array([[0, 1, 2, 3]] if right_handed else [[0, 3, 2, 1]])
+    return points, _quads_to_triangles(quad)
 
 
 def _sphere_profile(radius: float, half_height: float) -> tuple[np.ndarray, np.ndarray]:
@@ -86,6 +103,9 @@ def tessellate(prim: Usd.Prim, time: Usd.TimeCode) -> MeshGeometry | None:
         r, h = _attr(prim, "radius", time), 0.5 * _attr(prim, "height", time)
         top = 0.0 if kind == "Cone" else r
         points, triangles = _lathe(np.array([0.0, r, top, 0.0]), np.array([-h, -h, h, h]),
+                                   _attr(prim, "axis", time))
+    elif kind == "Plane":
+        points, triangles = _plane(_attr(prim, "width", time), _attr(prim, "length", time),
                                    _attr(prim, "axis", time))
     else:
         return None

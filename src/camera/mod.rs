@@ -69,6 +69,9 @@ pub struct Camera {
     shutter: Shutter,
     /// World-from-camera over the shutter; `None` when the camera does not move.
     motion: Option<TransformTrack>,
+    /// UsdGeomCamera's linear exposure scale: every radiance the camera
+    /// records is multiplied by it.
+    exposure_scale: f32,
 }
 
 /// How rays leave the camera.
@@ -162,6 +165,13 @@ impl Camera {
     /// `pixelAspectRatio`: a pixel's width over its height.
     pub fn pixel_aspect(&self) -> f32 {
         self.pixel_aspect
+    }
+
+    /// UsdGeomCamera's linear exposure scale ("Camera Exposure Model":
+    /// responsivity x time x iso/100 x 2^exposure / fStop^2, 1 by default),
+    /// by which the image's radiance is multiplied.
+    pub fn exposure_scale(&self) -> f32 {
+        self.exposure_scale
     }
 
     /// The shutter interval: a ray's time is drawn from it.
@@ -269,6 +279,7 @@ impl Camera {
             far,
             shutter: Shutter::CLOSED,
             motion: motion::track(record).map_err(invalid)?,
+            exposure_scale: record.exposure_scale,
         };
         Ok(camera.with_shutter(motion::shutter(record).map_err(invalid)?))
     }
@@ -337,6 +348,7 @@ mod tests {
             clipping_range: [1.0, 1e6],
             f_stop: 0.0,
             focus_distance: 0.0,
+            exposure_scale: 1.0,
             shutter: None,
             motion: None,
         }

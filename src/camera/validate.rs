@@ -48,5 +48,9 @@ pub(super) fn validate(record: &scene::Camera, raster: Raster) -> Result<(), Str
         return Err(format!("clippingRange near {near} must be below far {far}"));
     }
     non_negative("fStop", record.f_stop)?;
-    non_negative("focusDistance", record.focus_distance)
+    non_negative("focusDistance", record.focus_distance)?;
+    positive(
+        "the exposure scale (exposure, exposure:*)",
+        record.exposure_scale,
+    )
 }

@@ -116,7 +116,12 @@ pub fn radiance(
         next = path.reach(&behind.end, 1.0, behind.depth);
         depth = behind.depth + 1;
     }
-    path.gathered.finish(settings.clamp)
+    // The camera's exposure scales what it records, after the clamp (which
+    // bounds scene radiance).
+    let exposure = state.camera.exposure_scale();
+    let (radiance, mut aovs) = path.gathered.finish(settings.clamp);
+    aovs.scale(Vec3::splat(exposure));
+    (radiance * exposure, aovs)
 }
 
 /// One path being traced: what it has gathered, its throughput and how its

@@ -168,6 +168,7 @@ impl ExrHeader {
             ),
             attribute("aovs", settings.aovs.to_string()),
             attribute("shutter", state.camera.shutter().to_string()),
+            attribute("exposure_scale", state.camera.exposure_scale().to_string()),
         ];
         let camera = &state.camera;
         let crypto_names =

@@ -624,6 +624,11 @@ pub struct Camera {
     pub f_stop: f32,
     /// `focusDistance` (default 0), scene units.
     pub focus_distance: f32,
+    /// UsdGeomCamera's linear exposure scale (default 1): the image's
+    /// brightness is multiplied by it ("Camera Exposure Model",
+    /// `ComputeLinearExposureScale`); absent when 1.
+    #[serde(default = "unit_scale")]
+    pub exposure_scale: f32,
     /// `shutter:open` and `shutter:close`, frames relative to the time code;
     /// absent when both are USD's default 0 (no motion blur).
     #[serde(default)]

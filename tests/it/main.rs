@@ -41,6 +41,7 @@ mod skinning;
 mod stability;
 mod subdivision;
 mod transmission;
+mod usd_letter;
 mod vdb;
 mod volume_motion;
 mod volumes;

@@ -23,7 +23,7 @@ import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
 
 PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
-PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Volume"}
+PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Plane", "Volume"}
 NO_MATERIAL = 0xFFFFFFFF
 MATRIX_TOL = 1e-5
 BOUNDS_TOL = 1e-4
@@ -73,10 +73,15 @@ class Expected:
         self._scan(stage.GetPseudoRoot(), None)
 
     def _hidden(self, prim: Usd.Prim) -> bool:
-        """Invisible, guide or proxy purpose: not rendered."""
+        """Invisible (with everything below it): not rendered."""
         img = UsdGeom.Imageable(prim)
-        return bool(img) and (img.GetVisibilityAttr().Get(self.time) == UsdGeom.Tokens.invisible
-                              or img.GetPurposeAttr().Get() in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy))
+        return bool(img) and img.GetVisibilityAttr().Get(self.time) == UsdGeom.Tokens.invisible
+
+    @staticmethod
+    def _part(prim: Usd.Prim) -> bool:
+        """A gprim rendered by default: its computed purpose is default or render."""
+        return prim.GetTypeName() in PART_TYPES and \
+            UsdGeom.Imageable(prim).ComputePurpose() in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)
 
     def _scan(self, root: Usd.Prim, source: str | None) -> None:
         """Copies under a stage prim at their XformCache world transforms."""
@@ -95,7 +100,7 @@ class Expected:
             elif prim.IsInstance():
                 it.PruneChildren()
                 self._scan_instance(prim, here)
-            elif prim.GetTypeName() in PART_TYPES:
+            elif self._part(prim):
                 world = gf(self.cache.GetLocalToWorldTransform(prim))
                 self.copies[(here or str(prim.GetPath()), prim.GetName())].append((prim, world[None]))
 
@@ -131,7 +136,7 @@ class Expected:
             if prim.IsA(UsdGeom.PointInstancer):
                 it.PruneChildren()
                 self._instancer(prim, rel @ placed, source)
-            elif prim.GetTypeName() in PART_TYPES:
+            elif self._part(prim):
                 self.copies[(source, prim.GetName())].append((prim, rel @ placed))
 
 
@@ -219,18 +224,14 @@ def without_prototype(path: str | None) -> str | None:
 
 
 def material_path(prim: Usd.Prim) -> str | None:
-    """usd-core's bound material (preview, then full) as a prototype-relative path; the
-    binding's target when it does not compose into a Material; None when unbound."""
-    api = UsdShade.MaterialBindingAPI(prim)
-    broken = None
-    for purpose in (UsdShade.Tokens.preview, UsdShade.Tokens.full):
-        material, relationship = api.ComputeBoundMaterial(purpose)
-        if material:
-            m = material.GetPrim()
-            return without_prototype(str(m.GetPrimInPrototype().GetPath() if m.IsInstanceProxy() else m.GetPath()))
-        if relationship and broken is None:
-            broken = str(relationship.GetTargets()[0])
-    return broken
+    """usd-core's bound material for final renders (purpose full, falling back to
+    allPurpose) as a prototype-relative path; the binding's target when it does not compose
+    into a Material; None when unbound."""
+    material, relationship = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(UsdShade.Tokens.full)
+    if material:
+        m = material.GetPrim()
+        return without_prototype(str(m.GetPrimInPrototype().GetPath() if m.IsInstanceProxy() else m.GetPath()))
+    return str(relationship.GetTargets()[0]) if relationship else None
 
 
 def check_materials(scene: Scene, prim: Usd.Prim, mesh: int, label: str) -> None:
