@@ -14,11 +14,7 @@ pub fn run(file: &Path) -> Result<()> {
     if scene::is_scene(file) {
         let scene = cirrus::job::open(file, &Default::default(), None)?;
         print!("{}", scene::summary(&scene));
-        let shaped = cirrus::lights::shaped_lights(&scene);
-        println!("  {:<12} {}", "shaped", shaped.len());
-        for line in shaped {
-            println!("  {:<12} {line}", "");
-        }
+        print!("{}", cirrus::lights::shaped_lights(&scene));
     } else {
         print!("{}", grid_table(&VdbFile::open(file)?));
     }

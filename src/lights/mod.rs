@@ -187,13 +187,19 @@ pub(crate) enum Light {
     Shaped(ShapedLight),
 }
 
-/// `cirrus info`'s lines for the shaped lights of `scene`: each light's
-/// cone, softness, focus and IES file, and whether that file is usable.
-pub fn shaped_lights(scene: &crate::scene::Scene) -> Vec<String> {
-    scene
+/// `cirrus info`'s lines for the shaped lights of `scene` (in its summary's
+/// layout): how many, then each light's cone, softness, focus and IES file,
+/// and whether that file is usable.
+pub fn shaped_lights(scene: &crate::scene::Scene) -> String {
+    let lines: Vec<String> = scene
         .manifest
         .lights
         .iter()
         .filter_map(shaping::describe)
-        .collect()
+        .collect();
+    let mut out = format!("  {:<12} {}\n", "shaped", lines.len());
+    for line in lines {
+        out += &format!("  {:<12} {line}\n", "");
+    }
+    out
 }

@@ -36,6 +36,7 @@ mod reliability;
 mod render;
 mod render_settings;
 mod scene;
+mod shaping;
 mod skinning;
 mod stability;
 mod subdivision;
