@@ -370,6 +370,59 @@ mod tests {
         assert_eq!(p.max_theta(), Some(PI / 4.0));
     }
 
+    /// The fuzz target's properties (fuzz/fuzz_targets/ies_reader.rs), bounded
+    /// and seeded: the committed seeds with random bytes overwritten, cut
+    /// short or repeated parse or fail cleanly, and every profile accepted
+    /// gives finite, non-negative candela, mean and a last angle in [0, pi].
+    #[test]
+    fn mutated_seeds_parse_or_fail_cleanly() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/ies_reader");
+        let mut seeds: Vec<Vec<u8>> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| std::fs::read(e.unwrap().path()).unwrap())
+            .collect();
+        assert!(seeds.len() >= 3);
+        seeds.sort();
+        let mut rng = crate::sampling::Pcg32::new(17, 0);
+        let mut below = |n: usize| (rng.next_f32() * n as f32) as usize % n.max(1);
+        let (mut accepted, mut refused) = (0, 0);
+        for round in 0..600 {
+            let mut bytes = seeds[round % seeds.len()].clone();
+            for _ in 0..1 + below(4) {
+                if bytes.is_empty() {
+                    break;
+                }
+                let at = below(bytes.len());
+                match below(3) {
+                    0 => bytes[at] = b"0123456789.-, \nen"[below(17)],
+                    1 => bytes.truncate(at),
+                    _ => {
+                        let repeated: Vec<u8> = bytes[at..].iter().take(8).copied().collect();
+                        bytes.splice(at..at, repeated);
+                    }
+                }
+            }
+            let Ok(p) = IesProfile::parse(&String::from_utf8_lossy(&bytes)) else {
+                refused += 1;
+                continue;
+            };
+            accepted += 1;
+            for i in 0..=18 {
+                for j in 0..=24 {
+                    let c = p.candela(i as f32 * PI / 18.0, j as f32 * PI / 6.0 - PI);
+                    assert!(c.is_finite() && c >= 0.0, "{c}");
+                }
+            }
+            let mean = p.mean_intensity();
+            assert!(mean.is_finite() && mean >= 0.0, "{mean}");
+            assert!(p.max_theta().is_none_or(|t| (0.0..=PI).contains(&t)));
+        }
+        assert!(
+            accepted > 50 && refused > 50,
+            "{accepted} accepted, {refused} refused"
+        );
+    }
+
     #[test]
     fn malformed_files_are_errors() {
         for text in [
