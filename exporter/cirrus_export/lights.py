@@ -60,8 +60,46 @@ def export_lights(stage: Usd.Stage, time: Usd.TimeCode, resolver: AssetResolver,
         }
         for key, name, convert in extra:
             record[key] = _light_input(prim, name, convert, time, resolver, report)
+        shaping = _shaping(prim, time, resolver, report)
+        if shaping is not None:
+            record["shaping"] = shaping
         records.append(record)
     return records
+
+
+# Manifest key -> (ShapingAPI input, value when neither the API is applied nor the input
+# authored: one that leaves emission unshaped).
+SHAPING_INPUTS = {
+    "cone_angle_deg": ("inputs:shaping:cone:angle", 180.0),
+    "cone_softness": ("inputs:shaping:cone:softness", 0.0),
+    "focus": ("inputs:shaping:focus", 0.0),
+    "focus_tint": ("inputs:shaping:focusTint", (0.0, 0.0, 0.0)),
+    "ies_angle_scale": ("inputs:shaping:ies:angleScale", 0.0),
+    "ies_normalize": ("inputs:shaping:ies:normalize", False),
+}
+
+
+def _shaping(prim: Usd.Prim, time: Usd.TimeCode, resolver: AssetResolver, report: Report) -> dict | None:
+    """The light's UsdLuxShapingAPI inputs (usdLux/schema.usda, ShapingAPI), when the API is
+    applied or any of them is authored; None otherwise. Values are read as authored (the
+    renderer clamps and warns); an IES file that does not exist is warned about here, naming
+    the file and the light, and the renderer then renders the light without it."""
+    attrs = {key: prim.GetAttribute(name) for key, (name, _) in SHAPING_INPUTS.items()}
+    ies_attr = prim.GetAttribute("inputs:shaping:ies:file")
+    applied = prim.HasAPI(UsdLux.ShapingAPI)
+    if not applied and not any(a and a.HasAuthoredValue() for a in [*attrs.values(), ies_attr]):
+        return None
+    record = {}
+    for key, (_, neutral) in SHAPING_INPUTS.items():
+        value = attrs[key].Get(time) if attrs[key] else None
+        value = neutral if value is None else value
+        record[key] = [float(c) for c in value] if key == "focus_tint" else type(neutral)(value)
+    resolved = resolver.resolve(ies_attr, time) if ies_attr else None
+    record["ies_file"] = None if resolved is None else resolved[0]
+    if resolved is not None and not resolved[1]:
+        report.warn(f"light {prim.GetPath()}: inputs:shaping:ies:file {resolved[0]} is missing; "
+                    f"the light is rendered without its IES profile")
+    return record
 
 
 def _light_input(prim: Usd.Prim, name: str, convert, time: Usd.TimeCode,

@@ -14,6 +14,7 @@ pub fn run(file: &Path) -> Result<()> {
     if scene::is_scene(file) {
         let scene = cirrus::job::open(file, &Default::default(), None)?;
         print!("{}", scene::summary(&scene));
+        print!("{}", cirrus::lights::shaped_lights(&scene));
     } else {
         print!("{}", grid_table(&VdbFile::open(file)?));
     }

@@ -110,6 +110,10 @@ impl Lights {
             Light::Rect(l) => Some(l.centre()),
             Light::Disk(l) => Some(l.centre()),
             Light::Moving(l) => l.centre(),
+            // The box centre: a sphere's, rect's or disk's own centre.
+            Light::Shaped(l) if !matches!(l.unshaped(), Light::Cylinder(_)) => {
+                l.bounds().map(|b| b.centroid())
+            }
             _ => None,
         }
     }
@@ -320,6 +324,7 @@ impl Lights {
         let area = indices(|l| match l {
             Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_) => true,
             Light::Moving(m) => m.bounds().is_some(),
+            Light::Shaped(_) => true,
             _ => false,
         });
         let infinite = indices(seen_by_escaping_rays);
@@ -372,6 +377,7 @@ fn default_dome() -> LightRecord {
         color_temperature: None,
         shape: LightShape::Dome { texture: None },
         motion: None,
+        shaping: None,
     }
 }
 

@@ -11,6 +11,7 @@ use super::disk::DiskLight;
 use super::distant::DistantLight;
 use super::dome::DomeLight;
 use super::rect::RectLight;
+use super::shaping::ShapedLight;
 use super::sphere::SphereLight;
 use super::{Emitters, Light, LightError, LightHit, LightSample};
 use crate::scene::{Light as LightRecord, LightShape};
@@ -28,6 +29,7 @@ impl Light {
             Self::Mesh(l) => l.sample(emitters.materials, p, u),
             Self::Volume(l) => l.sample(emitters.media, p, u, emitters.time),
             Self::Moving(l) => l.sample(emitters, p, u),
+            Self::Shaped(l) => l.sample(emitters, p, u),
         }
     }
 
@@ -42,6 +44,7 @@ impl Light {
     ) -> Option<LightHit> {
         match self {
             Self::Moving(l) => l.intersect(origin, direction, t_max, time),
+            Self::Shaped(l) => l.intersect(origin, direction, t_max, time),
             Self::Sphere(l) => l.intersect(origin, direction, t_max),
             Self::Rect(l) => l.intersect(origin, direction, t_max),
             Self::Disk(l) => l.intersect(origin, direction, t_max),
@@ -72,6 +75,7 @@ impl Light {
             Self::Mesh(l) => Some(l.bounds()),
             Self::Volume(l) => Some(l.bounds()),
             Self::Moving(l) => l.bounds(),
+            Self::Shaped(l) => l.bounds(),
             Self::Distant(_) | Self::Dome(_) => None,
         }
     }
@@ -104,12 +108,14 @@ impl Light {
             Self::Mesh(l) => l.power(),
             Self::Volume(l) => l.power(),
             Self::Moving(l) => l.frame().power(scene_radius),
+            Self::Shaped(l) => l.power(scene_radius),
         }
     }
 
-    /// The light a manifest record describes.
+    /// The light a manifest record describes, shaped by its `UsdLuxShapingAPI`
+    /// inputs when it has them.
     pub(super) fn from_record(record: &LightRecord) -> Result<Self, LightError> {
-        Ok(match &record.shape {
+        let light = match &record.shape {
             LightShape::Distant { angle_deg } => {
                 Self::Distant(DistantLight::from_record(record, *angle_deg)?)
             }
@@ -134,6 +140,7 @@ impl Light {
             LightShape::Dome { texture } => {
                 Self::Dome(DomeLight::from_record(record, texture.as_deref())?)
             }
-        })
+        };
+        Ok(ShapedLight::shape(light, record))
     }
 }

@@ -14,6 +14,9 @@
 //! - `mesh.rs`: each placed mesh with emissive triangles, uniformly by area;
 //! - `moving.rs`: a bounded light moving rigidly over the shutter, asked
 //!   at the sample's time through its still pose at the frame;
+//! - `shaping.rs`: a sphere, rect, disk or cylinder light shaped by
+//!   `UsdLuxShapingAPI` (cone with softness, focus, an IES profile read by
+//!   `ies.rs`), its BVH bounds narrowed to its cone;
 //! - `volume.rs`: each placed volume that emits (fire), a point by power
 //!   or, near it, by what it delivers (Villemin & Hery 2013), in the
 //!   measure of free-flight tracking so that emission found by tracking
@@ -43,12 +46,14 @@ mod dispatch;
 mod distant;
 mod dome;
 mod emission;
+mod ies;
 mod image;
 mod mesh;
 mod moving;
 mod plane;
 mod rect;
 mod select;
+mod shaping;
 mod sphere;
 mod validate;
 mod volume;
@@ -57,6 +62,7 @@ mod volume;
 pub(crate) mod test_support;
 
 pub use container::{EquiangularTarget, Lights, VolumeLightsFrom};
+pub use ies::{IesError, IesProfile};
 pub use validate::LightError;
 pub(crate) use validate::{mean_scale, world_from_light};
 
@@ -69,6 +75,7 @@ use self::dome::DomeLight;
 use self::mesh::MeshLight;
 use self::moving::MovingLight;
 use self::rect::RectLight;
+use self::shaping::ShapedLight;
 use self::sphere::SphereLight;
 use self::volume::VolumeLight;
 use crate::materials::Materials;
@@ -176,4 +183,23 @@ pub(crate) enum Light {
     Volume(VolumeLight),
     /// A sphere, rect, disk or cylinder light moving over the shutter.
     Moving(MovingLight),
+    /// A sphere, rect, disk or cylinder light shaped by `UsdLuxShapingAPI`.
+    Shaped(ShapedLight),
+}
+
+/// `cirrus info`'s lines for the shaped lights of `scene` (in its summary's
+/// layout): how many, then each light's cone, softness, focus and IES file,
+/// and whether that file is usable.
+pub fn shaped_lights(scene: &crate::scene::Scene) -> String {
+    let lines: Vec<String> = scene
+        .manifest
+        .lights
+        .iter()
+        .filter_map(shaping::describe)
+        .collect();
+    let mut out = format!("  {:<12} {}\n", "shaped", lines.len());
+    for line in lines {
+        out += &format!("  {:<12} {line}\n", "");
+    }
+    out
 }

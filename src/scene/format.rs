@@ -14,8 +14,10 @@ use super::material::{unit_scale, Material, Rgb, Texture};
 
 mod instance_primvars;
 mod names;
+mod shaping;
 pub use instance_primvars::InstancePrimvarRun;
 pub use names::{NamePattern, NameRun};
+pub use shaping::LightShaping;
 
 /// The only manifest version this loader reads.
 pub const FORMAT_VERSION: u32 = 1;
@@ -539,6 +541,9 @@ pub struct Light {
     /// lights).
     #[serde(default)]
     pub motion: Option<CameraMotion>,
+    /// `UsdLuxShapingAPI`'s inputs; absent when not applied (unshaped).
+    #[serde(default)]
+    pub shaping: Option<LightShaping>,
 }
 
 /// The UsdLux light types, with their type-specific attributes.

@@ -37,6 +37,7 @@ mod reliability;
 mod render;
 mod render_settings;
 mod scene;
+mod shaping;
 mod skinning;
 mod stability;
 mod subdivision;
