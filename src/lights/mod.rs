@@ -44,6 +44,7 @@ mod distant;
 mod dome;
 mod emission;
 mod image;
+mod linking;
 mod mesh;
 mod moving;
 mod plane;
@@ -57,6 +58,7 @@ mod volume;
 pub(crate) mod test_support;
 
 pub use container::{EquiangularTarget, Lights, VolumeLightsFrom};
+pub use linking::Receiver;
 pub use validate::LightError;
 pub(crate) use validate::{mean_scale, world_from_light};
 

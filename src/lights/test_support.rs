@@ -19,6 +19,7 @@ pub(crate) fn record(shape: LightShape, normalize: bool, intensity: f32) -> Ligh
         color_temperature: None,
         shape,
         motion: None,
+        links: Default::default(),
     }
 }
 

@@ -13,8 +13,10 @@ use serde::Deserialize;
 use super::material::{unit_scale, Material, Rgb, Texture};
 
 mod instance_primvars;
+mod linking;
 mod names;
 pub use instance_primvars::InstancePrimvarRun;
+pub use linking::{LightLinks, LinkRun};
 pub use names::{NamePattern, NameRun};
 
 /// The only manifest version this loader reads.
@@ -484,6 +486,9 @@ pub struct Instances {
     /// instances (increasing, not overlapping); default none.
     #[serde(default)]
     pub primvars: BTreeMap<String, Vec<InstancePrimvarRun>>,
+    /// Link sets of placed parts, in increasing runs; absent when no light links.
+    #[serde(default)]
+    pub links: Vec<LinkRun>,
 }
 
 /// World-from-prototype transforms of the moving instances at key times
@@ -539,6 +544,9 @@ pub struct Light {
     /// lights).
     #[serde(default)]
     pub motion: Option<CameraMotion>,
+    /// Its light and shadow linking (absent: none).
+    #[serde(flatten)]
+    pub links: LightLinks,
 }
 
 /// The UsdLux light types, with their type-specific attributes.
