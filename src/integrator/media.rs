@@ -297,7 +297,8 @@ pub(super) fn equiangular_sample(
         return None;
     }
     let shadow = shadow_ray(p, ls.wi, ls.distance);
-    let seen = visibility(state, settings, (&shadow, time), light, rng, counts);
+    let to = (light, Receiver::UNNAMED);
+    let seen = visibility(state, settings, (&shadow, time), to, rng, counts);
     if seen.transmittance == Vec3::ZERO {
         return None;
     }

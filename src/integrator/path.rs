@@ -217,7 +217,8 @@ impl Path<'_, '_> {
         }
         let shadow = vertex.shadow_ray(&ls);
         let shadow = (&shadow, self.time);
-        let seen = visibility(state, settings, shadow, light, self.rng, &mut self.counts);
+        let to = (light, receiver);
+        let seen = visibility(state, settings, shadow, to, self.rng, &mut self.counts);
         if seen.transmittance == Vec3::ZERO {
             return None;
         }
@@ -326,7 +327,8 @@ impl Path<'_, '_> {
         for (light, hit) in found {
             let shadow = shadow_ray(origin, direction, hit.t);
             let shadow = (&shadow, self.time);
-            let seen = visibility(state, settings, shadow, light, self.rng, &mut self.counts);
+            let to = (light, bounce.receiver);
+            let seen = visibility(state, settings, shadow, to, self.rng, &mut self.counts);
             if seen.transmittance == Vec3::ZERO {
                 continue;
             }

@@ -8,6 +8,7 @@ use glam::Vec3;
 use obvhs::ray::Ray;
 
 use super::{PathSettings, RayCounts, VolumeEstimator};
+use crate::lights::Receiver;
 use crate::render_state::RenderState;
 use crate::sampling::Pcg32;
 use crate::volumes::estimators::{ratio_tracking_with_null_ratio, transmittance, TrackingStats};
@@ -66,13 +67,13 @@ fn occluded(state: &RenderState, shadow: &Ray, time: f32, light: usize) -> bool 
 }
 
 /// Traces the shadow ray `shadow` at its time (frames) towards light
-/// `light` through geometry, the other lights and the media, with the
-/// configured transmittance estimator.
+/// `light` from a vertex in link set `receiver` through geometry, the other
+/// lights and the media, with the configured transmittance estimator.
 pub(super) fn visibility(
     state: &RenderState,
     settings: &PathSettings,
     (shadow, time): (&Ray, f32),
-    light: usize,
+    (light, receiver): (usize, Receiver),
     rng: &mut Pcg32,
     counts: &mut PathCounts,
 ) -> Visibility {
@@ -81,7 +82,7 @@ pub(super) fn visibility(
     if occluded(state, shadow, time, light)
         || state
             .lights
-            .blocks(origin, direction, shadow.tmax, time, light)
+            .blocks((origin, receiver), direction, shadow.tmax, time, light)
     {
         return Visibility::BLOCKED;
     }

@@ -123,9 +123,9 @@ impl Lights {
     /// The nearest front-face hit with t in (0, t_max) of the ray from
     /// `origin` along unit `direction` on the analytic area lights (sphere,
     /// rect, disk, cylinder; emissive meshes are found by the geometry),
-    /// moving ones where they are at `time` (frames). A light that does not
-    /// light `receiver` (the ray's origin) still stops the ray but gives
-    /// nothing (radiance and pdf 0).
+    /// moving ones where they are at `time` (frames). Lights that do not
+    /// light `receiver` (the ray's origin) are not there for it (light
+    /// linking: the image is the one without them).
     pub fn intersect(
         &self,
         (origin, receiver): (Vec3, Receiver),
@@ -136,6 +136,9 @@ impl Lights {
         let mut nearest: Option<(usize, LightHit)> = None;
         let mut t_max = t_max;
         for &i in &self.area {
+            if !self.lights_receiver(i, receiver) {
+                continue;
+            }
             if let Some(hit) = self.lights[i].intersect(origin, direction, t_max, time) {
                 t_max = hit.t;
                 nearest = Some((i, hit));
@@ -143,11 +146,7 @@ impl Lights {
         }
         // The selection probability of the nearest only: a BVH walk each.
         nearest.map(|(i, mut hit)| {
-            if self.lights_receiver(i, receiver) {
-                hit.pdf *= self.probability(origin, i, receiver);
-            } else {
-                (hit.radiance, hit.pdf) = (Vec3::ZERO, 0.0);
-            }
+            hit.pdf *= self.probability(origin, i, receiver);
             hit
         })
     }
@@ -160,10 +159,11 @@ impl Lights {
     /// images wherever one light hides another. The target itself is skipped:
     /// its sampled point is its first hit, up to rounding that would
     /// otherwise let a sphere light shadow itself at grazing angles. Moving
-    /// lights block where they are at `time` (frames).
+    /// lights block where they are at `time` (frames); lights that do not
+    /// light `receiver` (the shadow ray's origin) do not.
     pub fn blocks(
         &self,
-        origin: Vec3,
+        (origin, receiver): (Vec3, Receiver),
         direction: Vec3,
         t_max: f32,
         time: f32,
@@ -171,6 +171,7 @@ impl Lights {
     ) -> bool {
         self.area.iter().any(|&i| {
             i != target
+                && self.lights_receiver(i, receiver)
                 && self.lights[i]
                     .intersect(origin, direction, t_max, time)
                     .is_some()
