@@ -115,7 +115,7 @@ pub fn summary(scene: &Scene) -> String {
                 )
             })
         };
-        let linked = [said(lit, "lights"), said(shadow, "shadowed by")];
+        let linked = [said(lit, "lights"), said(shadow, "shadow cast by")];
         let linked: Vec<String> = linked.into_iter().flatten().collect();
         line("", format!("{}: {}", l.path, linked.join("; ")));
     }
