@@ -15,6 +15,7 @@ from .binfile import BinWriter
 from .camera import chosen_camera, export_render
 from .instancing import Walker, instance_records
 from .lights import export_lights
+from .linking import add_linking
 from .materials import MaterialTable
 from .mtlx import MtlxDocuments
 from .motion import Recorder, add_motion, replaying_walker
@@ -169,6 +170,10 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     sink = walker(recorder, skinning, report, time).walk_stage(stage)
     instances, prototype, matrices = instance_records(sink, writer)
     lights = export_lights(stage, time, resolver, report)
+    links = add_linking(stage, lights, sink, prototypes.records, {"meshes": meshes.records, "points": points.records,
+                        "curves": curves.records, "volumes": volumes.records}, report)
+    if links is not None:
+        instances["links"] = links
     if instances["count"] == 0 and not lights:
         # Each warning names the stage; the error does so once.
         named = f"{path}: "

@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3};
 use super::shadow::{visibility, PathCounts};
 use super::{PathSettings, Strategy};
 use crate::geometry::shadow_ray;
-use crate::lights::EquiangularTarget;
+use crate::lights::{EquiangularTarget, Receiver};
 use crate::render_state::RenderState;
 use crate::sampling::warp::{power_heuristic, Equiangular};
 use crate::sampling::Pcg32;
@@ -235,8 +235,9 @@ impl EquiangularRay {
             return 1.0;
         };
         let p = self.origin + self.direction * t;
-        let p3 = null_ratio * lights.probability(self.reference, light) * eq.pdf(t);
-        let p1 = sigma_s * lights.probability(p, light);
+        let p3 =
+            null_ratio * lights.probability(self.reference, light, Receiver::UNNAMED) * eq.pdf(t);
+        let p1 = sigma_s * lights.probability(p, light, Receiver::UNNAMED);
         power_heuristic(p1, p3)
     }
 }
@@ -291,12 +292,13 @@ pub(super) fn equiangular_sample(
     let phase = along.phase(t, rng.next_f32());
     let u = Vec2::new(rng.next_f32(), rng.next_f32());
     let ls = lights.sample_light(state.emitters(time), light, p, u)?;
-    let p_select = lights.probability(p, light);
+    let p_select = lights.probability(p, light, Receiver::UNNAMED);
     if ls.pdf.is_nan() || ls.pdf <= 0.0 || p_select <= 0.0 {
         return None;
     }
     let shadow = shadow_ray(p, ls.wi, ls.distance);
-    let seen = visibility(state, settings, (&shadow, time), light, rng, counts);
+    let to = (light, Receiver::UNNAMED);
+    let seen = visibility(state, settings, (&shadow, time), to, rng, counts);
     if seen.transmittance == Vec3::ZERO {
         return None;
     }

@@ -29,7 +29,7 @@ use super::shadow::{visibility, PathCounts};
 use super::{PathSettings, Strategy, VolumeEstimator};
 use crate::film::{AovSample, CameraHit};
 use crate::geometry::{shadow_ray, Hit, SurfacePoint};
-use crate::lights::{LightHit, LightSample};
+use crate::lights::{LightHit, LightSample, Receiver};
 use crate::materials::Bsdf;
 use crate::render_state::{HitAovs, RenderState};
 use crate::sampling::warp::power_heuristic;
@@ -53,6 +53,9 @@ struct Bounce {
     /// The ray left the camera or a Dirac lobe: light sampling could not
     /// have found what it hits, so emission counts in full.
     specular: bool,
+    /// The link set of the vertex the ray left: only the lights that light
+    /// it are counted and weighed (the camera's sees every light).
+    receiver: Receiver,
 }
 
 /// Per-sample random state beside the sampler: the tracking estimators draw
@@ -91,6 +94,7 @@ pub fn radiance(
         bounce: Bounce {
             pdf: 1.0,
             specular: true,
+            receiver: Receiver::CAMERA,
         },
         // Equiangular sampling of point-like lights from media, a third
         // strategy beside distance sampling with NEE or phase sampling.
@@ -199,25 +203,27 @@ impl Path<'_, '_> {
         emission_weight(self.settings.strategy, self.bounce, light_pdf, null_ratio)
     }
 
-    /// Next-event estimation at `vertex`: one light sample (`u`: selection and
-    /// position); `None` when it contributes nothing.
+    /// Next-event estimation at `vertex` in link set `receiver`: one sample
+    /// of the lights that light it (`u`: selection and position); `None`
+    /// when it contributes nothing.
     fn next_event(
         &mut self,
-        vertex: &Vertex,
+        (vertex, receiver): (&Vertex, Receiver),
         (u_select, u): (f32, Vec2),
     ) -> Option<LightContribution> {
         let (state, settings) = (self.state, self.settings);
-        let (light, ls) =
-            state
-                .lights
-                .sample(state.emitters(self.time), vertex.position(), u_select, u)?;
+        let from = (vertex.position(), receiver);
+        let (light, ls) = state
+            .lights
+            .sample(state.emitters(self.time), from, u_select, u)?;
         let f = vertex.f(ls.wi);
         if ls.pdf.is_nan() || ls.pdf <= 0.0 || f == Vec3::ZERO {
             return None;
         }
         let shadow = vertex.shadow_ray(&ls);
         let shadow = (&shadow, self.time);
-        let seen = visibility(state, settings, shadow, light, self.rng, &mut self.counts);
+        let to = (light, receiver);
+        let seen = visibility(state, settings, shadow, to, self.rng, &mut self.counts);
         if seen.transmittance == Vec3::ZERO {
             return None;
         }
@@ -243,8 +249,10 @@ impl Path<'_, '_> {
         let hit = geometry.intersect(ray, self.time);
         let (origin, direction) = (Vec3::from(ray.origin), Vec3::from(ray.direction));
         let t_surface = hit.map_or(ray.tmax, |h| h.t);
-        let light_hit = lights.intersect(origin, direction, t_surface, self.time);
+        let from = (origin, self.bounce.receiver);
+        let light_hit = lights.intersect(from, direction, t_surface, self.time);
         let t_end = light_hit.map_or(t_surface, |l| l.t);
+        self.through_unlinked_blockers((origin, direction), t_end, depth);
         // The camera ray's surface hit feeds the geometric AOVs even when
         // the path scatters in a volume before reaching it.
         let mut camera_hit = None;
@@ -295,6 +303,51 @@ impl Path<'_, '_> {
         }
     }
 
+    /// The shadow-linked lights a BSDF- or phase-sampled `ray` (after
+    /// `depth` scattering events) meets beyond `t_end`, where it stops, with
+    /// nothing but parts transparent to them in between: their emission,
+    /// as a dedicated light ray along the same direction finds it (Cycles'
+    /// shadow linking), so that BSDF sampling finds what next-event
+    /// estimation sees through those parts (docs/how-it-renders.md, "Light
+    /// and shadow linking"). Its MIS weight complements next-event
+    /// estimation's on every such path: ratio tracking's null ratio on
+    /// both sides.
+    fn through_unlinked_blockers(
+        &mut self,
+        (origin, direction): (Vec3, Vec3),
+        t_end: f32,
+        depth: u32,
+    ) {
+        let (state, settings, bounce) = (self.state, self.settings, self.bounce);
+        if bounce.receiver == Receiver::CAMERA {
+            return;
+        }
+        let mut found = smallvec::SmallVec::<[(usize, LightHit); 2]>::new();
+        state.lights.beyond_linked_blockers(
+            (origin, bounce.receiver),
+            direction,
+            (t_end, self.time),
+            |light, hit| found.push((light, hit)),
+        );
+        for (light, hit) in found {
+            let shadow = shadow_ray(origin, direction, hit.t);
+            let shadow = (&shadow, self.time);
+            let to = (light, bounce.receiver);
+            let seen = visibility(state, settings, shadow, to, self.rng, &mut self.counts);
+            if seen.transmittance == Vec3::ZERO {
+                continue;
+            }
+            let weight = match settings.strategy {
+                _ if bounce.specular || hit.pdf <= 0.0 => 1.0,
+                Strategy::Mis => power_heuristic(bounce.pdf * seen.null_ratio, hit.pdf),
+                Strategy::Bsdf => 1.0,
+                Strategy::Nee => 0.0,
+            };
+            let c = self.throughput * hit.radiance * seen.transmittance * weight;
+            self.gathered.add(c, depth);
+        }
+    }
+
     /// The light, sky or surface at `end` of a ray after `depth` scattering
     /// events, reached through its media (`null_ratio` as in
     /// [`AfterMedia::Reached`]): its emission, and at a surface the next
@@ -312,7 +365,8 @@ impl Path<'_, '_> {
             let (strategy, bounce, throughput) =
                 (self.settings.strategy, self.bounce, self.throughput);
             let gathered = &mut self.gathered;
-            lights.escaped(origin, direction, self.time, |le, pdf| {
+            let from = (origin, bounce.receiver);
+            lights.escaped(from, direction, self.time, |le, pdf| {
                 gathered.add(
                     throughput * le * emission_weight(strategy, bounce, pdf, null_ratio),
                     depth,
@@ -385,7 +439,8 @@ impl Path<'_, '_> {
             if !weigh_volume_lights {
                 return 1.0;
             }
-            let from = volume_lights.get_or_insert_with(|| lights.volume_lights_from(origin));
+            let from = volume_lights
+                .get_or_insert_with(|| lights.volume_lights_from((origin, bounce.receiver)));
             let light_pdf = from.pdf(&state.media, origin + direction * t, sigma_maj);
             let null_ratio = if null_scattering { null_ratio } else { 1.0 };
             emission_weight(settings.strategy, bounce, light_pdf, null_ratio)
@@ -487,7 +542,7 @@ impl Path<'_, '_> {
         let u_light = (self.sampler.next_1d(), self.sampler.next_2d());
         if settings.strategy != Strategy::Bsdf {
             let vertex = Vertex::Medium { p, phase, wo };
-            if let Some(light) = self.next_event(&vertex, u_light) {
+            if let Some(light) = self.next_event((&vertex, Receiver::UNNAMED), u_light) {
                 // Equiangular sampling could have made this path too: its
                 // share of the NEE weight.
                 let share = equiangular.map_or(1.0, |eq| {
@@ -506,6 +561,7 @@ impl Path<'_, '_> {
         self.bounce = Bounce {
             pdf: ps.pdf,
             specular: false,
+            receiver: Receiver::UNNAMED,
         };
         if !roulette(&mut self.throughput, depth, u_roulette) {
             return None;
@@ -527,7 +583,8 @@ impl Path<'_, '_> {
         let (state, settings) = (self.state, self.settings);
         let materials = &state.materials;
         if materials.is_emissive(sp.material) && (sp.double_sided || wo.dot(sp.ng) > 0.0) {
-            let weight = self.emission_weight(state.lights.mesh_pdf(sp, origin), null_ratio);
+            let from = (origin, self.bounce.receiver);
+            let weight = self.emission_weight(state.lights.mesh_pdf(sp, from), null_ratio);
             self.gathered.add(
                 self.throughput * materials.emission(sp.material, &sp.site()) * weight,
                 depth,
@@ -542,13 +599,14 @@ impl Path<'_, '_> {
         }
         // Next-event estimation: one light sample.
         let u_light = (self.sampler.next_1d(), self.sampler.next_2d());
+        let receiver = state.lights.receiver(sp.instance, sp.prototype_mesh);
         if settings.strategy != Strategy::Bsdf && !bsdf.is_delta() {
             let vertex = Vertex::Surface {
                 sp,
                 bsdf: &bsdf,
                 wo,
             };
-            if let Some(light) = self.next_event(&vertex, u_light) {
+            if let Some(light) = self.next_event((&vertex, receiver), u_light) {
                 let contribution = self.throughput * light.f * light.li;
                 if depth == 0 {
                     // The first event: split the light by lobe.
@@ -578,6 +636,7 @@ impl Path<'_, '_> {
         self.bounce = Bounce {
             pdf: bs.pdf,
             specular: bs.delta,
+            receiver,
         };
         if !roulette(&mut self.throughput, depth, u_roulette) {
             return None;

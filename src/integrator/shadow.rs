@@ -8,6 +8,7 @@ use glam::Vec3;
 use obvhs::ray::Ray;
 
 use super::{PathSettings, RayCounts, VolumeEstimator};
+use crate::lights::Receiver;
 use crate::render_state::RenderState;
 use crate::sampling::Pcg32;
 use crate::volumes::estimators::{ratio_tracking_with_null_ratio, transmittance, TrackingStats};
@@ -45,23 +46,43 @@ impl Visibility {
     };
 }
 
+/// Whether geometry that casts light `light`'s shadow lies on `shadow`:
+/// any geometry, unless the light's shadow is linked; then the hits are
+/// walked front to back, passing those of parts its `collection:shadowLink`
+/// leaves out (transparent to it).
+fn occluded(state: &RenderState, shadow: &Ray, time: f32, light: usize) -> bool {
+    let (geometry, lights) = (&state.geometry, &state.lights);
+    if !lights.shadow_linked(light) {
+        return geometry.occluded(shadow, time);
+    }
+    let mut ray = *shadow;
+    while let Some(hit) = geometry.intersect(&ray, time) {
+        if lights.casts_shadow(light, hit.instance, hit.prototype_mesh) {
+            return true;
+        }
+        // The next float past the hit: the same hit is never found twice.
+        ray.tmin = f32::from_bits(hit.t.max(0.0).to_bits() + 1);
+    }
+    false
+}
+
 /// Traces the shadow ray `shadow` at its time (frames) towards light
-/// `light` through geometry, the other lights and the media, with the
-/// configured transmittance estimator.
+/// `light` from a vertex in link set `receiver` through geometry, the other
+/// lights and the media, with the configured transmittance estimator.
 pub(super) fn visibility(
     state: &RenderState,
     settings: &PathSettings,
     (shadow, time): (&Ray, f32),
-    light: usize,
+    (light, receiver): (usize, Receiver),
     rng: &mut Pcg32,
     counts: &mut PathCounts,
 ) -> Visibility {
     counts.rays.shadow += 1;
     let (origin, direction) = (Vec3::from(shadow.origin), Vec3::from(shadow.direction));
-    if state.geometry.occluded(shadow, time)
+    if occluded(state, shadow, time, light)
         || state
             .lights
-            .blocks(origin, direction, shadow.tmax, time, light)
+            .blocks((origin, receiver), direction, shadow.tmax, time, light)
     {
         return Visibility::BLOCKED;
     }

@@ -8,6 +8,7 @@ use std::collections::{BTreeSet, HashMap, HashSet};
 
 use glam::{Vec2, Vec3};
 
+use super::linking::{self, Linking, Receiver};
 use super::mesh::MeshLight;
 use super::moving::MovingLight;
 use super::select::{self, LightSelection};
@@ -24,8 +25,11 @@ pub struct Lights {
     /// UsdLux lights first (in manifest order, those with power), then
     /// emissive meshes.
     lights: Vec<Light>,
-    /// Picks a light per sample; `None` when there are none.
-    selection: Option<LightSelection>,
+    /// Picks a light per sample, one per link set (index: [`Receiver`]'s
+    /// set) among the lights that light it; empty when there are none.
+    selections: Vec<LightSelection>,
+    /// Light and shadow linking; `None` when no light links (the default).
+    linking: Option<Linking>,
     /// Indices of the analytic area lights (sphere, rect, disk, cylinder).
     area: Vec<usize>,
     /// Indices of the lights an escaping ray can see (dome, distant with a
@@ -54,15 +58,16 @@ impl Lights {
     /// distance and orientation from `p` too), then a point or direction on
     /// it with `u`, as seen from `p`. `None` when there is no light or the
     /// sample carries nothing (the light faces away, `p` is inside a sphere).
-    /// The picked light's index comes with the sample.
+    /// The picked light's index comes with the sample; only lights that
+    /// light `receiver` are picked.
     pub fn sample(
         &self,
         emitters: Emitters,
-        p: Vec3,
+        (p, receiver): (Vec3, Receiver),
         u_select: f32,
         u: Vec2,
     ) -> Option<(usize, LightSample)> {
-        let pick = self.selection.as_ref()?.pick(p, u_select)?;
+        let pick = self.selections.get(receiver.set())?.pick(p, u_select)?;
         let mut s = self.lights[pick.light].sample(emitters, p, u)?;
         s.pdf *= pick.probability;
         Some((pick.light, s))
@@ -90,8 +95,9 @@ impl Lights {
     /// Picks a light from `p` with `u` as [`Lights::sample`] does, and keeps
     /// the pick when equiangular sampling targets it: its index, centre and
     /// pick probability (Kulla & Fajardo 2012 sample distances towards it).
+    /// Points in media are in [`Receiver::UNNAMED`]'s set.
     pub fn pick_equiangular_target(&self, p: Vec3, u: f32) -> Option<EquiangularTarget> {
-        let pick = self.selection.as_ref()?.pick(p, u)?;
+        let pick = self.selections.first()?.pick(p, u)?;
         let centre = self.centre(pick.light)?;
         Some(EquiangularTarget {
             light: pick.light,
@@ -121,10 +127,12 @@ impl Lights {
     /// The nearest front-face hit with t in (0, t_max) of the ray from
     /// `origin` along unit `direction` on the analytic area lights (sphere,
     /// rect, disk, cylinder; emissive meshes are found by the geometry),
-    /// moving ones where they are at `time` (frames).
+    /// moving ones where they are at `time` (frames). Lights that do not
+    /// light `receiver` (the ray's origin) are not there for it (light
+    /// linking: the image is the one without them).
     pub fn intersect(
         &self,
-        origin: Vec3,
+        (origin, receiver): (Vec3, Receiver),
         direction: Vec3,
         t_max: f32,
         time: f32,
@@ -132,6 +140,9 @@ impl Lights {
         let mut nearest: Option<(usize, LightHit)> = None;
         let mut t_max = t_max;
         for &i in &self.area {
+            if !self.lights_receiver(i, receiver) {
+                continue;
+            }
             if let Some(hit) = self.lights[i].intersect(origin, direction, t_max, time) {
                 t_max = hit.t;
                 nearest = Some((i, hit));
@@ -139,7 +150,7 @@ impl Lights {
         }
         // The selection probability of the nearest only: a BVH walk each.
         nearest.map(|(i, mut hit)| {
-            hit.pdf *= self.probability(origin, i);
+            hit.pdf *= self.probability(origin, i, receiver);
             hit
         })
     }
@@ -152,10 +163,11 @@ impl Lights {
     /// images wherever one light hides another. The target itself is skipped:
     /// its sampled point is its first hit, up to rounding that would
     /// otherwise let a sphere light shadow itself at grazing angles. Moving
-    /// lights block where they are at `time` (frames).
+    /// lights block where they are at `time` (frames); lights that do not
+    /// light `receiver` (the shadow ray's origin) do not.
     pub fn blocks(
         &self,
-        origin: Vec3,
+        (origin, receiver): (Vec3, Receiver),
         direction: Vec3,
         t_max: f32,
         time: f32,
@@ -163,6 +175,7 @@ impl Lights {
     ) -> bool {
         self.area.iter().any(|&i| {
             i != target
+                && self.lights_receiver(i, receiver)
                 && self.lights[i]
                     .intersect(origin, direction, t_max, time)
                     .is_some()
@@ -173,17 +186,24 @@ impl Lights {
     /// from `origin` escaping the scene along unit `direction` at `time`
     /// (frames) sees: the dome, and distant lights of non-zero angle whose
     /// cone holds `direction`, turning ones as they are at `time`. `pdf` is
-    /// what [`Lights::sample`] gives that direction, selection included.
+    /// what [`Lights::sample`] gives that direction, selection included;
+    /// lights that do not light `receiver` are left out.
     pub fn escaped(
         &self,
-        origin: Vec3,
+        (origin, receiver): (Vec3, Receiver),
         direction: Vec3,
         time: f32,
         mut radiance_pdf: impl FnMut(Vec3, f32),
     ) {
         for &i in &self.infinite {
+            if !self.lights_receiver(i, receiver) {
+                continue;
+            }
             if let Some(hit) = self.lights[i].escaped(direction, time) {
-                radiance_pdf(hit.radiance, hit.pdf * self.probability(origin, i));
+                radiance_pdf(
+                    hit.radiance,
+                    hit.pdf * self.probability(origin, i, receiver),
+                );
             }
         }
     }
@@ -191,12 +211,12 @@ impl Lights {
     /// Solid-angle density with which [`Lights::sample`] picks the emissive
     /// mesh point `sp` from `origin`, selection included (for MIS when a BSDF
     /// ray hits an emitter); 0 when `sp`'s mesh is not a light.
-    pub fn mesh_pdf(&self, sp: &SurfacePoint, origin: Vec3) -> f32 {
+    pub fn mesh_pdf(&self, sp: &SurfacePoint, (origin, receiver): (Vec3, Receiver)) -> f32 {
         let Some(&i) = self.meshes.get(&(sp.instance, sp.prototype_mesh)) else {
             return 0.0;
         };
         match &self.lights[i] {
-            Light::Mesh(mesh) => mesh.pdf(sp, origin) * self.probability(origin, i),
+            Light::Mesh(mesh) => mesh.pdf(sp, origin) * self.probability(origin, i, receiver),
             _ => unreachable!("the mesh map holds mesh lights only"),
         }
     }
@@ -207,25 +227,85 @@ impl Lights {
     }
 
     /// The emitting volumes' lights as seen from `origin`, for the MIS
-    /// weights of volume emission that tracking finds along a ray from there.
-    pub fn volume_lights_from(&self, origin: Vec3) -> VolumeLightsFrom<'_> {
+    /// weights of volume emission that tracking finds along a ray from there
+    /// (leaving `receiver`).
+    pub fn volume_lights_from(&self, (origin, receiver): (Vec3, Receiver)) -> VolumeLightsFrom<'_> {
         VolumeLightsFrom {
             lights: self,
             origin,
             picks: self
                 .volumes
                 .iter()
-                .map(|&i| (i, self.probability(origin, i)))
+                .map(|&i| (i, self.probability(origin, i, receiver)))
                 .filter(|&(_, p)| p > 0.0)
                 .collect(),
         }
     }
 
-    /// Probability of picking light `index` from shading point `p`.
-    pub fn probability(&self, p: Vec3, index: usize) -> f32 {
-        self.selection
-            .as_ref()
+    /// Probability of picking light `index` from shading point `p` in link
+    /// set `receiver`.
+    pub fn probability(&self, p: Vec3, index: usize, receiver: Receiver) -> f32 {
+        self.selections
+            .get(receiver.set())
             .map_or(0.0, |s| s.probability(p, index))
+    }
+
+    /// Whether light `index` lights `receiver`.
+    pub fn lights_receiver(&self, index: usize, receiver: Receiver) -> bool {
+        self.linking
+            .as_ref()
+            .is_none_or(|l| l.lights(index, receiver))
+    }
+
+    /// The link set of surface part `part` (`Hit::prototype_mesh`) of
+    /// `instance`: what a ray leaving it may be lit by.
+    pub fn receiver(&self, instance: u32, part: u32) -> Receiver {
+        self.linking
+            .as_ref()
+            .map_or(Receiver::UNNAMED, |l| l.receiver(instance, part))
+    }
+
+    /// Whether surface part `part` of `instance` casts light `index`'s
+    /// shadow (every part does unless the light's shadow is linked).
+    pub fn casts_shadow(&self, index: usize, instance: u32, part: u32) -> bool {
+        self.linking
+            .as_ref()
+            .is_none_or(|l| l.casts_shadow(index, l.receiver(instance, part)))
+    }
+
+    /// Whether light `index`'s shadow is linked: some parts let its light through.
+    pub fn shadow_linked(&self, index: usize) -> bool {
+        self.linking
+            .as_ref()
+            .is_some_and(|l| l.shadow_linked(index))
+    }
+
+    /// Calls `found(light, hit)` for each shadow-linked light that lights
+    /// `receiver` and lies on the ray from `origin` along unit `direction`
+    /// beyond `t_from` (see `linking::hit_beyond`): what a BSDF- or
+    /// phase-sampled ray stopped at `t_from` could still reach through parts
+    /// transparent to that light (Cycles' dedicated light ray). `hit.pdf`
+    /// includes the selection.
+    pub fn beyond_linked_blockers(
+        &self,
+        (origin, receiver): (Vec3, Receiver),
+        direction: Vec3,
+        (t_from, time): (f32, f32),
+        mut found: impl FnMut(usize, LightHit),
+    ) {
+        let Some(linking) = self.linking.as_ref().filter(|l| l.any_shadow_linked()) else {
+            return;
+        };
+        for (i, light) in self.lights.iter().enumerate() {
+            if !linking.shadow_linked(i) || !linking.lights(i, receiver) {
+                continue;
+            }
+            let hit = linking::hit_beyond(light, (origin, direction), (t_from, time));
+            if let Some(mut hit) = hit {
+                hit.pdf *= self.probability(origin, i, receiver);
+                found(i, hit);
+            }
+        }
     }
 
     /// Every UsdLux light of the scene and every placed mesh with emissive
@@ -246,10 +326,12 @@ impl Lights {
     ) -> Result<Self, LightError> {
         let radius = select::scene_radius(&scene.manifest.bounds);
         let mut lights = Vec::new();
+        let mut links = Vec::new();
         for record in &scene.manifest.lights {
             let light = Light::from_record(record)?;
             if light.power(radius) > 0.0 {
                 lights.push(moved(light, record, shutter));
+                links.push(Some(&record.links));
             } else {
                 log::warn!(target: LOG_TARGET, "light {} emits nothing; left out", record.path);
             }
@@ -304,8 +386,10 @@ impl Lights {
             );
             lights.push(Light::from_record(&default_dome())?);
         }
+        links.resize(lights.len(), None);
+        let linking = Linking::build(scene, &links)?;
         Ok(Self::from_lights(
-            lights,
+            (lights, linking),
             meshes,
             volumes,
             &scene.manifest.bounds,
@@ -313,7 +397,7 @@ impl Lights {
     }
 
     fn from_lights(
-        lights: Vec<Light>,
+        (lights, linking): (Vec<Light>, Option<Linking>),
         meshes: HashMap<(u32, u32), usize>,
         volumes: Vec<usize>,
         bounds: &crate::scene::Bounds,
@@ -328,10 +412,25 @@ impl Lights {
             _ => false,
         });
         let infinite = indices(seen_by_escaping_rays);
-        let selection = (!lights.is_empty()).then(|| LightSelection::new(&lights, bounds));
+        // One selection per link set, among the lights that light it (a
+        // single one, over every light, when nothing links).
+        let sets = if lights.is_empty() {
+            0
+        } else {
+            linking.as_ref().map_or(1, Linking::sets)
+        };
+        let selections = (0..sets)
+            .map(|set| {
+                let receiver = Receiver::of_set(set);
+                LightSelection::new(&lights, bounds, |i| {
+                    linking.as_ref().is_none_or(|l| l.lights(i, receiver))
+                })
+            })
+            .collect();
         Self {
             lights,
-            selection,
+            selections,
+            linking,
             area,
             infinite,
             meshes,
@@ -378,6 +477,7 @@ fn default_dome() -> LightRecord {
         shape: LightShape::Dome { texture: None },
         motion: None,
         shaping: None,
+        links: Default::default(),
     }
 }
 
@@ -462,7 +562,9 @@ mod tests {
         let materials = Materials::build(&scene).unwrap();
         let lights = Lights::build(&scene, &materials, &NO_MEDIA, true, Shutter::CLOSED).unwrap();
         assert_eq!(lights.lights.len(), 3);
-        let probabilities: Vec<f32> = (0..3).map(|i| lights.probability(Vec3::ZERO, i)).collect();
+        let probabilities: Vec<f32> = (0..3)
+            .map(|i| lights.probability(Vec3::ZERO, i, Receiver::UNNAMED))
+            .collect();
         assert!((probabilities.iter().sum::<f32>() - 1.0).abs() < 1e-5);
         assert!(
             (probabilities[1] / probabilities[0] - 9.0).abs() < 1e-3,
@@ -476,8 +578,12 @@ mod tests {
         let mut counts = [0u32; 3];
         for _ in 0..n {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
-            let Some((_, s)) = lights.sample(emitters(&materials), Vec3::ZERO, rng.next_f32(), u)
-            else {
+            let Some((_, s)) = lights.sample(
+                emitters(&materials),
+                (Vec3::ZERO, Receiver::UNNAMED),
+                rng.next_f32(),
+                u,
+            ) else {
                 continue;
             };
             let which = if s.wi.x > 0.5 {
@@ -490,7 +596,7 @@ mod tests {
             counts[which] += 1;
             if which < 2 {
                 let hit = lights
-                    .intersect(Vec3::ZERO, s.wi, f32::INFINITY, 0.0)
+                    .intersect((Vec3::ZERO, Receiver::UNNAMED), s.wi, f32::INFINITY, 0.0)
                     .unwrap();
                 assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
             }
@@ -516,7 +622,12 @@ mod tests {
         let materials = Materials::build(&scene).unwrap();
         let lights = Lights::build(&scene, &materials, &NO_MEDIA, true, Shutter::CLOSED).unwrap();
         let e = estimate(20_000, 22, |u| {
-            let (_, s) = lights.sample(emitters(&materials), Vec3::ZERO, 0.5, u)?;
+            let (_, s) = lights.sample(
+                emitters(&materials),
+                (Vec3::ZERO, Receiver::UNNAMED),
+                0.5,
+                u,
+            )?;
             let p = s.wi * s.distance;
             // Triangle 0 of the quad is mesh-space x > y: world x + 0.5 > 0.5 - y.
             let sp = SurfacePoint {
@@ -535,7 +646,7 @@ mod tests {
                 triangle: if p.x > -p.y { 0 } else { 1 },
             };
             assert_eq!(sp.triangle, 0);
-            let pdf = lights.mesh_pdf(&sp, Vec3::ZERO);
+            let pdf = lights.mesh_pdf(&sp, (Vec3::ZERO, Receiver::UNNAMED));
             assert!((pdf - s.pdf).abs() <= 1e-3 * s.pdf, "{pdf} vs {}", s.pdf);
             Some(s.radiance.x * s.wi.z.max(0.0) / s.pdf)
         });
@@ -557,7 +668,12 @@ mod tests {
         // From above, the single-sided quad shows its back: nothing.
         let above = Vec3::new(0.0, 0.0, 3.0);
         assert!(lights
-            .sample(emitters(&materials), above, 0.5, Vec2::splat(0.4))
+            .sample(
+                emitters(&materials),
+                (above, Receiver::UNNAMED),
+                0.5,
+                Vec2::splat(0.4)
+            )
             .is_none());
     }
 
@@ -584,14 +700,19 @@ mod tests {
         let lights = Lights::build(&empty, &materials, &NO_MEDIA, true, Shutter::CLOSED).unwrap();
         let mut seen = Vec::new();
         lights.escaped(
-            Vec3::ZERO,
+            (Vec3::ZERO, Receiver::UNNAMED),
             Vec3::new(0.3, -0.2, 0.9).normalize(),
             0.0,
             |radiance, pdf| seen.push((radiance, pdf)),
         );
         assert_eq!(seen, [(Vec3::ONE, 0.0)]);
         assert!(lights
-            .sample(emitters(&materials), Vec3::ZERO, 0.5, Vec2::splat(0.3))
+            .sample(
+                emitters(&materials),
+                (Vec3::ZERO, Receiver::UNNAMED),
+                0.5,
+                Vec2::splat(0.3)
+            )
             .is_none());
     }
 
@@ -629,25 +750,35 @@ mod tests {
         );
         let materials = Materials::build(&scene).unwrap();
         let lights = Lights::build(&scene, &materials, &NO_MEDIA, true, Shutter::CLOSED).unwrap();
-        assert_eq!(lights.probability(Vec3::ZERO, 0), 0.0);
-        let p_distant = lights.probability(Vec3::ZERO, 1);
+        assert_eq!(lights.probability(Vec3::ZERO, 0, Receiver::UNNAMED), 0.0);
+        let p_distant = lights.probability(Vec3::ZERO, 1, Receiver::UNNAMED);
         assert!(p_distant > 0.0 && p_distant < 1.0);
-        assert!((p_distant + lights.probability(Vec3::ZERO, 2) - 1.0).abs() < 1e-6);
+        assert!(
+            (p_distant + lights.probability(Vec3::ZERO, 2, Receiver::UNNAMED) - 1.0).abs() < 1e-6
+        );
         let mut rng = Pcg32::new(23, 0);
         let n = 20_000;
         let mut distants = 0u32;
         for _ in 0..n {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
             let (light, s) = lights
-                .sample(emitters(&materials), Vec3::ZERO, rng.next_f32(), u)
+                .sample(
+                    emitters(&materials),
+                    (Vec3::ZERO, Receiver::UNNAMED),
+                    rng.next_f32(),
+                    u,
+                )
                 .unwrap();
             assert_ne!(light, 0, "the constant dome is never picked");
             if s.distance.is_infinite() {
                 distants += 1;
                 let mut seen = Vec::new();
-                lights.escaped(Vec3::ZERO, s.wi, 0.0, |radiance, pdf| {
-                    seen.push((radiance, pdf))
-                });
+                lights.escaped(
+                    (Vec3::ZERO, Receiver::UNNAMED),
+                    s.wi,
+                    0.0,
+                    |radiance, pdf| seen.push((radiance, pdf)),
+                );
                 // The dome (pdf 0) and the distant light.
                 assert_eq!(seen.len(), 2);
                 assert_eq!(seen[0], (Vec3::splat(0.2), 0.0));
@@ -655,7 +786,7 @@ mod tests {
                 assert!((seen[1].1 - s.pdf).abs() <= 1e-5 * s.pdf);
             } else {
                 let hit = lights
-                    .intersect(Vec3::ZERO, s.wi, f32::INFINITY, 0.0)
+                    .intersect((Vec3::ZERO, Receiver::UNNAMED), s.wi, f32::INFINITY, 0.0)
                     .unwrap();
                 assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
             }

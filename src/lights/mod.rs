@@ -48,6 +48,7 @@ mod dome;
 mod emission;
 mod ies;
 mod image;
+mod linking;
 mod mesh;
 mod moving;
 mod plane;
@@ -63,6 +64,7 @@ pub(crate) mod test_support;
 
 pub use container::{EquiangularTarget, Lights, VolumeLightsFrom};
 pub use ies::{IesError, IesProfile};
+pub use linking::Receiver;
 pub use validate::LightError;
 pub(crate) use validate::{mean_scale, world_from_light};
 

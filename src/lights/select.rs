@@ -171,9 +171,10 @@ impl LightSelection {
         }
     }
 
-    /// Over `lights` (not empty) with the scene's `bounds` for the infinite
-    /// lights' power.
-    pub fn new(lights: &[Light], bounds: &Bounds) -> Self {
+    /// Over the `lights` (not empty) for which `linked` holds (the others
+    /// are never picked: light linking), with the scene's `bounds` for the
+    /// infinite lights' power.
+    pub fn new(lights: &[Light], bounds: &Bounds, linked: impl Fn(usize) -> bool) -> Self {
         let radius = scene_radius(bounds);
         let powers: Vec<f32> = lights.iter().map(|l| l.power(radius)).collect();
         let mut infinite = Vec::new();
@@ -181,7 +182,7 @@ impl LightSelection {
         let mut volumes = Vec::new();
         let mut bounded = Vec::new();
         let mut infinite_importance = 0.0f32;
-        for (i, light) in lights.iter().enumerate() {
+        for (i, light) in lights.iter().enumerate().filter(|&(i, _)| linked(i)) {
             match (light, light.bounds()) {
                 (Light::Volume(v), _) => {
                     slots[i] = Slot::Volume(volumes.len());
@@ -275,7 +276,7 @@ mod tests {
             min: [-10.0; 3],
             max: [10.0; 3],
         };
-        let selection = LightSelection::new(&lights, &bounds);
+        let selection = LightSelection::new(&lights, &bounds, |_| true);
         let bvh = selection.bvh.as_ref().unwrap();
         for (p, fire_importance) in [
             (Vec3::splat(3.0), 300.0),

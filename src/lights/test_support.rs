@@ -20,6 +20,7 @@ pub(crate) fn record(shape: LightShape, normalize: bool, intensity: f32) -> Ligh
         shape,
         motion: None,
         shaping: None,
+        links: Default::default(),
     }
 }
 

@@ -19,6 +19,9 @@ pub enum LightError {
         /// What is wrong.
         message: String,
     },
+    /// The manifest's link runs are inconsistent (exporter/FORMAT.md, "Linking").
+    #[error("light linking: {0}")]
+    Linking(String),
 }
 
 impl LightError {

@@ -13,9 +13,11 @@ use serde::Deserialize;
 use super::material::{unit_scale, Material, Rgb, Texture};
 
 mod instance_primvars;
+mod linking;
 mod names;
 mod shaping;
 pub use instance_primvars::InstancePrimvarRun;
+pub use linking::{LightLinks, LinkRun};
 pub use names::{NamePattern, NameRun};
 pub use shaping::LightShaping;
 
@@ -486,6 +488,9 @@ pub struct Instances {
     /// instances (increasing, not overlapping); default none.
     #[serde(default)]
     pub primvars: BTreeMap<String, Vec<InstancePrimvarRun>>,
+    /// Link sets of placed parts, in increasing runs; absent when no light links.
+    #[serde(default)]
+    pub links: Vec<LinkRun>,
 }
 
 /// World-from-prototype transforms of the moving instances at key times
@@ -544,6 +549,9 @@ pub struct Light {
     /// `UsdLuxShapingAPI`'s inputs; absent when not applied (unshaped).
     #[serde(default)]
     pub shaping: Option<LightShaping>,
+    /// Its light and shadow linking (absent: none).
+    #[serde(flatten)]
+    pub links: LightLinks,
 }
 
 /// The UsdLux light types, with their type-specific attributes.

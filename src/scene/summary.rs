@@ -5,6 +5,31 @@ use std::collections::BTreeMap;
 
 use super::Scene;
 
+/// Per link set (exporter/FORMAT.md, "Linking"), how many placed parts
+/// (surface and volume parts of every instance) it holds.
+fn placed_parts_by_link_set(scene: &Scene) -> Vec<u64> {
+    let m = &scene.manifest;
+    let parts_of = |p: &super::Prototype| {
+        (p.meshes.len() + p.points.len() + p.curves.len() + p.volumes.len()) as u64
+    };
+    let total: u64 = scene
+        .view(&m.instances.prototype)
+        .iter()
+        .map(|&p| parts_of(&m.prototypes[p as usize]))
+        .sum();
+    let mut sets = vec![total];
+    for run in &m.instances.links {
+        for &set in run.parts.iter().chain(&run.volumes) {
+            if sets.len() <= set as usize {
+                sets.resize(set as usize + 1, 0);
+            }
+            sets[set as usize] += run.count;
+            sets[0] = sets[0].saturating_sub(run.count);
+        }
+    }
+    sets
+}
+
 /// Counts of everything a scene holds, one line per kind.
 pub fn summary(scene: &Scene) -> String {
     let m = &scene.manifest;
@@ -70,6 +95,30 @@ pub fn summary(scene: &Scene) -> String {
         "lights",
         counted(m.lights.len(), m.lights.iter().map(|l| l.shape.type_name())),
     );
+    let in_sets = placed_parts_by_link_set(scene);
+    let parts = |sets: &[u32]| -> u64 {
+        sets.iter()
+            .map(|&s| in_sets.get(s as usize).copied().unwrap_or(0))
+            .sum()
+    };
+    for l in &m.lights {
+        let (lit, shadow) = (&l.links.light_link, &l.links.shadow_link);
+        if lit.is_none() && shadow.is_none() {
+            continue;
+        }
+        let said = |sets: &Option<Vec<u32>>, what: &str| {
+            sets.as_deref().map(|s| {
+                format!(
+                    "{what} {} placed part(s) in {} link set(s)",
+                    parts(s),
+                    s.len()
+                )
+            })
+        };
+        let linked = [said(lit, "lights"), said(shadow, "shadow cast by")];
+        let linked: Vec<String> = linked.into_iter().flatten().collect();
+        line("", format!("{}: {}", l.path, linked.join("; ")));
+    }
     let skipped: Vec<&super::Material> = m.skipped_looks().collect();
     line(
         "materials",
