@@ -408,7 +408,7 @@ mod tests {
     use crate::lights::test_support::{
         assert_within_4_sigma, estimate, scene_with, sphere_json, translated,
     };
-    use crate::lights::{Emitters, Lights};
+    use crate::lights::{Emitters, Lights, Receiver};
     use crate::materials::Materials;
     use crate::motion::Shutter;
     use crate::sampling::Pcg32;
@@ -445,7 +445,7 @@ mod tests {
         };
         let mut rng = Pcg32::new(seed, 7);
         estimate(20_000, seed, |u| {
-            let (_, s) = lights.sample(emitters, p, rng.next_f32(), u)?;
+            let (_, s) = lights.sample(emitters, (p, Receiver::UNNAMED), rng.next_f32(), u)?;
             Some(s.radiance.x * s.wi.z.max(0.0) / s.pdf)
         })
     }
@@ -489,7 +489,11 @@ mod tests {
         .enumerate()
         {
             let inside = (p - spot_at).normalize().dot(-Vec3::Z) > 30f32.to_radians().cos();
-            assert_eq!(lights.probability(p, 0) > 0.0, inside, "{p}");
+            assert_eq!(
+                lights.probability(p, 0, Receiver::UNNAMED) > 0.0,
+                inside,
+                "{p}"
+            );
             let mut exact = sphere_irradiance(1.0, 0.3, omni_at, p);
             if inside {
                 exact += sphere_irradiance(1000.0, 0.02, spot_at, p);
@@ -606,7 +610,10 @@ mod tests {
             assert_within_4_sigma(e, exact, &format!("angleScale, {phi_deg} deg"));
         }
         // Beyond 90 degrees the profile is dark: not picked at all.
-        assert_eq!(lights.probability(Vec3::new(0.0, 0.0, 4.0), 0), 0.0);
+        assert_eq!(
+            lights.probability(Vec3::new(0.0, 0.0, 4.0), 0, Receiver::UNNAMED),
+            0.0
+        );
         assert!(describe(&scene.manifest.lights[0])
             .unwrap()
             .contains("ring.ies"));
@@ -637,10 +644,12 @@ mod tests {
         let mut checked = 0;
         for _ in 0..2000 {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
-            let Some((_, s)) = lights.sample(emitters, p, 0.5, u) else {
+            let Some((_, s)) = lights.sample(emitters, (p, Receiver::UNNAMED), 0.5, u) else {
                 continue;
             };
-            let hit = lights.intersect(p, s.wi, f32::INFINITY, 0.0).unwrap();
+            let hit = lights
+                .intersect((p, Receiver::UNNAMED), s.wi, f32::INFINITY, 0.0)
+                .unwrap();
             assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
             assert!(
                 (hit.radiance - s.radiance).abs().max_element() <= 1e-4 * s.radiance.max_element()
@@ -687,9 +696,12 @@ mod tests {
         // Above every light (behind each axis) the clamped and unshaped ones shine.
         let above = Vec3::new(0.0, 0.0, 3.0);
         for light in 0..3 {
-            assert!(lights.probability(above, light) > 0.0, "light {light}");
+            assert!(
+                lights.probability(above, light, Receiver::UNNAMED) > 0.0,
+                "light {light}"
+            );
         }
-        assert_eq!(lights.probability(above, 3), 0.0);
+        assert_eq!(lights.probability(above, 3, Receiver::UNNAMED), 0.0);
         // The hard-edged one: full at 29 degrees, nothing at 31.
         for (theta_deg, inside) in [(29.0f32, true), (31.0, false)] {
             let p = at + Vec3::Y * 10.0 + Vec3::new(0.0, 2.0 * theta_deg.to_radians().tan(), -2.0);
