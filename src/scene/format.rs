@@ -530,6 +530,9 @@ pub struct Light {
     /// `inputs:colorTemperature` in kelvin when `enableColorTemperature` is
     /// true; `null` otherwise.
     pub color_temperature: Option<f32>,
+    /// `inputs:diffuse` and `inputs:specular` (default 1 each).
+    #[serde(flatten)]
+    pub lobes: LightLobes,
     /// The type and its own attributes.
     #[serde(flatten)]
     pub shape: LightShape,
@@ -539,6 +542,36 @@ pub struct Light {
     /// lights).
     #[serde(default)]
     pub motion: Option<CameraMotion>,
+}
+
+/// A light's `inputs:diffuse` and `inputs:specular`: factors on what it
+/// contributes through the diffuse and the specular lobes of surfaces (see
+/// docs/conventions.md, "Lights"); both default to 1 (absent in files written
+/// before them), which changes nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+pub struct LightLobes {
+    /// `inputs:diffuse` (default 1).
+    #[serde(default = "super::material::unit_scale")]
+    pub diffuse: f32,
+    /// `inputs:specular` (default 1).
+    #[serde(default = "super::material::unit_scale")]
+    pub specular: f32,
+}
+
+impl Default for LightLobes {
+    fn default() -> Self {
+        Self {
+            diffuse: 1.0,
+            specular: 1.0,
+        }
+    }
+}
+
+impl LightLobes {
+    /// Whether either factor differs from 1.
+    pub fn scales(&self) -> bool {
+        *self != Self::default()
+    }
 }
 
 /// The UsdLux light types, with their type-specific attributes.

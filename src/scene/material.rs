@@ -74,6 +74,31 @@ pub struct Material {
     /// OpenPBR `geometry_coat_normal`, likewise; `null` = the interpolated
     /// shading normal.
     pub geometry_coat_normal: Option<NormalMap>,
+    /// Set when the material was made for a gprim with `UsdLuxMeshLightAPI`
+    /// (a mesh light): its emission is scaled by the light's inputs; absent
+    /// otherwise (and in files written before mesh lights).
+    pub light: Option<GeometryLight>,
+}
+
+/// The LightAPI inputs of a mesh light (`UsdLuxMeshLightAPI`) that scale its
+/// material's emission (exporter/FORMAT.md, "Material"): the exporter wrote
+/// the material's emission as the glow the light's `materialSyncMode` asks
+/// for, and the emitted radiance is that times `scale` times the blackbody
+/// colour of `color_temperature`.
+#[derive(Clone, Debug, Deserialize)]
+pub struct GeometryLight {
+    /// Prim path of the gprim that is a light.
+    pub path: String,
+    /// `inputs:color` x `inputs:intensity` x 2^`inputs:exposure`, divided by
+    /// the gprim's world-space surface area (square scene units) when
+    /// `inputs:normalize` is on; linear RGB.
+    pub scale: Rgb,
+    /// `inputs:colorTemperature` in kelvin when `enableColorTemperature` is
+    /// true; `null` otherwise.
+    pub color_temperature: Option<f32>,
+    /// `inputs:diffuse` and `inputs:specular` (default 1 each).
+    #[serde(flatten)]
+    pub lobes: super::LightLobes,
 }
 
 impl Default for Material {
@@ -102,6 +127,7 @@ impl Default for Material {
             geometry_thin_walled: false,
             geometry_normal: None,
             geometry_coat_normal: None,
+            light: None,
         }
     }
 }

@@ -22,6 +22,7 @@ mod fuzz_inputs;
 mod gallery;
 mod house;
 mod instance_primvars;
+mod light_controls;
 mod looks;
 mod materialx;
 mod media;
