@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 use serde::Deserialize;
 
-use super::material::{unit_scale, Material, Rgb, Texture};
+use super::material::{unit_scale, LightLobes, Material, Rgb, Texture};
 
 mod instance_primvars;
 mod names;
@@ -542,36 +542,6 @@ pub struct Light {
     /// lights).
     #[serde(default)]
     pub motion: Option<CameraMotion>,
-}
-
-/// A light's `inputs:diffuse` and `inputs:specular`: factors on what it
-/// contributes through the diffuse and the specular lobes of surfaces (see
-/// docs/conventions.md, "Lights"); both default to 1 (absent in files written
-/// before them), which changes nothing.
-#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
-pub struct LightLobes {
-    /// `inputs:diffuse` (default 1).
-    #[serde(default = "super::material::unit_scale")]
-    pub diffuse: f32,
-    /// `inputs:specular` (default 1).
-    #[serde(default = "super::material::unit_scale")]
-    pub specular: f32,
-}
-
-impl Default for LightLobes {
-    fn default() -> Self {
-        Self {
-            diffuse: 1.0,
-            specular: 1.0,
-        }
-    }
-}
-
-impl LightLobes {
-    /// Whether either factor differs from 1.
-    pub fn scales(&self) -> bool {
-        *self != Self::default()
-    }
 }
 
 /// The UsdLux light types, with their type-specific attributes.

@@ -98,7 +98,7 @@ pub struct GeometryLight {
     pub color_temperature: Option<f32>,
     /// `inputs:diffuse` and `inputs:specular` (default 1 each).
     #[serde(flatten)]
-    pub lobes: super::LightLobes,
+    pub lobes: LightLobes,
 }
 
 impl Default for Material {
@@ -129,6 +129,36 @@ impl Default for Material {
             geometry_coat_normal: None,
             light: None,
         }
+    }
+}
+
+/// A light's `inputs:diffuse` and `inputs:specular`: factors on what it
+/// contributes through the diffuse and the specular lobes of surfaces (see
+/// docs/conventions.md, "Lights"); both default to 1 (absent in files written
+/// before them), which changes nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+pub struct LightLobes {
+    /// `inputs:diffuse` (default 1).
+    #[serde(default = "unit_scale")]
+    pub diffuse: f32,
+    /// `inputs:specular` (default 1).
+    #[serde(default = "unit_scale")]
+    pub specular: f32,
+}
+
+impl Default for LightLobes {
+    fn default() -> Self {
+        Self {
+            diffuse: 1.0,
+            specular: 1.0,
+        }
+    }
+}
+
+impl LightLobes {
+    /// Whether either factor differs from 1.
+    pub fn scales(&self) -> bool {
+        *self != Self::default()
     }
 }
 

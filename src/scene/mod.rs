@@ -33,15 +33,15 @@ pub use export::{
 pub use format::Subdivision;
 pub use format::{
     affine, Array, Bounds, Camera, CameraMotion, Curves, CurvesPart, Element, InstanceMotion,
-    InstancePrimvarRun, Instances, Light, LightLobes, LightShape, Manifest, Mesh, MeshMotion,
-    MeshPart, NamePattern, NameRun, PartNames, Points, PointsMotion, PointsPart, Projection,
-    Prototype, Render, RenderProduct, RenderVar, Scalar, Source, Stage, Transform, UpAxis, Volume,
+    InstancePrimvarRun, Instances, Light, LightShape, Manifest, Mesh, MeshMotion, MeshPart,
+    NamePattern, NameRun, PartNames, Points, PointsMotion, PointsPart, Projection, Prototype,
+    Render, RenderProduct, RenderVar, Scalar, Source, Stage, Transform, UpAxis, Volume,
     VolumeField, VolumePart, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
 pub use material::{
-    Channel, ColorSpace, GeometryLight, Input, InputValue, Material, Model, NormalMap, Op, OpInput,
-    OpenPbr, PrimvarInput, Rgb, StTransform, Texture, TextureInput, Wrap,
+    Channel, ColorSpace, GeometryLight, Input, InputValue, LightLobes, Material, Model, NormalMap,
+    Op, OpInput, OpenPbr, PrimvarInput, Rgb, StTransform, Texture, TextureInput, Wrap,
 };
 pub use names::InstanceNames;
 pub use subdivide::{PlannedMesh, Refinement, SubdivisionSummary};
