@@ -22,6 +22,16 @@ LIGHT_TYPES = {
     "DomeLight_1": ("dome", [("texture", "inputs:texture:file", "asset")]),
 }
 
+# Light types left out, and why. A PortalLight only guides a dome's sampling (the dome lights
+# the scene the same without it), so leaving it out keeps the image.
+UNEXPORTED = {
+    "PortalLight": "portals do not guide dome sampling in Cirrus; left out (the dome lights the "
+                   "scene as without it: same image, noisier through small openings)",
+    "GeometryLight": "GeometryLight (deprecated) is not supported; apply MeshLightAPI to the "
+                     "geometry instead; left out",
+    "PluginLight": "plugin lights are not supported; left out",
+}
+
 
 def _light_prims(stage: Usd.Stage, time: Usd.TimeCode, report: Report):
     """Visible UsdLux lights of the stage, instance proxies included.
@@ -41,7 +51,8 @@ def _light_prims(stage: Usd.Stage, time: Usd.TimeCode, report: Report):
 
 
 def export_lights(stage: Usd.Stage, time: Usd.TimeCode, resolver: AssetResolver, report: Report) -> list[dict]:
-    """Every light record of the manifest."""
+    """Every light record of the manifest; light prims of the UNEXPORTED types are warned about."""
+    warn_unexported(stage, time, report)
     cache = UsdGeom.XformCache(time)
     records = []
     for prim in _light_prims(stage, time, report):
@@ -51,13 +62,9 @@ def export_lights(stage: Usd.Stage, time: Usd.TimeCode, resolver: AssetResolver,
             "type": kind,
             "path": str(prim.GetPath()),
             "transform": to_3x4_list(as_array(cache.GetLocalToWorldTransform(prim))),
-            "color": [float(c) for c in light.GetColorAttr().Get(time)],
-            "intensity": float(light.GetIntensityAttr().Get(time)),
-            "exposure": float(light.GetExposureAttr().Get(time)),
-            "normalize": bool(light.GetNormalizeAttr().Get(time)),
-            "color_temperature": float(light.GetColorTemperatureAttr().Get(time))
-            if light.GetEnableColorTemperatureAttr().Get(time) else None,
+            **light_inputs(light, time),
         }
+        warn_unhonoured(prim, time, report)
         for key, name, convert in extra:
             record[key] = _light_input(prim, name, convert, time, resolver, report)
         shaping = _shaping(prim, time, resolver, report)
@@ -100,6 +107,54 @@ def _shaping(prim: Usd.Prim, time: Usd.TimeCode, resolver: AssetResolver, report
         report.warn(f"light {prim.GetPath()}: inputs:shaping:ies:file {resolved[0]} is missing; "
                     f"the light is rendered without its IES profile")
     return record
+def light_inputs(light: UsdLux.LightAPI, time: Usd.TimeCode) -> dict:
+    """The LightAPI inputs every light record carries (exporter/FORMAT.md, "Light"), on every
+    type alike: color, intensity, exposure, normalize, the colour temperature when enabled,
+    and the diffuse and specular factors."""
+    return {
+        "color": [float(c) for c in light.GetColorAttr().Get(time)],
+        "intensity": float(light.GetIntensityAttr().Get(time)),
+        "exposure": float(light.GetExposureAttr().Get(time)),
+        "normalize": bool(light.GetNormalizeAttr().Get(time)),
+        "color_temperature": float(light.GetColorTemperatureAttr().Get(time))
+        if light.GetEnableColorTemperatureAttr().Get(time) else None,
+        "diffuse": float(light.GetDiffuseAttr().Get(time)),
+        "specular": float(light.GetSpecularAttr().Get(time)),
+    }
+
+
+def warn_unhonoured(prim: Usd.Prim, time: Usd.TimeCode, report: Report) -> None:
+    """Warns, naming prim and attribute, about the authored UsdLux inputs of a light that
+    Cirrus does not honour: light filters, a CylinderLight's treatAsLine, a dome's
+    texture:format other than latlong, DomeLight_1's poleAxis when it means +Z, and
+    ShadowAPI's inputs (shadows are always cast, black, unbounded)."""
+    filters = UsdLux.LightAPI(prim).GetFiltersRel()
+    if filters and filters.GetTargets():
+        report.approximated("light", f"light {prim.GetPath()}: light:filters is not supported; "
+                                     f"the light renders unfiltered")
+    texture_format = prim.GetAttribute("inputs:texture:format")
+    if texture_format.HasAuthoredValue() and texture_format.Get(time) not in ("automatic", "latlong"):
+        report.approximated("light", f"light {prim.GetPath()}: inputs:texture:format "
+                                     f"{texture_format.Get(time)} is not supported; read as latlong")
+    pole = prim.GetAttribute("poleAxis").Get(time) if prim.GetTypeName() == "DomeLight_1" else "Y"
+    if pole == "Z" or (pole == "scene" and UsdGeom.GetStageUpAxis(prim.GetStage()) == UsdGeom.Tokens.z):
+        report.approximated("light", f"light {prim.GetPath()}: poleAxis {pole} (+Z) is not supported; "
+                                     f"the dome's pole is its +Y axis, as DomeLight's")
+    if prim.GetTypeName() == "CylinderLight" and prim.GetAttribute("treatAsLine").Get(time):
+        report.approximated("light", f"light {prim.GetPath()}: treatAsLine is not supported; rendered as a "
+                                     f"cylinder of its radius")
+    for attr in prim.GetAttributes():
+        if attr.GetName().startswith("inputs:shadow:") and attr.HasAuthoredValue():
+            report.approximated("light", f"light {prim.GetPath()}: {attr.GetName()} is not supported; "
+                                         f"shadows are cast as by default (black, unbounded)")
+
+
+def warn_unexported(stage: Usd.Stage, time: Usd.TimeCode, report: Report) -> None:
+    """Names in a warning each visible light prim of a type Cirrus leaves out (UNEXPORTED)."""
+    for prim in Usd.PrimRange.Stage(stage, PREDICATE):
+        why = UNEXPORTED.get(prim.GetTypeName())
+        if why and UsdGeom.Imageable(prim).ComputeVisibility(time) != UsdGeom.Tokens.invisible:
+            report.not_rendered(prim.GetTypeName(), f"{prim.GetTypeName()} {prim.GetPath()}: {why}")
 
 
 def _light_input(prim: Usd.Prim, name: str, convert, time: Usd.TimeCode,

@@ -12,9 +12,11 @@ with nothing readable becomes a grey fallback with one warning naming it. Bindin
 from pxr import Usd, UsdGeom, UsdShade
 
 from .assets import AssetResolver
+from .geometry_lights import light_material
 from .mtlx import MtlxDocuments
 from .node_graph import GraphResolver, Link, Node
 from .openpbr import open_pbr_record
+from .prims import prototype_path
 from .report import Report
 from .usd_nodes import UsdNode, input_value, shader_id, upstream
 
@@ -176,6 +178,23 @@ class MaterialTable:
             self.silent.add(index)
             self.materials.append(record)
         return self._by_path[path]
+
+    def mesh_light(self, prim: Usd.Prim, base: int) -> int:
+        """The index of the material of the mesh light `prim` (geometry_lights.py) over the
+        material `base` it is bound to (NO_MATERIAL or a displayColor look: no Material),
+        one record per light prim (its path in its prototype) and base; it reads what the
+        base reads."""
+        key = f"{prototype_path(prim)}.light:{base}"
+        if key not in self._by_path:
+            index = self._by_path[key] = len(self.materials)
+            unbound = base == NO_MATERIAL or self.materials[base]["shader"] == "displayColor"
+            self.materials.append(light_material(prim, None if unbound else self.materials[base],
+                                                 self._time, self._report))
+            if not unbound:
+                for table in (self._uv_names, self._primvars):
+                    if base in table:
+                        table[index] = table[base]
+        return self._by_path[key]
 
     def hair(self) -> int:
         """The default look of curves with no bound material and no displayColor: a dark brown

@@ -16,6 +16,7 @@ import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
 
 from .binfile import BinWriter
+from .geometry_lights import is_light
 from .materials import DISPLAY_INPUTS, NO_MATERIAL, MaterialTable
 from .meshes import BadMesh, MeshGeometry, read_mesh
 from .prims import PREDICATE, asset_within, below, inherited_primvar, prototype_path
@@ -89,7 +90,8 @@ class MeshTable:
                                              UsdShade.Tokens.materialBind)
 
     def material_key(self, prim: Usd.Prim) -> tuple[int, ...]:
-        """Material indices a gprim uses: its own binding, then each materialBind subset's."""
+        """Material indices a gprim uses: its own binding, then each materialBind subset's; a
+        mesh light's own materials over them (geometry_lights.py)."""
         subsets = [s.GetPrim() for s in self._subsets(prim)]
         own = self._materials.bound_index(prim)
         own = self._materials.display_color(prim) if own == NO_MATERIAL else own
@@ -97,7 +99,8 @@ class MeshTable:
             if self._holders_display is None:
                 self._holders_display = holders_display(prim.GetStage())
             own = self._materials.instance_display(self._holders_display) if self._holders_display else own
-        return (own, *(self._materials.bound_index(p) for p in subsets))
+        key = (own, *(self._materials.bound_index(p) for p in subsets))
+        return tuple(self._materials.mesh_light(prim, m) for m in key) if is_light(prim) else key
 
     def reads(self, prims: list[Usd.Prim]) -> frozenset[str]:
         """The primvars the materials bound to these gprims read, and those primvar RenderVars

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pxr import Usd, UsdGeom
 
+from .geometry_lights import warn_round_shapes
 from .materials import NO_MATERIAL, MaterialTable
 from .prims import prototype_path
 from .report import Report
@@ -91,6 +92,7 @@ class RoundTable:
         """The record index of a prim, reading it the first time; None when it was skipped."""
         key = self._c.key(prim)
         if key not in self._by_key:
+            warn_round_shapes(prim, self._c.report)
             self._by_key[key] = self._add(prim, key)
         return self._by_key[key]
 

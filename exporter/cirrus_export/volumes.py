@@ -8,6 +8,7 @@ import numpy as np
 from pxr import Usd, UsdGeom, UsdShade, UsdVol
 
 from .assets import AssetResolver
+from .geometry_lights import is_light, volume_light
 from .prims import prototype_path
 from .report import Report
 from .vdb_header import grid_bounds
@@ -130,6 +131,8 @@ class VolumeTable:
                     defaulted.append(f"{name}={default}")
         if defaulted:
             self._report.warn(f"volume {prim.GetPath()}: unauthored, defaults used: {', '.join(defaulted)}")
+        if is_light(prim):
+            volume_light(prim, shading, self._time, self._report)
         return shading
 
     def _velocity_units(self, prim: Usd.Prim) -> dict:

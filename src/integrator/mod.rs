@@ -12,6 +12,7 @@
 //! then, and kept in the film (and its checkpoints) until the pass ends.
 
 mod gathered;
+mod light_lobes;
 mod media;
 mod path;
 mod progress;

@@ -24,6 +24,7 @@ use glam::{Vec2, Vec3};
 use obvhs::ray::Ray;
 
 use super::gathered::{lobe_shares, Gathered, VOLUME_EVENT};
+use super::light_lobes::{scaled, LobeSplit};
 use super::media::{equiangular_sample, free_flight, EquiangularRay, FlightEnd};
 use super::shadow::{visibility, PathCounts};
 use super::{PathSettings, Strategy, VolumeEstimator};
@@ -34,7 +35,7 @@ use crate::materials::Bsdf;
 use crate::render_state::{HitAovs, RenderState};
 use crate::sampling::warp::power_heuristic;
 use crate::sampling::{Pcg32, Sampler};
-use crate::scene::NO_MATERIAL;
+use crate::scene::{LightLobes, NO_MATERIAL};
 use crate::volumes::{HenyeyGreenstein, MajorantSegment, MediaRay, RaySegments};
 
 /// Depth (bounces) from which Russian roulette may end a path.
@@ -56,6 +57,9 @@ struct Bounce {
     /// The link set of the vertex the ray left: only the lights that light
     /// it are counted and weighed (the camera's sees every light).
     receiver: Receiver,
+    /// How the sampled direction's BSDF value splits between the lobes
+    /// lights' diffuse and specular factors scale.
+    lobes: LobeSplit,
 }
 
 /// Per-sample random state beside the sampler: the tracking estimators draw
@@ -95,6 +99,7 @@ pub fn radiance(
             pdf: 1.0,
             specular: true,
             receiver: Receiver::CAMERA,
+            lobes: LobeSplit::Unscaled,
         },
         // Equiangular sampling of point-like lights from media, a third
         // strategy beside distance sampling with NEE or phase sampling.
@@ -156,7 +161,8 @@ struct RayEnd {
     direction: Vec3,
     hit: Option<Hit>,
     surface: Option<SurfacePoint>,
-    light: Option<LightHit>,
+    /// The analytic area light hit, with its index.
+    light: Option<(usize, LightHit)>,
 }
 
 impl RayEnd {
@@ -216,7 +222,7 @@ impl Path<'_, '_> {
         let (light, ls) = state
             .lights
             .sample(state.emitters(self.time), from, u_select, u)?;
-        let f = vertex.f(ls.wi);
+        let f = vertex.f(ls.wi, state.lights.lobes(light));
         if ls.pdf.is_nan() || ls.pdf <= 0.0 || f == Vec3::ZERO {
             return None;
         }
@@ -251,7 +257,7 @@ impl Path<'_, '_> {
         let t_surface = hit.map_or(ray.tmax, |h| h.t);
         let from = (origin, self.bounce.receiver);
         let light_hit = lights.intersect(from, direction, t_surface, self.time);
-        let t_end = light_hit.map_or(t_surface, |l| l.t);
+        let t_end = light_hit.map_or(t_surface, |(_, l)| l.t);
         self.through_unlinked_blockers((origin, direction), t_end, depth);
         // The camera ray's surface hit feeds the geometric AOVs even when
         // the path scatters in a volume before reaching it.
@@ -343,7 +349,8 @@ impl Path<'_, '_> {
                 Strategy::Bsdf => 1.0,
                 Strategy::Nee => 0.0,
             };
-            let c = self.throughput * hit.radiance * seen.transmittance * weight;
+            let factor = bounce.lobes.factor(state.lights.lobes(light));
+            let c = self.throughput * hit.radiance * factor * seen.transmittance * weight;
             self.gathered.add(c, depth);
         }
     }
@@ -355,10 +362,11 @@ impl Path<'_, '_> {
     fn reach(&mut self, end: &RayEnd, null_ratio: f32, depth: u32) -> Option<Ray> {
         let (geometry, lights) = (&self.state.geometry, &self.state.lights);
         let (origin, direction) = (end.origin, end.direction);
-        if let Some(light) = end.light {
+        if let Some((index, light)) = end.light {
             let weight = self.emission_weight(light.pdf, null_ratio);
+            let factor = self.bounce.lobes.factor(lights.lobes(index));
             self.gathered
-                .add(self.throughput * light.radiance * weight, depth);
+                .add(self.throughput * light.radiance * factor * weight, depth);
             return None;
         }
         let Some(hit) = end.hit else {
@@ -366,9 +374,10 @@ impl Path<'_, '_> {
                 (self.settings.strategy, self.bounce, self.throughput);
             let gathered = &mut self.gathered;
             let from = (origin, bounce.receiver);
-            lights.escaped(from, direction, self.time, |le, pdf| {
+            lights.escaped(from, direction, self.time, |index, le, pdf| {
+                let factor = bounce.lobes.factor(lights.lobes(index));
                 gathered.add(
-                    throughput * le * emission_weight(strategy, bounce, pdf, null_ratio),
+                    throughput * le * factor * emission_weight(strategy, bounce, pdf, null_ratio),
                     depth,
                 );
             });
@@ -562,6 +571,7 @@ impl Path<'_, '_> {
             pdf: ps.pdf,
             specular: false,
             receiver: Receiver::UNNAMED,
+            lobes: LobeSplit::Unscaled,
         };
         if !roulette(&mut self.throughput, depth, u_roulette) {
             return None;
@@ -585,8 +595,9 @@ impl Path<'_, '_> {
         if materials.is_emissive(sp.material) && (sp.double_sided || wo.dot(sp.ng) > 0.0) {
             let from = (origin, self.bounce.receiver);
             let weight = self.emission_weight(state.lights.mesh_pdf(sp, from), null_ratio);
+            let factor = self.bounce.lobes.factor(materials.light_lobes(sp.material));
             self.gathered.add(
-                self.throughput * materials.emission(sp.material, &sp.site()) * weight,
+                self.throughput * materials.emission(sp.material, &sp.site()) * factor * weight,
                 depth,
             );
         }
@@ -610,7 +621,8 @@ impl Path<'_, '_> {
                 let contribution = self.throughput * light.f * light.li;
                 if depth == 0 {
                     // The first event: split the light by lobe.
-                    let shares = lobe_shares(bsdf.eval_split(wo, light.wi));
+                    let lobes = state.lights.lobes(light.light);
+                    let shares = lobe_shares(scaled(bsdf.eval_split(wo, light.wi), lobes));
                     self.gathered.add_first(contribution, &shares);
                 } else {
                     self.gathered.add(contribution, depth + 1);
@@ -624,11 +636,13 @@ impl Path<'_, '_> {
             self.sampler.next_1d(),
         );
         let bs = bsdf.sample(wo, u_lobe, u_bsdf)?;
+        // Lights' factors need the split only where some light has them.
+        let scales_lobes = state.lights.scales_lobes();
+        let split = (!bs.delta && (depth == 0 || scales_lobes)).then(|| bsdf.eval_split(wo, bs.wi));
         if depth == 0 {
-            let shares = if bs.delta {
-                [Vec3::ZERO, Vec3::ZERO, Vec3::ONE, Vec3::ZERO]
-            } else {
-                lobe_shares(bsdf.eval_split(wo, bs.wi))
+            let shares = match split {
+                Some(split) => lobe_shares(split),
+                None => [Vec3::ZERO, Vec3::ZERO, Vec3::ONE, Vec3::ZERO],
             };
             self.gathered.first_event(shares);
         }
@@ -637,6 +651,9 @@ impl Path<'_, '_> {
             pdf: bs.pdf,
             specular: bs.delta,
             receiver,
+            lobes: split
+                .filter(|_| scales_lobes)
+                .map_or(LobeSplit::Unscaled, LobeSplit::of),
         };
         if !roulette(&mut self.throughput, depth, u_roulette) {
             return None;
@@ -683,9 +700,13 @@ impl Vertex<'_> {
         }
     }
 
-    /// The BSDF (cosine included) or phase function towards `wi`.
-    fn f(&self, wi: Vec3) -> Vec3 {
+    /// The BSDF (cosine included; its diffuse and specular parts scaled by
+    /// the light's `lobes`) or phase function towards `wi`.
+    fn f(&self, wi: Vec3, lobes: LightLobes) -> Vec3 {
         match self {
+            Self::Surface { bsdf, wo, .. } if lobes.scales() => {
+                scaled(bsdf.eval_split(*wo, wi), lobes).total()
+            }
             Self::Surface { bsdf, wo, .. } => bsdf.eval(*wo, wi),
             Self::Medium { phase, wo, .. } => Vec3::splat(phase.eval(*wo, wi)),
         }

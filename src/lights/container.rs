@@ -17,7 +17,7 @@ use super::{Emitters, Light, LightError, LightHit, LightSample, LOG_TARGET};
 use crate::geometry::SurfacePoint;
 use crate::materials::Materials;
 use crate::motion::Shutter;
-use crate::scene::{Light as LightRecord, LightShape, Scene};
+use crate::scene::{Light as LightRecord, LightLobes, LightShape, Scene};
 use crate::volumes::Media;
 
 /// Every light of a scene with the structure that picks one per sample.
@@ -39,6 +39,12 @@ pub struct Lights {
     meshes: HashMap<(u32, u32), usize>,
     /// Indices of the emitting volumes' lights.
     volumes: Vec<usize>,
+    /// Each light's diffuse and specular factors (`inputs:diffuse`,
+    /// `inputs:specular`; a mesh light's from its material).
+    lobes: Vec<LightLobes>,
+    /// Whether some light's (or mesh light material's) factors differ from
+    /// 1 (else the integrator never splits a BSDF value for them).
+    scales_lobes: bool,
 }
 
 /// The light equiangular sampling aims at from one point (see
@@ -124,19 +130,30 @@ impl Lights {
         }
     }
 
+    /// Light `index`'s diffuse and specular factors.
+    pub fn lobes(&self, index: usize) -> LightLobes {
+        self.lobes[index]
+    }
+
+    /// Whether some light (or mesh light material) has a diffuse or
+    /// specular factor other than 1.
+    pub fn scales_lobes(&self) -> bool {
+        self.scales_lobes
+    }
+
     /// The nearest front-face hit with t in (0, t_max) of the ray from
     /// `origin` along unit `direction` on the analytic area lights (sphere,
     /// rect, disk, cylinder; emissive meshes are found by the geometry),
-    /// moving ones where they are at `time` (frames). Lights that do not
-    /// light `receiver` (the ray's origin) are not there for it (light
-    /// linking: the image is the one without them).
+    /// moving ones where they are at `time` (frames), with the index of the
+    /// light hit. Lights that do not light `receiver` (the ray's origin) are
+    /// not there for it (light linking: the image is the one without them).
     pub fn intersect(
         &self,
         (origin, receiver): (Vec3, Receiver),
         direction: Vec3,
         t_max: f32,
         time: f32,
-    ) -> Option<LightHit> {
+    ) -> Option<(usize, LightHit)> {
         let mut nearest: Option<(usize, LightHit)> = None;
         let mut t_max = t_max;
         for &i in &self.area {
@@ -151,7 +168,7 @@ impl Lights {
         // The selection probability of the nearest only: a BVH walk each.
         nearest.map(|(i, mut hit)| {
             hit.pdf *= self.probability(origin, i, receiver);
-            hit
+            (i, hit)
         })
     }
 
@@ -182,7 +199,7 @@ impl Lights {
         })
     }
 
-    /// Calls `radiance_pdf(radiance, pdf)` once for each infinite light a ray
+    /// Calls `radiance_pdf(light, radiance, pdf)` once for each infinite light a ray
     /// from `origin` escaping the scene along unit `direction` at `time`
     /// (frames) sees: the dome, and distant lights of non-zero angle whose
     /// cone holds `direction`, turning ones as they are at `time`. `pdf` is
@@ -193,7 +210,7 @@ impl Lights {
         (origin, receiver): (Vec3, Receiver),
         direction: Vec3,
         time: f32,
-        mut radiance_pdf: impl FnMut(Vec3, f32),
+        mut radiance_pdf: impl FnMut(usize, Vec3, f32),
     ) {
         for &i in &self.infinite {
             if !self.lights_receiver(i, receiver) {
@@ -201,6 +218,7 @@ impl Lights {
             }
             if let Some(hit) = self.lights[i].escaped(direction, time) {
                 radiance_pdf(
+                    i,
                     hit.radiance,
                     hit.pdf * self.probability(origin, i, receiver),
                 );
@@ -327,9 +345,11 @@ impl Lights {
         let radius = select::scene_radius(&scene.manifest.bounds);
         let mut lights = Vec::new();
         let mut links = Vec::new();
+        let mut lobes = Vec::new();
         for record in &scene.manifest.lights {
             let light = Light::from_record(record)?;
             if light.power(radius) > 0.0 {
+                lobes.push(record.lobes);
                 lights.push(moved(light, record, shutter));
                 links.push(Some(&record.links));
             } else {
@@ -346,6 +366,7 @@ impl Lights {
                 unsampled.insert(mesh.mesh());
             } else if mesh.power() > 0.0 {
                 meshes.insert(key, lights.len());
+                lobes.push(materials.light_lobes(mesh.material()));
                 lights.push(Light::Mesh(mesh));
             }
         }
@@ -372,6 +393,7 @@ impl Lights {
             );
             if light.power() > 0.0 {
                 volumes.push(lights.len());
+                lobes.push(LightLobes::default());
                 lights.push(Light::Volume(light));
             }
         }
@@ -384,20 +406,24 @@ impl Lights {
                 "the scene has no lights: lighting it with a white dome of radiance 1 \
                  (add a DomeLight or any UsdLux light to choose)"
             );
+            lobes.push(LightLobes::default());
             lights.push(Light::from_record(&default_dome())?);
         }
         links.resize(lights.len(), None);
         let linking = Linking::build(scene, &links)?;
-        Ok(Self::from_lights(
-            (lights, linking),
+        let mut lights = Self::from_lights(
+            (lights, lobes, linking),
             meshes,
             volumes,
             &scene.manifest.bounds,
-        ))
+        );
+        // Mesh lights moving over the shutter are found by rays alone.
+        lights.scales_lobes |= materials.any_light_lobes();
+        Ok(lights)
     }
 
     fn from_lights(
-        (lights, linking): (Vec<Light>, Option<Linking>),
+        (lights, lobes, linking): (Vec<Light>, Vec<LightLobes>, Option<Linking>),
         meshes: HashMap<(u32, u32), usize>,
         volumes: Vec<usize>,
         bounds: &crate::scene::Bounds,
@@ -435,6 +461,8 @@ impl Lights {
             infinite,
             meshes,
             volumes,
+            scales_lobes: lobes.iter().any(LightLobes::scales),
+            lobes,
         }
     }
 }
@@ -474,6 +502,7 @@ fn default_dome() -> LightRecord {
         exposure: 0.0,
         normalize: false,
         color_temperature: None,
+        lobes: LightLobes::default(),
         shape: LightShape::Dome { texture: None },
         motion: None,
         shaping: None,
@@ -595,7 +624,7 @@ mod tests {
             };
             counts[which] += 1;
             if which < 2 {
-                let hit = lights
+                let (_, hit) = lights
                     .intersect((Vec3::ZERO, Receiver::UNNAMED), s.wi, f32::INFINITY, 0.0)
                     .unwrap();
                 assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
@@ -703,7 +732,7 @@ mod tests {
             (Vec3::ZERO, Receiver::UNNAMED),
             Vec3::new(0.3, -0.2, 0.9).normalize(),
             0.0,
-            |radiance, pdf| seen.push((radiance, pdf)),
+            |_, radiance, pdf| seen.push((radiance, pdf)),
         );
         assert_eq!(seen, [(Vec3::ONE, 0.0)]);
         assert!(lights
@@ -777,7 +806,7 @@ mod tests {
                     (Vec3::ZERO, Receiver::UNNAMED),
                     s.wi,
                     0.0,
-                    |radiance, pdf| seen.push((radiance, pdf)),
+                    |_, radiance, pdf| seen.push((radiance, pdf)),
                 );
                 // The dome (pdf 0) and the distant light.
                 assert_eq!(seen.len(), 2);
@@ -785,7 +814,7 @@ mod tests {
                 assert_eq!(seen[1].0, s.radiance);
                 assert!((seen[1].1 - s.pdf).abs() <= 1e-5 * s.pdf);
             } else {
-                let hit = lights
+                let (_, hit) = lights
                     .intersect((Vec3::ZERO, Receiver::UNNAMED), s.wi, f32::INFINITY, 0.0)
                     .unwrap();
                 assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);

@@ -127,6 +127,12 @@ impl MeshLight {
         self.power
     }
 
+    /// The material of its first emissive triangle (every material of a
+    /// mesh light's gprim carries that light's factors).
+    pub fn material(&self) -> u32 {
+        self.triangles[0].material
+    }
+
     /// Index of the mesh in the scene's meshes.
     pub fn mesh(&self) -> u32 {
         self.mesh

@@ -5,7 +5,7 @@ use glam::{Vec2, Vec3};
 
 use super::{LightHit, LightSample};
 use crate::sampling::Pcg32;
-use crate::scene::{Light as LightRecord, LightShape};
+use crate::scene::{Light as LightRecord, LightLobes, LightShape};
 
 /// A white light record of `intensity` at the origin, unrotated.
 pub(crate) fn record(shape: LightShape, normalize: bool, intensity: f32) -> LightRecord {
@@ -17,6 +17,7 @@ pub(crate) fn record(shape: LightShape, normalize: bool, intensity: f32) -> Ligh
         exposure: 0.0,
         normalize,
         color_temperature: None,
+        lobes: LightLobes::default(),
         shape,
         motion: None,
         shaping: None,

@@ -16,6 +16,11 @@
 //! bent as in Iray (Keller et al. 2017). An OpenPBR record
 //! (open_pbr_surface.rs) evaluates to `OpenPbrInputs` and shading frames,
 //! and `Bsdf::from_open_pbr` (open_pbr/) builds its BSDF.
+//!
+//! A material made for a mesh light (`UsdLuxMeshLightAPI`, the record's
+//! `light`) emits its emission times the light's colour, intensity,
+//! exposure and colour temperature ([`Materials::emission`]), and carries
+//! the light's diffuse and specular factors ([`Materials::light_lobes`]).
 
 mod bsdf;
 mod bsdf_sample;
@@ -42,8 +47,9 @@ pub use scatter::BsdfSample;
 use glam::{Vec3, Vec4};
 use thiserror::Error;
 
+use crate::color::blackbody_rgb;
 use crate::geometry::{MeshSite, SurfacePoint};
-use crate::scene::{Model, Scene, NO_MATERIAL};
+use crate::scene::{GeometryLight, LightLobes, Model, Scene, NO_MATERIAL};
 use open_pbr_surface::OpenPbrSurface;
 use param::Lookups;
 use preview_surface::PreviewSurface;
@@ -62,6 +68,18 @@ pub struct Materials {
     instance_primvars: InstancePrimvars,
     /// Their names' ids.
     primvar_names: PrimvarNames,
+    /// By material: what a mesh light's LightAPI makes of it (`None` for a
+    /// plain material; empty when no material is a mesh light's).
+    lights: Vec<Option<MaterialLight>>,
+}
+
+/// What a mesh light's LightAPI inputs make of its material.
+#[derive(Clone, Copy, Debug)]
+struct MaterialLight {
+    /// Factor on the material's emission: `scale` x blackbody(colorTemperature).
+    emission: Vec3,
+    /// The light's diffuse and specular factors.
+    lobes: LightLobes,
 }
 
 /// A material's surface model.
@@ -82,6 +100,15 @@ pub enum MaterialError {
         material: String,
         /// The value read.
         ior: f32,
+    },
+    /// A mesh light's emission scale is not finite and non-negative, or its
+    /// colour temperature is not a positive number.
+    #[error("light {light}: {message}")]
+    InvalidLight {
+        /// Prim path of the gprim that is a light.
+        light: String,
+        /// What is wrong.
+        message: String,
     },
 }
 
@@ -115,6 +142,15 @@ impl Materials {
             })
             .collect();
         names.add_carried(scene);
+        let lights = if m.materials.iter().any(|r| r.light.is_some()) {
+            let light = |r: &crate::scene::Material| r.light.as_ref().map(MaterialLight::new);
+            m.materials
+                .iter()
+                .map(|r| light(r).transpose())
+                .collect::<Result<_, _>>()?
+        } else {
+            Vec::new()
+        };
         Ok(Self {
             surfaces,
             unbound: Surface::Preview(PreviewSurface::default_surface()),
@@ -122,6 +158,7 @@ impl Materials {
             primvars: MeshPrimvars::build_all(scene, &names),
             instance_primvars: InstancePrimvars::build(scene, &names),
             primvar_names: names,
+            lights,
         })
     }
 
@@ -153,13 +190,35 @@ impl Materials {
     /// What `material` emits at `site`: radiance in W/(m^2 sr), linear
     /// Rec.709, leaving the front side (the caller decides sidedness):
     /// UsdPreviewSurface's `emissiveColor`, OpenPBR's `emission_luminance`
-    /// times `emission_color`. Black for [`NO_MATERIAL`].
+    /// times `emission_color`; for a mesh light's material, times the
+    /// light's scale. Black for [`NO_MATERIAL`].
     pub fn emission(&self, material: u32, site: &MeshSite) -> Vec3 {
         let lookups = &self.lookups();
-        match self.surface(material) {
+        let emitted = match self.surface(material) {
             Surface::Preview(s) => s.emissive_color.eval(lookups, site).max(Vec3::ZERO),
             Surface::OpenPbr(s) => s.emission(lookups, site),
+        };
+        match self.light(material) {
+            Some(light) => emitted * light.emission,
+            None => emitted,
         }
+    }
+
+    /// The diffuse and specular factors of the mesh light whose material
+    /// `material` is (1 and 1 for any other material).
+    pub fn light_lobes(&self, material: u32) -> LightLobes {
+        self.light(material)
+            .map_or_else(LightLobes::default, |l| l.lobes)
+    }
+
+    /// Whether some material is a mesh light's with a diffuse or specular
+    /// factor other than 1.
+    pub fn any_light_lobes(&self) -> bool {
+        self.lights.iter().flatten().any(|l| l.lobes.scales())
+    }
+
+    fn light(&self, material: u32) -> Option<&MaterialLight> {
+        self.lights.get(material as usize)?.as_ref()
     }
 
     /// The absorption coefficient (per scene unit, RGB) of the interior
@@ -201,6 +260,37 @@ impl Materials {
     }
 }
 
+impl MaterialLight {
+    /// The record's scale times the blackbody colour (luminance 1) of its
+    /// colour temperature, as a UsdLux light's emission
+    /// (docs/conventions.md, "Lights"); unusable values are refused.
+    fn new(record: &GeometryLight) -> Result<Self, MaterialError> {
+        let invalid = |message: String| MaterialError::InvalidLight {
+            light: record.path.clone(),
+            message,
+        };
+        let tint = match record.color_temperature {
+            Some(t) if !(t.is_finite() && t > 0.0) => {
+                return Err(invalid(format!(
+                    "colorTemperature {t} K is not a positive number"
+                )))
+            }
+            Some(t) => blackbody_rgb(t),
+            None => Vec3::ONE,
+        };
+        let emission = Vec3::from(record.scale) * tint;
+        if !emission.is_finite() || emission.min_element() < 0.0 {
+            return Err(invalid(format!(
+                "emission scale {emission} (color x intensity x 2^exposure) is not finite and non-negative"
+            )));
+        }
+        Ok(Self {
+            emission,
+            lobes: record.lobes,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use glam::Vec2;
@@ -225,6 +315,7 @@ mod tests {
             primvars: Vec::new(),
             instance_primvars: InstancePrimvars::default(),
             primvar_names: PrimvarNames::default(),
+            lights: Vec::new(),
         }
     }
 

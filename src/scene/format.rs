@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 use serde::Deserialize;
 
-use super::material::{unit_scale, Material, Rgb, Texture};
+use super::material::{unit_scale, LightLobes, Material, Rgb, Texture};
 
 mod instance_primvars;
 mod linking;
@@ -537,6 +537,9 @@ pub struct Light {
     /// `inputs:colorTemperature` in kelvin when `enableColorTemperature` is
     /// true; `null` otherwise.
     pub color_temperature: Option<f32>,
+    /// `inputs:diffuse` and `inputs:specular` (default 1 each).
+    #[serde(flatten)]
+    pub lobes: LightLobes,
     /// The type and its own attributes.
     #[serde(flatten)]
     pub shape: LightShape,

@@ -74,6 +74,31 @@ pub struct Material {
     /// OpenPBR `geometry_coat_normal`, likewise; `null` = the interpolated
     /// shading normal.
     pub geometry_coat_normal: Option<NormalMap>,
+    /// Set when the material was made for a gprim with `UsdLuxMeshLightAPI`
+    /// (a mesh light): its emission is scaled by the light's inputs; absent
+    /// otherwise (and in files written before mesh lights).
+    pub light: Option<GeometryLight>,
+}
+
+/// The LightAPI inputs of a mesh light (`UsdLuxMeshLightAPI`) that scale its
+/// material's emission (exporter/FORMAT.md, "Material"): the exporter wrote
+/// the material's emission as the glow the light's `materialSyncMode` asks
+/// for, and the emitted radiance is that times `scale` times the blackbody
+/// colour of `color_temperature`.
+#[derive(Clone, Debug, Deserialize)]
+pub struct GeometryLight {
+    /// Prim path of the gprim that is a light.
+    pub path: String,
+    /// `inputs:color` x `inputs:intensity` x 2^`inputs:exposure`, divided by
+    /// the gprim's world-space surface area (square scene units) when
+    /// `inputs:normalize` is on; linear RGB.
+    pub scale: Rgb,
+    /// `inputs:colorTemperature` in kelvin when `enableColorTemperature` is
+    /// true; `null` otherwise.
+    pub color_temperature: Option<f32>,
+    /// `inputs:diffuse` and `inputs:specular` (default 1 each).
+    #[serde(flatten)]
+    pub lobes: LightLobes,
 }
 
 impl Default for Material {
@@ -102,7 +127,38 @@ impl Default for Material {
             geometry_thin_walled: false,
             geometry_normal: None,
             geometry_coat_normal: None,
+            light: None,
         }
+    }
+}
+
+/// A light's `inputs:diffuse` and `inputs:specular`: factors on what it
+/// contributes through the diffuse and the specular lobes of surfaces (see
+/// docs/conventions.md, "Lights"); both default to 1 (absent in files written
+/// before them), which changes nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+pub struct LightLobes {
+    /// `inputs:diffuse` (default 1).
+    #[serde(default = "unit_scale")]
+    pub diffuse: f32,
+    /// `inputs:specular` (default 1).
+    #[serde(default = "unit_scale")]
+    pub specular: f32,
+}
+
+impl Default for LightLobes {
+    fn default() -> Self {
+        Self {
+            diffuse: 1.0,
+            specular: 1.0,
+        }
+    }
+}
+
+impl LightLobes {
+    /// Whether either factor differs from 1.
+    pub fn scales(&self) -> bool {
+        *self != Self::default()
     }
 }
 

@@ -40,8 +40,8 @@ pub use format::{
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
 pub use material::{
-    Channel, ColorSpace, Input, InputValue, Material, Model, NormalMap, Op, OpInput, OpenPbr,
-    PrimvarInput, Rgb, StTransform, Texture, TextureInput, Wrap,
+    Channel, ColorSpace, GeometryLight, Input, InputValue, LightLobes, Material, Model, NormalMap,
+    Op, OpInput, OpenPbr, PrimvarInput, Rgb, StTransform, Texture, TextureInput, Wrap,
 };
 pub use names::InstanceNames;
 pub use subdivide::{PlannedMesh, Refinement, SubdivisionSummary};

@@ -23,6 +23,7 @@ mod fuzz_inputs;
 mod gallery;
 mod house;
 mod instance_primvars;
+mod light_controls;
 mod linking;
 mod looks;
 mod materialx;
