@@ -58,7 +58,7 @@ pub(super) fn visibility(
 ) -> Visibility {
     counts.rays.shadow += 1;
     let (origin, direction) = (Vec3::from(shadow.origin), Vec3::from(shadow.direction));
-    if state.geometry.occluded(shadow, time)
+    if state.occluded(shadow, time)
         || state
             .lights
             .blocks(origin, direction, shadow.tmax, time, light)

@@ -62,6 +62,8 @@ pub struct Materials {
     instance_primvars: InstancePrimvars,
     /// Their names' ids.
     primvar_names: PrimvarNames,
+    /// Some material's `opacityThreshold` can cut its surface out.
+    cut_outs: bool,
 }
 
 /// A material's surface model.
@@ -113,7 +115,10 @@ impl Materials {
                     Surface::OpenPbr(Box::new(OpenPbrSurface::from_record(record, &mut names)))
                 }
             })
-            .collect();
+            .collect::<Vec<_>>();
+        let cut_outs = surfaces
+            .iter()
+            .any(|s| matches!(s, Surface::Preview(p) if p.opacity_threshold > 0.0));
         names.add_carried(scene);
         Ok(Self {
             surfaces,
@@ -122,7 +127,24 @@ impl Materials {
             primvars: MeshPrimvars::build_all(scene, &names),
             instance_primvars: InstancePrimvars::build(scene, &names),
             primvar_names: names,
+            cut_outs,
         })
+    }
+
+    /// Whether some material's `opacityThreshold` can cut its surface out
+    /// ([`Self::is_cut_out`]); when none can, every hit is a surface.
+    pub fn has_cut_outs(&self) -> bool {
+        self.cut_outs
+    }
+
+    /// Whether `material` is cut out at `site` (UsdPreviewSurface opacity
+    /// below a positive `opacityThreshold`): rays pass such a hit as if
+    /// nothing were there, neither shading nor shadowing it.
+    pub fn is_cut_out(&self, material: u32, site: &MeshSite) -> bool {
+        match self.surface(material) {
+            Surface::Preview(s) => s.is_cut_out(&self.lookups(), site),
+            Surface::OpenPbr(_) => false,
+        }
     }
 
     /// The id of the primvar `name` when some mesh, points or curves prim
@@ -157,6 +179,8 @@ impl Materials {
     pub fn emission(&self, material: u32, site: &MeshSite) -> Vec3 {
         let lookups = &self.lookups();
         match self.surface(material) {
+            // Where a cut-out leaves no surface, nothing emits either.
+            Surface::Preview(s) if s.is_cut_out(lookups, site) => Vec3::ZERO,
             Surface::Preview(s) => s.emissive_color.eval(lookups, site).max(Vec3::ZERO),
             Surface::OpenPbr(s) => s.emission(lookups, site),
         }
@@ -225,6 +249,7 @@ mod tests {
             primvars: Vec::new(),
             instance_primvars: InstancePrimvars::default(),
             primvar_names: PrimvarNames::default(),
+            cut_outs: false,
         }
     }
 

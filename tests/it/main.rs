@@ -40,6 +40,7 @@ mod skinning;
 mod stability;
 mod subdivision;
 mod transmission;
+mod usd_render_letter;
 mod vdb;
 mod volume_motion;
 mod volumes;
