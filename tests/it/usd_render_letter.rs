@@ -6,6 +6,8 @@
 //! - UsdPreviewSurface `opacityThreshold` (UsdPreviewSurface specification):
 //!   opacity below a positive threshold cuts the surface out for every ray,
 //!   at or above it the surface is opaque.
+//! - UsdVol `OpenVDBAsset` `fieldClass` (and the VDB's own grid class): a
+//!   level set is refused, never read as a density.
 
 use std::path::{Path, PathBuf};
 
@@ -242,4 +244,114 @@ fn opacity_threshold_outside_0_1_is_clamped_and_warned() {
         "{log}"
     );
     assert_eq!(differing(&image, &empty, 1e-4, |_, _| true), 0);
+}
+
+/// Writes `dir/NAME.vdb` with Debian's pyopenvdb: a grid called `density`,
+/// either OpenVDB's level-set sphere of radius 1 (voxel 0.1, class "level
+/// set": negative inside, positive in its narrow band outside) or a fog box
+/// of density 5 over the same region (class unset).
+fn write_vdb(dir: &Path, name: &str, level_set: bool) -> PathBuf {
+    let vdb = dir.join(format!("{name}.vdb"));
+    let grid = if level_set {
+        "g = vdb.createLevelSetSphere(radius=1.0, center=(0, 0, 0), voxelSize=0.1, halfWidth=3.0)"
+    } else {
+        "g = vdb.FloatGrid()\ng.fill((-10, -10, -10), (10, 10, 10), 5.0)\n\
+         g.transform = vdb.createLinearTransform(voxelSize=0.1)"
+    };
+    let script = format!(
+        "import sys\nimport pyopenvdb as vdb\n{grid}\ng.name = 'density'\nvdb.write(sys.argv[1], grids=[g])\n"
+    );
+    let py = dir.join(format!("{name}.py"));
+    std::fs::write(&py, script).unwrap();
+    common::run_python(
+        Path::new(common::SYSTEM_PYTHON),
+        &py,
+        &[vdb.to_str().unwrap()],
+    );
+    vdb
+}
+
+/// A Volume at the origin with one density field from `vdb`, `field_class`
+/// authored on its OpenVDBAsset when given, black (albedo 0), before the
+/// camera; no lights, so the white dome of radiance 1 shows behind it (a
+/// triangle behind the camera keeps the stage from being empty when the
+/// volume is skipped).
+fn volume_stage(vdb: &Path, field_class: Option<&str>) -> String {
+    let class = field_class.map_or(String::new(), |c| format!("token fieldClass = \"{c}\""));
+    format!(
+        r#"#usda 1.0
+(
+    upAxis = "Y"
+)
+def Camera "Camera"
+{{
+    double3 xformOp:translate = (0, 0, 8)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+def Mesh "BehindTheCamera"
+{{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 20), (1, 0, 20), (0, 1, 20)]
+}}
+def Volume "Cloud"
+{{
+    color3f primvars:albedo = (0, 0, 0) (interpolation = "constant")
+    rel field:density = </Cloud/Density>
+    def OpenVDBAsset "Density"
+    {{
+        asset filePath = @{}@
+        token fieldName = "density"
+        {class}
+    }}
+}}
+"#,
+        vdb.display()
+    )
+}
+
+/// A level-set grid is never read as a density: refused by its VDB grid
+/// class or by `fieldClass = "levelSet"`, each with a warning naming field
+/// and prim; the volume, left without density, is not rendered (every pixel
+/// is the dome's radiance 1). The same fog box without the class is seen
+/// (so the stage shows a volume where there is one).
+#[test]
+fn level_set_fields_are_refused_naming_field_and_prim() {
+    let dir = common::scratch("usd_render_letter_level_set");
+    let sphere = write_vdb(&dir, "sphere", true);
+    let fog = write_vdb(&dir, "fog", false);
+    let cases = [
+        (
+            "by_grid_class",
+            &sphere,
+            None,
+            "its VDB grid class is level set",
+        ),
+        (
+            "by_field_class",
+            &fog,
+            Some("levelSet"),
+            "fieldClass levelSet",
+        ),
+    ];
+    for (name, vdb, class, why) in cases {
+        let usda = write_stage(&dir, name, &volume_stage(vdb, class));
+        let (image, log) = render(&usda, 2, &[]);
+        let warning = format!(
+            "volume /Cloud: field /Cloud/Density is a level set ({why}): a signed distance, \
+             not a density; field refused"
+        );
+        assert!(log.contains(&warning), "{name}: {log}");
+        let lit = image
+            .rgb
+            .iter()
+            .flatten()
+            .filter(|&&v| (v - 1.0).abs() > 1e-5);
+        assert_eq!(lit.count(), 0, "{name}: the refused field is rendered");
+    }
+    let usda = write_stage(&dir, "fog_box", &volume_stage(&fog, Some("fogVolume")));
+    let (image, log) = render(&usda, 2, &[]);
+    assert!(!log.contains("level set"), "{log}");
+    let dark = image.rgb[0].iter().filter(|&&v| v < 0.5).count();
+    assert!(dark > 100, "the fog box darkens only {dark} pixels");
 }
