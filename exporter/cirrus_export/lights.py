@@ -60,8 +60,35 @@ def export_lights(stage: Usd.Stage, time: Usd.TimeCode, resolver: AssetResolver,
         }
         for key, name, convert in extra:
             record[key] = _light_input(prim, name, convert, time, resolver, report)
+        if kind == "dome":
+            _dome_format(prim, record, time, report)
         records.append(record)
     return records
+
+
+# inputs:texture:format token -> manifest texture_format ("latlong" is the default, not written).
+DOME_FORMATS = {"latlong": "latlong", "automatic": "latlong", "angular": "angular",
+                "mirroredBall": "mirrored_ball"}
+
+
+def _dome_format(prim: Usd.Prim, record: dict, time: Usd.TimeCode, report: Report) -> None:
+    """A dome's inputs:texture:format as the record's texture_format, written when not lat-long.
+
+    `automatic` is lat-long: none of the image files we read declares a layout we read.
+    `cubeMapVerticalCross` (and any other token) is warned about; the cross leaves the dome
+    untextured (its constant colour), an unknown token reads as lat-long.
+    """
+    token = prim.GetAttribute("inputs:texture:format").Get(time) or "automatic"
+    if token == "cubeMapVerticalCross" and record["texture"] is not None:
+        report.warn(f"light {prim.GetPath()}: inputs:texture:format cubeMapVerticalCross is not "
+                    f"supported; texture {record['texture']} not used (constant colour)")
+        record["texture"] = None
+    elif token not in DOME_FORMATS and token != "cubeMapVerticalCross":
+        report.warn(f"light {prim.GetPath()}: inputs:texture:format {token!r} is not one of "
+                    f"{', '.join(DOME_FORMATS)}; read as latlong")
+    format_ = DOME_FORMATS.get(token, "latlong")
+    if format_ != "latlong":
+        record["texture_format"] = format_
 
 
 def _light_input(prim: Usd.Prim, name: str, convert, time: Usd.TimeCode,

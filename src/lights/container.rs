@@ -370,7 +370,10 @@ fn default_dome() -> LightRecord {
         exposure: 0.0,
         normalize: false,
         color_temperature: None,
-        shape: LightShape::Dome { texture: None },
+        shape: LightShape::Dome {
+            texture: None,
+            texture_format: Default::default(),
+        },
         motion: None,
     }
 }

@@ -12,8 +12,10 @@ use serde::Deserialize;
 
 use super::material::{unit_scale, Material, Rgb, Texture};
 
+mod dome_format;
 mod instance_primvars;
 mod names;
+pub use dome_format::DomeFormat;
 pub use instance_primvars::InstancePrimvarRun;
 pub use names::{NamePattern, NameRun};
 
@@ -580,8 +582,11 @@ pub enum LightShape {
     },
     /// `DomeLight`.
     Dome {
-        /// `inputs:texture:file`, a lat-long image, absolute; `null` = constant.
+        /// `inputs:texture:file`, absolute; `null` = constant.
         texture: Option<PathBuf>,
+        /// `inputs:texture:format` (default lat-long).
+        #[serde(default)]
+        texture_format: DomeFormat,
     },
 }
 

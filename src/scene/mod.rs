@@ -32,10 +32,10 @@ pub use export::{
 };
 pub use format::Subdivision;
 pub use format::{
-    affine, Array, Bounds, Camera, CameraMotion, Curves, CurvesPart, Element, InstanceMotion,
-    InstancePrimvarRun, Instances, Light, LightShape, Manifest, Mesh, MeshMotion, MeshPart,
-    NamePattern, NameRun, PartNames, Points, PointsMotion, PointsPart, Projection, Prototype,
-    Render, RenderProduct, RenderVar, Scalar, Source, Stage, Transform, UpAxis, Volume,
+    affine, Array, Bounds, Camera, CameraMotion, Curves, CurvesPart, DomeFormat, Element,
+    InstanceMotion, InstancePrimvarRun, Instances, Light, LightShape, Manifest, Mesh, MeshMotion,
+    MeshPart, NamePattern, NameRun, PartNames, Points, PointsMotion, PointsPart, Projection,
+    Prototype, Render, RenderProduct, RenderVar, Scalar, Source, Stage, Transform, UpAxis, Volume,
     VolumeField, VolumePart, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};

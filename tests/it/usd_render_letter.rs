@@ -8,6 +8,8 @@
 //!   at or above it the surface is opaque.
 //! - UsdVol `OpenVDBAsset` `fieldClass` (and the VDB's own grid class): a
 //!   level set is refused, never read as a density.
+//! - UsdLux DomeLight `inputs:texture:format`: `latlong`, `angular` and
+//!   `mirroredBall` images of one environment light alike.
 
 use std::path::{Path, PathBuf};
 
@@ -61,6 +63,8 @@ fn differing(a: &Image, b: &Image, relative: f32, keep: impl Fn(usize, usize) ->
 /// UsdPreviewSurface inputs), `None` leaves the card out.
 fn cut_out_stage(card: Option<&str>) -> String {
     let card = card.map_or(String::new(), |inputs| {
+        let surface = format!("color3f inputs:diffuseColor = (0.8, 0.3, 0.1)\n{inputs}");
+        let looks = looks("Card", &surface, LEAF_SHADERS);
         format!(
             r#"
 def Mesh "Card" (prepend apiSchemas = ["MaterialBindingAPI"])
@@ -72,36 +76,7 @@ def Mesh "Card" (prepend apiSchemas = ["MaterialBindingAPI"])
     uniform bool doubleSided = 1
     rel material:binding = </Looks/Card>
 }}
-def Scope "Looks"
-{{
-    def Material "Card"
-    {{
-        token outputs:surface.connect = </Looks/Card/Surface.outputs:surface>
-        def Shader "Surface"
-        {{
-            uniform token info:id = "UsdPreviewSurface"
-            color3f inputs:diffuseColor = (0.8, 0.3, 0.1)
-            {inputs}
-            token outputs:surface
-        }}
-        def Shader "Texture"
-        {{
-            uniform token info:id = "UsdUVTexture"
-            asset inputs:file = @leaf.exr@
-            token inputs:wrapS = "clamp"
-            token inputs:wrapT = "clamp"
-            float2 inputs:st.connect = </Looks/Card/St.outputs:result>
-            float outputs:r
-        }}
-        def Shader "St"
-        {{
-            uniform token info:id = "UsdPrimvarReader_float2"
-            string inputs:varname = "st"
-            float2 outputs:result
-        }}
-    }}
-}}
-"#
+{looks}"#
         )
     });
     format!(
@@ -130,6 +105,25 @@ def Mesh "Floor"
 {card}"#
     )
 }
+
+/// The leaf texture's UsdUVTexture (red channel out, clamped, reading
+/// `leaf.exr`) and its `st` reader, inside Material `/Looks/Card`.
+const LEAF_SHADERS: &str = r#"        def Shader "Texture"
+        {
+            uniform token info:id = "UsdUVTexture"
+            asset inputs:file = @leaf.exr@
+            token inputs:wrapS = "clamp"
+            token inputs:wrapT = "clamp"
+            float2 inputs:st.connect = </Looks/Card/St.outputs:result>
+            float outputs:r
+        }
+        def Shader "St"
+        {
+            uniform token info:id = "UsdPrimvarReader_float2"
+            string inputs:varname = "st"
+            float2 outputs:result
+        }
+"#;
 
 /// The leaf texture: 8 x 1 texels, red 0 in the left half and 1 in the
 /// right (bilinear lookups cross 0.5 at u = 0.5, the card's x = 0).
@@ -278,17 +272,8 @@ fn write_vdb(dir: &Path, name: &str, level_set: bool) -> PathBuf {
 /// volume is skipped).
 fn volume_stage(vdb: &Path, field_class: Option<&str>) -> String {
     let class = field_class.map_or(String::new(), |c| format!("token fieldClass = \"{c}\""));
-    format!(
-        r#"#usda 1.0
-(
-    upAxis = "Y"
-)
-def Camera "Camera"
-{{
-    double3 xformOp:translate = (0, 0, 8)
-    uniform token[] xformOpOrder = ["xformOp:translate"]
-}}
-def Mesh "BehindTheCamera"
+    let body = format!(
+        r#"def Mesh "BehindTheCamera"
 {{
     int[] faceVertexCounts = [3]
     int[] faceVertexIndices = [0, 1, 2]
@@ -307,7 +292,8 @@ def Volume "Cloud"
 }}
 "#,
         vdb.display()
-    )
+    );
+    camera_on_z(8.0, &body)
 }
 
 /// A level-set grid is never read as a density: refused by its VDB grid
@@ -354,4 +340,205 @@ fn level_set_fields_are_refused_naming_field_and_prim() {
     assert!(!log.contains("level set"), "{log}");
     let dark = image.rgb[0].iter().filter(|&&v| v < 0.5).count();
     assert!(dark > 100, "the fog box darkens only {dark} pixels");
+}
+
+/// The environment the dome tests light with: linear in the direction `d`
+/// (light space), so brighter towards +X, +Y and +Z by different amounts
+/// per channel, and smooth, so resampling it changes little.
+fn environment(d: [f32; 3]) -> (f32, f32, f32) {
+    (0.5 + 0.4 * d[0], 0.5 + 0.25 * d[1], 0.5 + 0.15 * d[2])
+}
+
+/// The light-space direction at image point `(u, v)` (from the top left)
+/// of a dome image in `format`, as docs/usd-support.md and the UsdLux
+/// DomeLight documentation give them; `None` outside a disk mapping's disk.
+fn dome_direction(format: &str, u: f32, v: f32) -> Option<[f32; 3]> {
+    use std::f32::consts::PI;
+    if format == "latlong" {
+        let (lon, theta) = (PI * (1.0 - 2.0 * u), PI * v);
+        return Some([
+            theta.sin() * lon.sin(),
+            theta.cos(),
+            theta.sin() * lon.cos(),
+        ]);
+    }
+    let (a, b) = (2.0 * u - 1.0, 1.0 - 2.0 * v);
+    let r = a.hypot(b);
+    if r > 1.0 {
+        return None;
+    }
+    let theta = if format == "angular" {
+        PI * r
+    } else {
+        2.0 * r.asin()
+    };
+    let s = if r > 0.0 { theta.sin() / r } else { 0.0 };
+    Some([-a * s, b * s, theta.cos()])
+}
+
+/// Writes [`environment`] as a `w` x `h` dome image in `format` (texel
+/// centres), black outside a disk mapping's disk, left and right swapped
+/// when `mirrored`: `dir/NAME.exr`.
+fn write_dome(
+    dir: &Path,
+    name: &str,
+    format: &str,
+    (w, h): (usize, usize),
+    mirrored: bool,
+) -> PathBuf {
+    let exr = dir.join(format!("{name}.exr"));
+    exr::prelude::write_rgb_file(&exr, w, h, |x, y| {
+        let x = if mirrored { w - 1 - x } else { x };
+        let (u, v) = ((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
+        dome_direction(format, u, v).map_or((0.0, 0.0, 0.0), environment)
+    })
+    .unwrap();
+    exr
+}
+
+/// A grey sphere of radius 1 filling the view of a camera 3 units away
+/// along +Z, lit only by a dome with image `exr` in the USD `format`.
+fn dome_stage(exr: &Path, format: &str) -> String {
+    let surface = "color3f inputs:diffuseColor = (0.7, 0.7, 0.7)\nfloat inputs:roughness = 0.6";
+    let looks = looks("Grey", surface, "");
+    let body = format!(
+        r#"def DomeLight "Sky"
+{{
+    asset inputs:texture:file = @{}@
+    token inputs:texture:format = "{format}"
+}}
+def Sphere "Ball" (prepend apiSchemas = ["MaterialBindingAPI"])
+{{
+    double radius = 1
+    rel material:binding = </Looks/Grey>
+}}
+{looks}"#,
+        exr.display()
+    );
+    camera_on_z(3.0, &body)
+}
+
+/// A Y-up layer: a camera at `(0, 0, z)` looking down -Z, then `body`.
+fn camera_on_z(z: f32, body: &str) -> String {
+    format!(
+        "#usda 1.0\n(\n    upAxis = \"Y\"\n)\ndef Camera \"Camera\"\n{{\n    \
+         double3 xformOp:translate = (0, 0, {z})\n    \
+         uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}}\n{body}"
+    )
+}
+
+/// Asserts that `a` and `b` agree within 4 sigma plus `bound` (relative to
+/// `a`'s mean), in the red channel (the one that varies with x): over the
+/// whole image and over each quarter of its columns (a mirrored or turned
+/// mapping moves light from one side to the other). The pixel differences
+/// carry only the two renders' noise, so their mean and its standard error
+/// decide.
+fn assert_images_agree(what: &str, a: &Image, b: &Image, bound: f64) {
+    let mean_a = common::estimate(a.pixels(0, |_, _| true)).mean;
+    let bands = [(0, a.width), (0, 16), (16, 32), (32, 48), (48, 64)];
+    for (lo, hi) in bands {
+        let keep = |x: usize, _| (lo..hi).contains(&x);
+        let diffs = a
+            .pixels(0, keep)
+            .into_iter()
+            .zip(b.pixels(0, keep))
+            .map(|(p, q)| p - q);
+        let d = common::estimate(diffs);
+        let tolerance = 4.0 * d.sigma + bound * mean_a;
+        eprintln!(
+            "{what}, columns {lo}..{hi}: difference {:.5} +- {:.5}",
+            d.mean, d.sigma
+        );
+        assert!(
+            d.mean.abs() <= tolerance,
+            "{what}, columns {lo}..{hi}: mean difference {:.5} beyond {tolerance:.5}",
+            d.mean
+        );
+    }
+}
+
+/// The same environment as a lat-long, an angular and a mirrored-ball image
+/// lights the sphere alike (within 4 sigma and 0.5% for resampling: the
+/// environment is smooth and each image samples it at its texel centres);
+/// the angular image mirrored left to right does not (so the test can fail).
+#[test]
+fn dome_texture_formats_map_one_environment_alike() {
+    let dir = common::scratch("usd_render_letter_dome_formats");
+    let render_dome = |name: &str, format: &str, exr: &Path, extra: &[&str]| {
+        let usda = write_stage(&dir, name, &dome_stage(exr, format));
+        let (image, log) = render(&usda, 16, extra);
+        assert!(!log.contains("texture:format"), "{name}: {log}");
+        image
+    };
+    let latlong = write_dome(&dir, "sky_latlong", "latlong", (256, 128), false);
+    let reference = render_dome("latlong", "latlong", &latlong, &[]);
+    for format in ["angular", "mirroredBall"] {
+        let exr = write_dome(&dir, &format!("sky_{format}"), format, (256, 256), false);
+        let image = render_dome(format, format, &exr, &[]);
+        assert_images_agree(
+            &format!("{format} against latlong"),
+            &reference,
+            &image,
+            0.005,
+        );
+    }
+    let mirrored = write_dome(&dir, "sky_mirrored", "angular", (256, 256), true);
+    let misread = render_dome("mirrored", "angular", &mirrored, &[]);
+    let keep = |x: usize, _| x < 16;
+    let gap = common::estimate(reference.pixels(0, keep)).mean
+        - common::estimate(misread.pixels(0, keep)).mean;
+    assert!(
+        gap.abs() > 0.02,
+        "a mirrored angular image renders alike ({gap})"
+    );
+}
+
+/// For the angular and mirrored-ball mappings, light sampling alone and
+/// BSDF sampling alone render the same image (within 4 sigma): the
+/// importance map's density and the lookup agree, Jacobian included.
+#[test]
+fn dome_disk_formats_agree_between_light_and_bsdf_sampling() {
+    let dir = common::scratch("usd_render_letter_dome_strategies");
+    for format in ["angular", "mirroredBall"] {
+        let exr = write_dome(&dir, &format!("sky_{format}"), format, (128, 128), false);
+        let by = |strategy: &str| {
+            let name = format!("{format}_{strategy}");
+            let usda = write_stage(&dir, &name, &dome_stage(&exr, format));
+            render(&usda, 32, &["--strategy", strategy]).0
+        };
+        assert_images_agree(
+            &format!("{format}: nee against bsdf"),
+            &by("nee"),
+            &by("bsdf"),
+            0.0,
+        );
+    }
+}
+
+/// An angular or mirrored-ball texture that is not square is warned about,
+/// naming the light, the file and its size.
+#[test]
+fn dome_texture_not_matching_its_format_is_warned() {
+    let dir = common::scratch("usd_render_letter_dome_aspect");
+    let exr = write_dome(&dir, "wide", "latlong", (64, 32), false);
+    for format in ["angular", "mirroredBall"] {
+        let usda = write_stage(&dir, format, &dome_stage(&exr, format));
+        let (_, log) = render(&usda, 1, &[]);
+        let warning = format!(
+            "light /Sky: texture {} is 64x32, not square ({format})",
+            exr.display()
+        );
+        assert!(log.contains(&warning), "{format}: {log}");
+    }
+}
+
+/// A `Scope "Looks"` holding Material `/Looks/NAME`, its UsdPreviewSurface
+/// `Surface` with the input lines `inputs`, then the Shader prims `shaders`.
+fn looks(name: &str, inputs: &str, shaders: &str) -> String {
+    format!(
+        "def Scope \"Looks\"\n{{\ndef Material \"{name}\"\n{{\n\
+         token outputs:surface.connect = </Looks/{name}/Surface.outputs:surface>\n\
+         def Shader \"Surface\"\n{{\nuniform token info:id = \"UsdPreviewSurface\"\n\
+         {inputs}\ntoken outputs:surface\n}}\n{shaders}}}\n}}\n"
+    )
 }
