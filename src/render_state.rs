@@ -10,7 +10,7 @@ use thiserror::Error;
 use crate::camera::{Camera, CameraError, Raster};
 use crate::film::{murmur3_32, primvar_of, Aov, AovSet, CryptoIds, CryptoNames, Murmur3};
 use crate::film::{CRYPTOMATTES, MAX_PRIMVARS};
-use crate::geometry::{Geometry, Hit};
+use crate::geometry::{Geometry, Hit, Ray};
 use crate::lights::{Emitters, LightError, Lights};
 use crate::materials::{MaterialError, Materials};
 use crate::motion::Shutter;
@@ -297,6 +297,36 @@ impl RenderState {
                     found.map(|(_, id)| *id)
                 })
                 .collect(),
+        }
+    }
+
+    /// The closest surface `ray` hits at `time` (frames), its `t` along
+    /// `ray`: hits where a material's `opacityThreshold` cuts the surface
+    /// out ([`Materials::is_cut_out`]) are passed through, each once (the
+    /// next search starts just beyond it), so no ray sees, shades or is
+    /// shadowed by them.
+    pub fn intersect(&self, ray: &Ray, time: f32) -> Option<Hit> {
+        let mut ray = *ray;
+        loop {
+            let hit = self.geometry.intersect(&ray, time)?;
+            if !self.materials.has_cut_outs() {
+                return Some(hit);
+            }
+            let sp = self.geometry.surface_point(&hit);
+            if !self.materials.is_cut_out(sp.material, &sp.site()) {
+                return Some(hit);
+            }
+            ray.tmin = hit.t.next_up();
+        }
+    }
+
+    /// Whether a surface blocks `ray` at `time` (frames), cut-outs passed
+    /// through as [`Self::intersect`] does.
+    pub fn occluded(&self, ray: &Ray, time: f32) -> bool {
+        if self.materials.has_cut_outs() {
+            self.intersect(ray, time).is_some()
+        } else {
+            self.geometry.occluded(ray, time)
         }
     }
 

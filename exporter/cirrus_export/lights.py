@@ -70,6 +70,8 @@ def export_lights(stage: Usd.Stage, time: Usd.TimeCode, resolver: AssetResolver,
         shaping = _shaping(prim, time, resolver, report)
         if shaping is not None:
             record["shaping"] = shaping
+        if kind == "dome":
+            _dome_format(prim, record, time, report)
         records.append(record)
     return records
 
@@ -107,6 +109,8 @@ def _shaping(prim: Usd.Prim, time: Usd.TimeCode, resolver: AssetResolver, report
         report.warn(f"light {prim.GetPath()}: inputs:shaping:ies:file {resolved[0]} is missing; "
                     f"the light is rendered without its IES profile")
     return record
+
+
 def light_inputs(light: UsdLux.LightAPI, time: Usd.TimeCode) -> dict:
     """The LightAPI inputs every light record carries (exporter/FORMAT.md, "Light"), on every
     type alike: color, intensity, exposure, normalize, the colour temperature when enabled,
@@ -125,17 +129,13 @@ def light_inputs(light: UsdLux.LightAPI, time: Usd.TimeCode) -> dict:
 
 def warn_unhonoured(prim: Usd.Prim, time: Usd.TimeCode, report: Report) -> None:
     """Warns, naming prim and attribute, about the authored UsdLux inputs of a light that
-    Cirrus does not honour: light filters, a CylinderLight's treatAsLine, a dome's
-    texture:format other than latlong, DomeLight_1's poleAxis when it means +Z, and
+    Cirrus does not honour: light filters, a CylinderLight's treatAsLine,
+    DomeLight_1's poleAxis when it means +Z, and
     ShadowAPI's inputs (shadows are always cast, black, unbounded)."""
     filters = UsdLux.LightAPI(prim).GetFiltersRel()
     if filters and filters.GetTargets():
         report.approximated("light", f"light {prim.GetPath()}: light:filters is not supported; "
                                      f"the light renders unfiltered")
-    texture_format = prim.GetAttribute("inputs:texture:format")
-    if texture_format.HasAuthoredValue() and texture_format.Get(time) not in ("automatic", "latlong"):
-        report.approximated("light", f"light {prim.GetPath()}: inputs:texture:format "
-                                     f"{texture_format.Get(time)} is not supported; read as latlong")
     pole = prim.GetAttribute("poleAxis").Get(time) if prim.GetTypeName() == "DomeLight_1" else "Y"
     if pole == "Z" or (pole == "scene" and UsdGeom.GetStageUpAxis(prim.GetStage()) == UsdGeom.Tokens.z):
         report.approximated("light", f"light {prim.GetPath()}: poleAxis {pole} (+Z) is not supported; "
@@ -155,6 +155,31 @@ def warn_unexported(stage: Usd.Stage, time: Usd.TimeCode, report: Report) -> Non
         why = UNEXPORTED.get(prim.GetTypeName())
         if why and UsdGeom.Imageable(prim).ComputeVisibility(time) != UsdGeom.Tokens.invisible:
             report.not_rendered(prim.GetTypeName(), f"{prim.GetTypeName()} {prim.GetPath()}: {why}")
+
+
+# inputs:texture:format token -> manifest texture_format ("latlong" is the default, not written).
+DOME_FORMATS = {"latlong": "latlong", "automatic": "latlong", "angular": "angular",
+                "mirroredBall": "mirrored_ball"}
+
+
+def _dome_format(prim: Usd.Prim, record: dict, time: Usd.TimeCode, report: Report) -> None:
+    """A dome's inputs:texture:format as the record's texture_format, written when not lat-long.
+
+    `automatic` is lat-long: none of the image files we read declares a layout we read.
+    `cubeMapVerticalCross` (and any other token) is warned about; the cross leaves the dome
+    untextured (its constant colour), an unknown token reads as lat-long.
+    """
+    token = prim.GetAttribute("inputs:texture:format").Get(time) or "automatic"
+    if token == "cubeMapVerticalCross" and record["texture"] is not None:
+        report.warn(f"light {prim.GetPath()}: inputs:texture:format cubeMapVerticalCross is not "
+                    f"supported; texture {record['texture']} not used (constant colour)")
+        record["texture"] = None
+    elif token not in DOME_FORMATS and token != "cubeMapVerticalCross":
+        report.warn(f"light {prim.GetPath()}: inputs:texture:format {token!r} is not one of "
+                    f"{', '.join(DOME_FORMATS)}; read as latlong")
+    format_ = DOME_FORMATS.get(token, "latlong")
+    if format_ != "latlong":
+        record["texture_format"] = format_
 
 
 def _light_input(prim: Usd.Prim, name: str, convert, time: Usd.TimeCode,

@@ -258,7 +258,23 @@ class MaterialTable:
             record[key] = default if isinstance(value, dict) else value
         normal = resolver.input(node, "normal", None)
         record["normal"] = normal if isinstance(normal, dict) and "texture" in normal else None
+        threshold = self._opacity_threshold(path, resolver.input(node, "opacityThreshold", 0.0))
+        if threshold > 0.0:
+            record["opacity_threshold"] = threshold
         return record
+
+    def _opacity_threshold(self, path: str, value) -> float:
+        """inputs:opacityThreshold as a constant in [0, 1]: a connected one reads as 0 (no
+        mask), one outside [0, 1] is clamped, each with a warning naming the material."""
+        if isinstance(value, dict):
+            self._report.warn(f"material {path}: inputs:opacityThreshold is connected, which Cirrus "
+                              f"does not read; 0 (no cut-out mask) used")
+            return 0.0
+        clamped = min(max(float(value), 0.0), 1.0)
+        if clamped != value:
+            self._report.warn(f"material {path}: inputs:opacityThreshold {value} is outside [0, 1]; "
+                              f"{clamped} used")
+        return clamped
 
     @staticmethod
     def _fallback(path: str) -> dict:

@@ -64,10 +64,10 @@ def _index_to_object(reader: _Reader) -> np.ndarray | None:
     return matrix
 
 
-def grid_bounds(path: str, grid: str) -> tuple[np.ndarray, np.ndarray] | None:
-    """Object-space box of grid `grid` in a .vdb, grown by one voxel (the trilinear falloff).
+def _grid_header(path: str, grid: str) -> tuple[_Reader, dict] | None:
+    """The first grid called `grid` in a .vdb: its metadata, and a reader at its transform.
 
-    None when the file, grid, bbox metadata or transform cannot be read, or the grid is empty.
+    None when the file or grid cannot be read.
     """
     try:
         data = Path(path).read_bytes()
@@ -80,18 +80,39 @@ def grid_bounds(path: str, grid: str) -> tuple[np.ndarray, np.ndarray] | None:
             name, _, _ = reader.string(), reader.string(), reader.string()
             grid_pos, _, end_pos = reader.take("qqq")
             if name.split("\x1e")[0] == grid:
-                return _bounds_at(data, grid_pos)
+                at = _Reader(data, grid_pos)
+                at.take("I")  # compression flags
+                return at, at.metadata()
             reader.offset = end_pos  # each grid's data follows its descriptor
     except (OSError, struct.error, ValueError):
         return None
     return None
 
 
-def _bounds_at(data: bytes, grid_pos: int) -> tuple[np.ndarray, np.ndarray] | None:
-    """Reads one grid's compression flags, metadata and transform at `grid_pos`."""
-    reader = _Reader(data, grid_pos)
-    reader.take("I")  # compression flags
-    meta = reader.metadata()
+def grid_class(path: str, grid: str) -> str | None:
+    """OpenVDB's class of grid `grid` in a .vdb (its `class` metadata: "level set",
+    "fog volume", "staggered", "unknown"), or None when it cannot be read."""
+    found = _grid_header(path, grid)
+    entry = found[1].get("class") if found else None
+    return entry[1].decode("utf-8", "replace") if entry and entry[0] == "string" else None
+
+
+def grid_bounds(path: str, grid: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """Object-space box of grid `grid` in a .vdb, grown by one voxel (the trilinear falloff).
+
+    None when the file, grid, bbox metadata or transform cannot be read, or the grid is empty.
+    """
+    found = _grid_header(path, grid)
+    if found is None:
+        return None
+    try:
+        return _bounds_at(*found)
+    except (struct.error, ValueError):
+        return None
+
+
+def _bounds_at(reader: _Reader, meta: dict) -> tuple[np.ndarray, np.ndarray] | None:
+    """One grid's box from its metadata and its transform, which `reader` is at."""
     lo, hi = meta.get("file_bbox_min"), meta.get("file_bbox_max")
     if lo is None or hi is None or lo[0] != "vec3i" or hi[0] != "vec3i":
         return None

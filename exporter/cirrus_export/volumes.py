@@ -11,7 +11,7 @@ from .assets import AssetResolver
 from .geometry_lights import is_light, volume_light
 from .prims import prototype_path
 from .report import Report
-from .vdb_header import grid_bounds
+from .vdb_header import grid_bounds, grid_class
 
 # Manifest key, primvar name, default (docs/conventions.md, "Shading primvars": densityScale 1,
 # albedo 1, anisotropy 0, no emission).
@@ -19,6 +19,9 @@ from .vdb_header import grid_bounds
 # and "v" Houdini's for velocity (docs/conventions.md, "Velocity fields").
 FIELD_KEYS = {"density": "density", "temperature": "temperature", "heat": "temperature",
               "emission": "emission", "velocity": "velocity", "vel": "velocity", "v": "velocity"}
+
+# What _field returns for a level-set field (refused with a warning; the volume goes on without it).
+LEVEL_SET: dict = {}
 
 # Emission parameters by the field that uses them, reported as defaulted only for volumes with that field.
 EMISSION_PRIMVARS = {"temperature": {"heatScale", "temperatureOffset", "temperatureScale"},
@@ -68,7 +71,9 @@ class VolumeTable:
         return self._by_path[key]
 
     def _field(self, volume: Usd.Prim, field: Usd.Prim) -> dict | None:
-        """One OpenVDBAsset field; None (with a warning) when its file is missing."""
+        """One OpenVDBAsset field; None (with a warning) when its file is missing, LEVEL_SET (with a
+        warning naming field and prim) for a level set, by its `fieldClass` or its VDB grid class:
+        its values are signed distances, which are never read as densities."""
         asset = UsdVol.OpenVDBAsset(field)
         if not asset:
             self._report.warn(f"volume {volume.GetPath()}: field {field.GetPath()} is a "
@@ -83,8 +88,14 @@ class VolumeTable:
             self._report.warn(f"volume {volume.GetPath()}: VDB file {file} of field {field.GetPath()} "
                               f"does not exist at frame {self._frame}; volume skipped")
             return None
-        return {"file": resolved[0], "grid": str(asset.GetFieldNameAttr().Get(self._time) or ""),
-                "index": int(asset.GetFieldIndexAttr().Get(self._time) or 0)}
+        grid = str(asset.GetFieldNameAttr().Get(self._time) or "")
+        authored = asset.GetFieldClassAttr().Get(self._time)
+        if authored == "levelSet" or grid_class(resolved[0], grid) == "level set":
+            said = "fieldClass levelSet" if authored == "levelSet" else "its VDB grid class is level set"
+            self._report.warn(f"volume {volume.GetPath()}: field {field.GetPath()} is a level set "
+                              f"({said}): a signed distance, not a density; field refused")
+            return LEVEL_SET
+        return {"file": resolved[0], "grid": grid, "index": int(asset.GetFieldIndexAttr().Get(self._time) or 0)}
 
     def _add(self, prim: Usd.Prim, key: str) -> int | None:
         """Reads one Volume; skipped when any field file is missing or it has no field."""
@@ -99,6 +110,8 @@ class VolumeTable:
             field = self._field(prim, stage.GetPrimAtPath(path))
             if field is None:
                 return None
+            if field is LEVEL_SET:
+                continue
             fields[field_key] = field
         if "density" not in fields:
             self._report.warn(f"volume {prim.GetPath()}: no field:density; skipped")

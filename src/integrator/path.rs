@@ -252,7 +252,7 @@ impl Path<'_, '_> {
     fn extend(&mut self, ray: &Ray, depth: u32) -> Option<Ray> {
         let (geometry, lights) = (&self.state.geometry, &self.state.lights);
         self.counts.rays.closest += 1;
-        let hit = geometry.intersect(ray, self.time);
+        let hit = self.state.intersect(ray, self.time);
         let (origin, direction) = (Vec3::from(ray.origin), Vec3::from(ray.direction));
         let t_surface = hit.map_or(ray.tmax, |h| h.t);
         let from = (origin, self.bounce.receiver);

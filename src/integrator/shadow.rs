@@ -51,12 +51,12 @@ impl Visibility {
 /// walked front to back, passing those of parts its `collection:shadowLink`
 /// leaves out (transparent to it).
 fn occluded(state: &RenderState, shadow: &Ray, time: f32, light: usize) -> bool {
-    let (geometry, lights) = (&state.geometry, &state.lights);
+    let lights = &state.lights;
     if !lights.shadow_linked(light) {
-        return geometry.occluded(shadow, time);
+        return state.occluded(shadow, time);
     }
     let mut ray = *shadow;
-    while let Some(hit) = geometry.intersect(&ray, time) {
+    while let Some(hit) = state.intersect(&ray, time) {
         if lights.casts_shadow(light, hit.instance, hit.prototype_mesh) {
             return true;
         }

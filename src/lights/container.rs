@@ -503,7 +503,10 @@ fn default_dome() -> LightRecord {
         normalize: false,
         color_temperature: None,
         lobes: LightLobes::default(),
-        shape: LightShape::Dome { texture: None },
+        shape: LightShape::Dome {
+            texture: None,
+            texture_format: Default::default(),
+        },
         motion: None,
         shaping: None,
         links: Default::default(),

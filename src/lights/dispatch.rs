@@ -137,9 +137,14 @@ impl Light {
             LightShape::Cylinder { radius, length } => {
                 Self::Cylinder(CylinderLight::from_record(record, *radius, *length)?)
             }
-            LightShape::Dome { texture } => {
-                Self::Dome(DomeLight::from_record(record, texture.as_deref())?)
-            }
+            LightShape::Dome {
+                texture,
+                texture_format,
+            } => Self::Dome(DomeLight::from_record(
+                record,
+                texture.as_deref(),
+                *texture_format,
+            )?),
         };
         Ok(ShapedLight::shape(light, record))
     }

@@ -647,7 +647,7 @@ mod tests {
             let Some((_, s)) = lights.sample(emitters, (p, Receiver::UNNAMED), 0.5, u) else {
                 continue;
             };
-            let hit = lights
+            let (_, hit) = lights
                 .intersect((p, Receiver::UNNAMED), s.wi, f32::INFINITY, 0.0)
                 .unwrap();
             assert!((hit.pdf - s.pdf).abs() <= 1e-3 * s.pdf);

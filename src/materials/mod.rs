@@ -71,6 +71,8 @@ pub struct Materials {
     /// By material: what a mesh light's LightAPI makes of it (`None` for a
     /// plain material; empty when no material is a mesh light's).
     lights: Vec<Option<MaterialLight>>,
+    /// Some material's `opacityThreshold` can cut its surface out.
+    cut_outs: bool,
 }
 
 /// What a mesh light's LightAPI inputs make of its material.
@@ -140,7 +142,10 @@ impl Materials {
                     Surface::OpenPbr(Box::new(OpenPbrSurface::from_record(record, &mut names)))
                 }
             })
-            .collect();
+            .collect::<Vec<_>>();
+        let cut_outs = surfaces
+            .iter()
+            .any(|s| matches!(s, Surface::Preview(p) if p.opacity_threshold > 0.0));
         names.add_carried(scene);
         let lights = if m.materials.iter().any(|r| r.light.is_some()) {
             let light = |r: &crate::scene::Material| r.light.as_ref().map(MaterialLight::new);
@@ -159,7 +164,24 @@ impl Materials {
             instance_primvars: InstancePrimvars::build(scene, &names),
             primvar_names: names,
             lights,
+            cut_outs,
         })
+    }
+
+    /// Whether some material's `opacityThreshold` can cut its surface out
+    /// ([`Self::is_cut_out`]); when none can, every hit is a surface.
+    pub fn has_cut_outs(&self) -> bool {
+        self.cut_outs
+    }
+
+    /// Whether `material` is cut out at `site` (UsdPreviewSurface opacity
+    /// below a positive `opacityThreshold`): rays pass such a hit as if
+    /// nothing were there, neither shading nor shadowing it.
+    pub fn is_cut_out(&self, material: u32, site: &MeshSite) -> bool {
+        match self.surface(material) {
+            Surface::Preview(s) => s.is_cut_out(&self.lookups(), site),
+            Surface::OpenPbr(_) => false,
+        }
     }
 
     /// The id of the primvar `name` when some mesh, points or curves prim
@@ -195,6 +217,8 @@ impl Materials {
     pub fn emission(&self, material: u32, site: &MeshSite) -> Vec3 {
         let lookups = &self.lookups();
         let emitted = match self.surface(material) {
+            // Where a cut-out leaves no surface, nothing emits either.
+            Surface::Preview(s) if s.is_cut_out(lookups, site) => Vec3::ZERO,
             Surface::Preview(s) => s.emissive_color.eval(lookups, site).max(Vec3::ZERO),
             Surface::OpenPbr(s) => s.emission(lookups, site),
         };
@@ -316,6 +340,7 @@ mod tests {
             instance_primvars: InstancePrimvars::default(),
             primvar_names: PrimvarNames::default(),
             lights: Vec::new(),
+            cut_outs: false,
         }
     }
 

@@ -11,7 +11,7 @@ use super::microfacet::Ggx;
 use super::param::Lookups;
 pub(crate) use super::param::Param;
 use super::primvars::PrimvarNames;
-use crate::geometry::{Frame, SurfacePoint};
+use crate::geometry::{Frame, MeshSite, SurfacePoint};
 use crate::scene;
 
 /// How far above the geometric surface (as a cosine) the mirror direction of
@@ -35,6 +35,8 @@ pub(crate) struct PreviewSurface {
     pub(crate) use_specular_workflow: bool,
     pub(crate) ior: f32,
     pub(crate) opacity: Param<f32>,
+    /// `opacityThreshold` in [0, 1]; above 0 opacity is a cut-out mask.
+    pub(crate) opacity_threshold: f32,
     pub(crate) clearcoat: f32,
     pub(crate) clearcoat_roughness: f32,
     /// Tangent-space normal map: texture index.
@@ -101,7 +103,7 @@ impl PreviewSurface {
                 diffuse_color.lerp(f0, metallic),
             )
         };
-        let opacity = self.opacity.eval(lookups, site).clamp(0.0, 1.0);
+        let opacity = self.opacity(lookups, site);
         let index_matched = (self.ior - 1.0).abs() < INDEX_MATCHED;
 
         let side = side(sp, wo);
@@ -129,6 +131,26 @@ impl PreviewSurface {
             albedo: base * opacity + Vec3::splat(1.0 - opacity),
         };
         Shading { frame, ng, layers }
+    }
+
+    /// `opacity` at `site`, clamped to [0, 1]; under a positive
+    /// `opacityThreshold` a mask (UsdPreviewSurface specification,
+    /// "opacityThreshold"): 0 below the threshold, 1 at or above it.
+    fn opacity(&self, lookups: &Lookups, site: &MeshSite) -> f32 {
+        let opacity = self.opacity.eval(lookups, site).clamp(0.0, 1.0);
+        if self.opacity_threshold <= 0.0 {
+            opacity
+        } else if opacity < self.opacity_threshold {
+            0.0
+        } else {
+            1.0
+        }
+    }
+
+    /// Whether `opacityThreshold` cuts the surface out at `site`: opacity
+    /// below a positive threshold, where no ray sees the surface.
+    pub(crate) fn is_cut_out(&self, lookups: &Lookups, site: &MeshSite) -> bool {
+        self.opacity_threshold > 0.0 && self.opacity(lookups, site) == 0.0
     }
 
     /// The shading normal on the front side, with the tangent-space normal
@@ -172,11 +194,30 @@ impl PreviewSurface {
             use_specular_workflow: record.use_specular_workflow,
             ior: record.ior,
             opacity: Param::from_input(&record.opacity, names),
+            opacity_threshold: opacity_threshold(record),
             clearcoat: record.clearcoat,
             clearcoat_roughness: record.clearcoat_roughness,
             normal: record.normal.as_ref().map(|t| t.texture),
         }
     }
+}
+
+/// The record's `opacity_threshold` clamped to [0, 1] (NaN reads as 0, no
+/// mask), with a warning naming the material when it was outside.
+fn opacity_threshold(record: &scene::Material) -> f32 {
+    let authored = record.opacity_threshold;
+    let threshold = if authored.is_nan() {
+        0.0
+    } else {
+        authored.clamp(0.0, 1.0)
+    };
+    if threshold != authored {
+        log::warn!(
+            "material {}: opacityThreshold {authored} is outside [0, 1]; {threshold} used",
+            record.path
+        );
+    }
+    threshold
 }
 
 /// +1 when `wo` is on the front side of `sp`'s geometric normal, else -1.

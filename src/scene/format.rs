@@ -12,10 +12,12 @@ use serde::Deserialize;
 
 use super::material::{unit_scale, LightLobes, Material, Rgb, Texture};
 
+mod dome_format;
 mod instance_primvars;
 mod linking;
 mod names;
 mod shaping;
+pub use dome_format::DomeFormat;
 pub use instance_primvars::InstancePrimvarRun;
 pub use linking::{LightLinks, LinkRun};
 pub use names::{NamePattern, NameRun};
@@ -596,8 +598,11 @@ pub enum LightShape {
     },
     /// `DomeLight`.
     Dome {
-        /// `inputs:texture:file`, a lat-long image, absolute; `null` = constant.
+        /// `inputs:texture:file`, absolute; `null` = constant.
         texture: Option<PathBuf>,
+        /// `inputs:texture:format` (default lat-long).
+        #[serde(default)]
+        texture_format: DomeFormat,
     },
 }
 

@@ -181,7 +181,9 @@ fn anchor_relative_files(manifest: &mut Manifest, dir: &Path) {
         .iter_mut()
         .for_each(|t| anchor(&mut t.file));
     for light in &mut manifest.lights {
-        if let LightShape::Rect { texture, .. } | LightShape::Dome { texture } = &mut light.shape {
+        if let LightShape::Rect { texture, .. } | LightShape::Dome { texture, .. } =
+            &mut light.shape
+        {
             texture.iter_mut().for_each(anchor);
         }
     }

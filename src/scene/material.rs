@@ -57,6 +57,10 @@ pub struct Material {
     pub ior: f32,
     /// `inputs:opacity` (default 1), in [0, 1].
     pub opacity: Input<f32>,
+    /// `inputs:opacityThreshold` (default 0), in [0, 1]. Above 0 opacity
+    /// is a mask (UsdPreviewSurface specification): below the threshold the
+    /// surface is cut out (absent to every ray), at or above it opaque.
+    pub opacity_threshold: f32,
     /// `inputs:clearcoat` (default 0), weight in [0, 1].
     pub clearcoat: f32,
     /// `inputs:clearcoatRoughness` (default 0.01).
@@ -120,6 +124,7 @@ impl Default for Material {
             use_specular_workflow: false,
             ior: 1.5,
             opacity: Input::Constant(1.0),
+            opacity_threshold: 0.0,
             clearcoat: 0.0,
             clearcoat_roughness: 0.01,
             normal: None,

@@ -32,11 +32,12 @@ pub use export::{
 };
 pub use format::Subdivision;
 pub use format::{
-    affine, Array, Bounds, Camera, CameraMotion, Curves, CurvesPart, Element, InstanceMotion,
-    InstancePrimvarRun, Instances, Light, LightLinks, LightShape, LightShaping, LinkRun, Manifest,
-    Mesh, MeshMotion, MeshPart, NamePattern, NameRun, PartNames, Points, PointsMotion, PointsPart,
-    Projection, Prototype, Render, RenderProduct, RenderVar, Scalar, Source, Stage, Transform,
-    UpAxis, Volume, VolumeField, VolumePart, FORMAT_NAME, FORMAT_VERSION, NO_MATERIAL,
+    affine, Array, Bounds, Camera, CameraMotion, Curves, CurvesPart, DomeFormat, Element,
+    InstanceMotion, InstancePrimvarRun, Instances, Light, LightLinks, LightShape, LightShaping,
+    LinkRun, Manifest, Mesh, MeshMotion, MeshPart, NamePattern, NameRun, PartNames, Points,
+    PointsMotion, PointsPart, Projection, Prototype, Render, RenderProduct, RenderVar, Scalar,
+    Source, Stage, Transform, UpAxis, Volume, VolumeField, VolumePart, FORMAT_NAME, FORMAT_VERSION,
+    NO_MATERIAL,
 };
 pub use load::{SceneError, BLOB_FILE, MANIFEST_FILE};
 pub use material::{

@@ -45,6 +45,7 @@ mod stability;
 mod subdivision;
 mod transmission;
 mod usd_letter;
+mod usd_render_letter;
 mod vdb;
 mod volume_motion;
 mod volumes;
