@@ -17,6 +17,7 @@ import numpy as np
 from pxr import Usd, UsdGeom, UsdLux
 
 from .lights import light_inputs
+from .linking import warn_unlinked
 from .meshes import BadMesh, read_mesh
 from .report import Report
 from .shapes import tessellate
@@ -53,6 +54,7 @@ def light_material(prim: Usd.Prim, base: dict | None, time: Usd.TimeCode, report
     """The material record of the mesh light `prim` whose bound material's record is `base`
     (None when no Material is bound): see the module doc."""
     light = UsdLux.LightAPI(prim)
+    warn_unlinked(light, "mesh light", report)
     inputs = light_inputs(light, time)
     mode = str(light.GetMaterialSyncModeAttr().Get(time))
     path = prim.GetPath()
@@ -105,6 +107,7 @@ def volume_light(prim: Usd.Prim, shading: dict, time: Usd.TimeCode, report: Repo
     (materialGlowTintsLight: the light tints the volume's glow); the inputs Cirrus cannot
     apply to a volume are warned about, naming each."""
     light = UsdLux.LightAPI(prim)
+    warn_unlinked(light, "volume light", report)
     inputs = light_inputs(light, time)
     gain = inputs["intensity"] * 2.0 ** inputs["exposure"]
     shading["emission_scale"] = float(shading["emission_scale"] * gain)

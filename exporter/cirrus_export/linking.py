@@ -22,11 +22,9 @@ from .report import Report
 
 # A path inside no authored prim: what a part no collection names gets.
 UNNAMED = Sdf.Path("/__cirrus_unnamed__")
-# The collections read, by the manifest key listing each light's sets.
-COLLECTIONS = (("light_link", "lightLink"), ("shadow_link", "shadowLink"))
 
 
-def _holds_everything(collection: Usd.CollectionAPI) -> bool:
+def holds_everything(collection: Usd.CollectionAPI) -> bool:
     """Whether the collection includes every path: includeRoot with nothing excluded."""
     query = collection.ComputeMembershipQuery()
     if not query.UsesPathExpansionRuleMap():
@@ -50,17 +48,32 @@ def _warn_missing_targets(stage: Usd.Stage, light: str, collection: Usd.Collecti
                             f"is honoured)")
 
 
+def collections(light: UsdLux.LightAPI) -> list[tuple[str, Usd.CollectionAPI]]:
+    """(manifest key, collection) of the light's lightLink and shadowLink."""
+    return [("light_link", light.GetLightLinkCollectionAPI()),
+            ("shadow_link", light.GetShadowLinkCollectionAPI())]
+
+
+def warn_unlinked(light: UsdLux.LightAPI, what: str, report: Report) -> None:
+    """Warns, naming prim and collection, when a light Cirrus does not link yet (a mesh or
+    volume light, `what`) authors a lightLink or shadowLink that does not hold everything:
+    it lights every part and every part casts its shadow."""
+    for _, collection in collections(light):
+        if not holds_everything(collection):
+            report.approximated("light", f"{what} {light.GetPath()}: collection:{collection.GetName()} "
+                                         f"is not supported on {what}s; it lights every part and every part "
+                                         f"casts its shadow")
+
+
 def linked_queries(stage: Usd.Stage, records: list[dict], report: Report) -> list[tuple[int, str, object]]:
     """(light record index, manifest key, membership query) for every light whose lightLink or
     shadowLink collection does not hold everything."""
     queries = []
     for i, record in enumerate(records):
         light = UsdLux.LightAPI(stage.GetPrimAtPath(record["path"]))
-        for key, name in COLLECTIONS:
-            collection = light.GetLightLinkCollectionAPI() if name == "lightLink" \
-                else light.GetShadowLinkCollectionAPI()
+        for key, collection in collections(light):
             _warn_missing_targets(stage, record["path"], collection, report)
-            if not _holds_everything(collection):
+            if not holds_everything(collection):
                 queries.append((i, key, collection.ComputeMembershipQuery()))
     return queries
 
