@@ -260,9 +260,9 @@ pub fn rows() -> Vec<Row> {
             "drawn, with a warning naming the prim", || {
                 shot().warned(&["/Sheet/C36/N", "control polygon"]).and(coverage(36, 4, 64))
             }),
-        row("Cylinder_1", "radiusTop, radiusBottom", Pending("issue 46: found by the suite: Cylinder_1 renders nothing, without a warning"),
+        row("Cylinder_1", "radiusTop, radiusBottom", Honoured,
             "a Z-axis cone frustum of radii 0.1 and 0.6 seen from above covers its bottom's 18-pixel disk", || coverage(37, 12, 30)),
-        row("Capsule_1", "radiusTop, radiusBottom", Pending("issue 46: found by the suite: Capsule_1 renders nothing, without a warning"),
+        row("Capsule_1", "radiusTop, radiusBottom", Honoured,
             "an X-axis capsule of radii 0.2 and 0.3 and height 1 lies along the rows", || elongated(38, true, 5, 4)),
         row("HermiteCurves, NurbsPatch, TetMesh", "(the prim)", Warned, "not rendered: a warning names each prim", || {
             let s = shot();
