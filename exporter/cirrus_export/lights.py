@@ -60,8 +60,18 @@ def export_lights(stage: Usd.Stage, time: Usd.TimeCode, resolver: AssetResolver,
         }
         for key, name, convert in extra:
             record[key] = _light_input(prim, name, convert, time, resolver, report)
+        _warn_shadow_inputs(prim, time, report)
         records.append(record)
     return records
+
+
+def _warn_shadow_inputs(prim: Usd.Prim, time: Usd.TimeCode, report: Report) -> None:
+    """Warns of each UsdLuxShadowAPI input authored away from its fallback: none is honoured."""
+    shadow = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition("ShadowAPI")
+    for name in UsdLux.ShadowAPI.GetSchemaAttributeNames(False):
+        attr = prim.GetAttribute(name)
+        if attr.HasAuthoredValue() and attr.Get(time) != shadow.GetAttributeFallbackValue(name):
+            report.warn(f"light {prim.GetPath()}: {name} = {attr.Get(time)} is ignored (shadows as by default)")
 
 
 def _light_input(prim: Usd.Prim, name: str, convert, time: Usd.TimeCode,
