@@ -20,7 +20,7 @@ from .motion import Recorder, add_motion, replaying_walker
 from .curves import CurvesTable
 from .points import PointsTable
 from .prototypes import MeshTable, Prototypes
-from .render_settings import chosen_settings, requested_primvars
+from .render_settings import chosen_settings, requested_primvars, warn_render_passes
 from .round_shapes import RoundContext
 from .report import ExportError, Report
 from .skinning import Skinning
@@ -145,6 +145,7 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     stage = open_stage(path, report)
     chosen = chosen_camera(stage, prims[0])
     settings = chosen_settings(stage, prims[1], report)
+    warn_render_passes(stage, report)
     time = pick_time(stage, frame)
     frame_label = "default" if time.IsDefault() else f"{time.GetValue():g}"
     out_dir.mkdir(parents=True, exist_ok=True)
