@@ -23,7 +23,7 @@ from .curves import CurvesTable
 from .points import PointsTable
 from .prototypes import MeshTable, Prototypes
 from .render_settings import (chosen_settings, included_purposes, material_binding_purposes, motion_blur_disabled,
-                              requested_primvars)
+                              requested_primvars, warn_render_passes)
 from .round_shapes import RoundContext
 from .report import ExportError, Report
 from .skinning import Skinning
@@ -148,6 +148,7 @@ def collect(path: Path, out_dir: Path, frame: float | None, report: Report,
     stage = open_stage(path, report)
     chosen = chosen_camera(stage, prims[0])
     settings = chosen_settings(stage, prims[1], report)
+    warn_render_passes(stage, report)
     time = pick_time(stage, frame)
     frame_label = "default" if time.IsDefault() else f"{time.GetValue():g}"
     out_dir.mkdir(parents=True, exist_ok=True)

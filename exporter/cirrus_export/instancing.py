@@ -34,12 +34,11 @@ from .report import Report
 from .skinning import Skinning
 from .xforms import compose, local_transform, to_3x4
 
-PART_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Plane", "Volume", "Points",
-              "BasisCurves", "NurbsCurves"}
+# Parts stored as meshes (whose materials' primvars instances may carry).
+MESH_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Cylinder_1", "Capsule_1", "Plane"}
+PART_TYPES = MESH_TYPES | {"Volume", "Points", "BasisCurves", "NurbsCurves"}
 # Renderable prim types Cirrus does not render yet: each is warned about by name.
 UNRENDERED_TYPES = {"HermiteCurves", "NurbsPatch", "TetMesh"}
-# Parts stored as meshes (whose materials' primvars instances may carry).
-MESH_TYPES = {"Mesh", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Plane"}
 # PointInstancer primvar interpolations: one value per instance, or one for all of them.
 PER_INSTANCE = {UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying}
 ALL_INSTANCES = {UsdGeom.Tokens.constant, UsdGeom.Tokens.uniform}

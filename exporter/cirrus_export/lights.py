@@ -131,7 +131,8 @@ def warn_unhonoured(prim: Usd.Prim, time: Usd.TimeCode, report: Report) -> None:
     """Warns, naming prim and attribute, about the authored UsdLux inputs of a light that
     Cirrus does not honour: light filters, a CylinderLight's treatAsLine,
     DomeLight_1's poleAxis when it means +Z, and
-    ShadowAPI's inputs (shadows are always cast, black, unbounded)."""
+    ShadowAPI's inputs authored away from their fallbacks (shadows are always cast, black,
+    unbounded)."""
     filters = UsdLux.LightAPI(prim).GetFiltersRel()
     if filters and filters.GetTargets():
         report.approximated("light", f"light {prim.GetPath()}: light:filters is not supported; "
@@ -143,9 +144,11 @@ def warn_unhonoured(prim: Usd.Prim, time: Usd.TimeCode, report: Report) -> None:
     if prim.GetTypeName() == "CylinderLight" and prim.GetAttribute("treatAsLine").Get(time):
         report.approximated("light", f"light {prim.GetPath()}: treatAsLine is not supported; rendered as a "
                                      f"cylinder of its radius")
-    for attr in prim.GetAttributes():
-        if attr.GetName().startswith("inputs:shadow:") and attr.HasAuthoredValue():
-            report.approximated("light", f"light {prim.GetPath()}: {attr.GetName()} is not supported; "
+    shadow = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition("ShadowAPI")
+    for name in UsdLux.ShadowAPI.GetSchemaAttributeNames(False):
+        attr = prim.GetAttribute(name)
+        if attr.HasAuthoredValue() and attr.Get(time) != shadow.GetAttributeFallbackValue(name):
+            report.approximated("light", f"light {prim.GetPath()}: {name} = {attr.Get(time)} is not supported; "
                                          f"shadows are cast as by default (black, unbounded)")
 
 

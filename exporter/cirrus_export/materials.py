@@ -220,6 +220,7 @@ class MaterialTable:
         """One material record: the mtlx look if readable, else the universal one, else the
         grey fallback with a warning."""
         skipped = []
+        self._warn_displacement(material, path)
         mtlx = material.GetSurfaceOutput("mtlx")
         if mtlx and mtlx.HasConnectedSource():
             shader, _, _ = material.ComputeSurfaceSource("mtlx")
@@ -232,6 +233,17 @@ class MaterialTable:
         node = UsdNode(shader, self._resolver, self._time) if shader else None
         return self._record(path, node if node is not None and node.id == PREVIEW else None, "", skipped,
                             node.id if node else "no universal surface output")
+
+    def _warn_displacement(self, material: UsdShade.Material, path: str) -> None:
+        """Warns of displacement (issue 40), a connected displacement output or an authored
+        UsdPreviewSurface `displacement` input: neither is rendered."""
+        outputs = [o.GetFullName() for o in material.GetDisplacementOutputs() if o.HasConnectedSource()]
+        shader, _, _ = material.ComputeSurfaceSource()
+        amount = shader.GetInput("displacement") if shader else None
+        inputs = [f"{shader.GetPath()}.inputs:displacement"] if amount and (
+            amount.HasConnectedSource() or amount.Get(self._time) not in (None, 0)) else []
+        for name in outputs + inputs:
+            self._report.warn(f"material {path}: displacement ({name}) is not rendered")
 
     def _record(self, path: str, node: Node | None, prefix: str, skipped: list[str],
                 what: str = "no surface shader") -> dict:

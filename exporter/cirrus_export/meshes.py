@@ -129,9 +129,13 @@ def read_mesh(prim: Usd.Prim, time: Usd.TimeCode, report: Report, uv_name: str =
                                          mesh.GetFaceVertexIndicesAttr().Get(time))
     if (counts < 3).any():
         report.warn(f"{path}: {int((counts < 3).sum())} faces with fewer than 3 vertices skipped")
-    if mesh.GetHoleIndicesAttr().Get(time):
-        report.warn(f"{path}: holeIndices are not supported; holes are rendered filled")
     corners, face = fan_triangulate(counts)
+    holes = np.array(mesh.GetHoleIndicesAttr().Get(time) or [], dtype=np.int64)
+    if ((holes < 0) | (holes >= counts.size)).any() and \
+            mesh.GetSubdivisionSchemeAttr().Get(time) == UsdGeom.Tokens.none:  # a cage's are warned of there
+        report.warn(f"{path}: holeIndices outside 0..{counts.size - 1} ignored")
+    drawn = ~np.isin(face, holes)
+    corners, face = corners[drawn], face[drawn]
     corner_face = np.repeat(np.arange(counts.size), counts)
     shape = (len(points), indices.size, counts.size)
     attrs = {"normals": read_normals(mesh, time) if pose is None else pose.normals,

@@ -15,6 +15,14 @@ def _settings_prims(stage: Usd.Stage) -> list[str]:
     return [str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdRender.Settings)]
 
 
+def warn_render_passes(stage: Usd.Stage, report: Report) -> None:
+    """Warns of each UsdRender.Pass prim: passes (and their renderSource) are not rendered."""
+    for prim in stage.Traverse():
+        if prim.IsA(UsdRender.Pass):
+            report.warn(f"RenderPass {prim.GetPath()} is ignored: render passes are not supported "
+                        "(the render settings chosen as usual are rendered)")
+
+
 def chosen_settings(stage: Usd.Stage, path: str | None, report: Report) -> UsdRender.Settings | None:
     """The settings at `path` (--settings; raises ExportError listing the settings prims when
     it is not one), else at the stage's renderSettingsPrimPath, else the only settings prim;

@@ -1,4 +1,5 @@
-"""UsdGeom implicit gprims (Sphere, Cube, Cylinder, Cone, Capsule, Plane) tessellated to triangles.
+"""UsdGeom implicit gprims (Sphere, Cube, Cylinder, Cone, Capsule, Plane, and Cylinder_1 and
+Capsule_1 with their two radii) tessellated to triangles.
 
 Round shapes are a lathe of a (radius, height) profile about the prim's axis with a
 multiple of 4 segments, so the tessellation touches the authored extent on every axis.
@@ -73,6 +74,23 @@ def _sphere_profile(radius: float, half_height: float) -> tuple[np.ndarray, np.n
     return r, z
 
 
+def _capsule_1_profile(bottom: float, top: float, half_height: float) -> tuple[np.ndarray, ...]:
+    """Capsule_1's profile and its unit normals (radius, height, normal r, normal z): spheres
+    of radius `bottom` and `top` at -/+`half_height` joined by the cone tangent to both, the
+    cap heights set by the radii so that the tangents meet C1 (the schema's doc). The
+    tangent ring's normal leans by phi, sin(phi) = (bottom - top) / (2 half_height)."""
+    spine = 2.0 * half_height
+    phi = np.arcsin(np.clip((bottom - top) / spine, -1.0, 1.0)) if spine > 0 else 0.0
+    below = np.linspace(-0.5 * np.pi, phi, RINGS // 2 + 1)
+    above = np.linspace(phi, 0.5 * np.pi, RINGS // 2 + 1)
+    theta = np.concatenate([below, above])
+    radius = np.repeat([bottom, top], RINGS // 2 + 1)
+    centre = np.repeat([-half_height, half_height], RINGS // 2 + 1)
+    normal_r, normal_z = np.cos(theta), np.sin(theta)
+    normal_r[[0, -1]] = 0.0
+    return radius * normal_r, centre + radius * normal_z, normal_r, normal_z
+
+
 def _round_normals(points: np.ndarray, half_height: float, axis: str) -> np.ndarray:
     """Smooth normals of a sphere or capsule: from the nearest point of its axis segment."""
     k = "XYZ".index(axis)
@@ -99,10 +117,21 @@ def tessellate(prim: Usd.Prim, time: Usd.TimeCode) -> MeshGeometry | None:
         axis = _attr(prim, "axis", time) if kind == "Capsule" else "Z"
         points, triangles = _lathe(*_sphere_profile(_attr(prim, "radius", time), half), axis)
         normals = _round_normals(points, half, axis)
-    elif kind in ("Cylinder", "Cone"):
-        r, h = _attr(prim, "radius", time), 0.5 * _attr(prim, "height", time)
-        top = 0.0 if kind == "Cone" else r
-        points, triangles = _lathe(np.array([0.0, r, top, 0.0]), np.array([-h, -h, h, h]),
+    elif kind == "Capsule_1":
+        r, z, normal_r, normal_z = _capsule_1_profile(_attr(prim, "radiusBottom", time),
+                                                      _attr(prim, "radiusTop", time),
+                                                      0.5 * _attr(prim, "height", time))
+        axis = _attr(prim, "axis", time)
+        points, triangles = _lathe(r, z, axis)
+        normals, _ = _lathe(normal_r, normal_z, axis)
+    elif kind in ("Cylinder", "Cone", "Cylinder_1"):
+        h = 0.5 * _attr(prim, "height", time)
+        if kind == "Cylinder_1":
+            bottom, top = _attr(prim, "radiusBottom", time), _attr(prim, "radiusTop", time)
+        else:
+            bottom = _attr(prim, "radius", time)
+            top = 0.0 if kind == "Cone" else bottom
+        points, triangles = _lathe(np.array([0.0, bottom, top, 0.0]), np.array([-h, -h, h, h]),
                                    _attr(prim, "axis", time))
     elif kind == "Plane":
         points, triangles = _plane(_attr(prim, "width", time), _attr(prim, "length", time),

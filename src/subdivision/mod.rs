@@ -470,6 +470,39 @@ mod tests {
         }
     }
 
+    /// A hole (the right of two quads side by side) is refined around and
+    /// never drawn: every triangle is of the left face, every point has a
+    /// limit normal, and the left face's limit surface reaches no further
+    /// right than the shared edge (x = 0).
+    #[test]
+    fn holes_are_left_out_on_the_limit_surface() {
+        let points = [
+            [-0.8, -0.8, 0.0],
+            [0.0, -0.8, 0.0],
+            [0.8, -0.8, 0.0],
+            [-0.8, 0.8, 0.0],
+            [0.0, 0.8, 0.0],
+            [0.8, 0.8, 0.0],
+        ];
+        let cage = Cage {
+            positions: &points,
+            face_counts: &[4, 4],
+            face_indices: &[0, 1, 4, 3, 1, 2, 5, 4],
+            holes: &[1],
+            ..cube(Scheme::CatmullClark)
+        };
+        for level in 1..=3 {
+            let refined = refine(&cage, level, Surface::Limit).unwrap();
+            assert_eq!(
+                refined.triangles.len() as u64,
+                triangles_at(Scheme::CatmullClark, &[4], level)
+            );
+            assert!(refined.triangle_faces.iter().all(|&f| f == 0));
+            assert_eq!(refined.normals.unwrap().len(), refined.points.len());
+            assert!(refined.points.iter().all(|p| p[0] <= 1e-6), "level {level}");
+        }
+    }
+
     /// Loop refuses quads; a bad index is refused before OpenSubdiv sees it.
     #[test]
     fn refusals_are_errors() {

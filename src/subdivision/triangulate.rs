@@ -77,7 +77,8 @@ struct Points {
 
 impl Points {
     /// One point per distinct (vertex, face-varying value indices) of the
-    /// corners, numbered in corner order. Keys are combined one channel at a
+    /// corners, numbered in corner order (without face-varying channels, in
+    /// vertex order, skipping the vertices no corner uses: a hole's). Keys are combined one channel at a
     /// time through a table indexed by value (OpenSubdiv gives each refined
     /// value one vertex, so a hash map is only the fallback), never hashing
     /// a key per corner: the chess set has 25 million corners.
@@ -98,6 +99,23 @@ impl Points {
                     values[p * fvar.len() + k] = faces.channels[c].1[corner];
                 }
             }
+        }
+        // Vertices of hole faces alone are no corner's: number them out,
+        // keeping the order of the rest.
+        let used: Vec<usize> = (0..n).filter(|&p| vertex[p] != u32::MAX).collect();
+        if used.len() < n {
+            let mut renumbered = vec![u32::MAX; n];
+            for (new, &p) in used.iter().enumerate() {
+                renumbered[p] = new as u32;
+            }
+            of_corner
+                .iter_mut()
+                .for_each(|p| *p = renumbered[*p as usize]);
+            values = used
+                .iter()
+                .flat_map(|&p| values[p * fvar.len()..][..fvar.len()].iter().copied())
+                .collect();
+            vertex = used.iter().map(|&p| vertex[p]).collect();
         }
         Self {
             of_corner,

@@ -133,7 +133,7 @@ pub fn rows() -> Vec<Row> {
         row("RenderProduct", "aspectRatioConformPolicy", Warned, "not modelled: a warning names the product and the policy", || {
             shot().warned(&["/Render/Out", "aspectRatioConformPolicy"])
         }),
-        row("RenderPass", "passType, renderSource", Pending("issue 46: found by the suite: RenderPass prims are ignored without a warning"), "not rendered: a warning names the pass", || {
+        row("RenderPass", "passType, renderSource", Warned, "not rendered: a warning names the pass", || {
             shot().warned(&["/Render/Pass"])
         }),
     ]

@@ -6,7 +6,7 @@
 //! above reflects the black sky).
 
 use super::sheet::{self, ensure, near, Lighting, Shot};
-use super::{row, Choice, Honoured, Pending, Row};
+use super::{row, Choice, Honoured, Pending, Row, Warned};
 use std::sync::OnceLock;
 
 const COLS: usize = 8;
@@ -150,7 +150,7 @@ pub fn rows() -> Vec<Row> {
             "a quad of occlusion 0 renders as the same quad without it (albedo 0.5)", || {
                 near("occlusion 0", dome().cell(COLS, 11), [0.5; 3], 0.08).and(near("no occlusion", dome().cell(COLS, 12), [0.5; 3], 0.08))
             }),
-        row("UsdPreviewSurface", "displacement", Pending("issue 46: found by the suite: displacement is dropped without a warning"),
+        row("UsdPreviewSurface", "displacement", Warned,
             "not rendered: a warning names the material and displacement", || dome().warned(&["/Sheet/C13/Look", "displacement"])),
         row("UsdPreviewSurface", "metallic", Honoured, "a smooth white metal under the sun mirrors the black sky; the same dielectric is lit", || {
             let (metal, dielectric) = (sun().cell(COLS, 1), sun().cell(COLS, 3));
