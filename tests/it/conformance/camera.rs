@@ -6,7 +6,7 @@
 //! sheet's (`sheet.rs`).
 
 use super::sheet::{self, ensure, spans, Lighting, Shot};
-use super::{row, Honoured, Pending, Row};
+use super::{row, Honoured, Row};
 use std::sync::OnceLock;
 
 /// A stage seen by `camera` (the first and only camera) over the dome
@@ -120,7 +120,7 @@ pub fn rows() -> Vec<Row> {
             let c = film().mean((30, 34), (22, 26));
             ensure(c[1] > 0.3, || format!("{c:.3?}"))
         }),
-        row("Camera", "exposure", Pending("issue 46: camera exposure is ignored"), "exposure 1 doubles the image: the quad reads 2 x 0.5", || {
+        row("Camera", "exposure", Honoured, "exposure 1 doubles the image: the quad reads 2 x 0.5", || {
             let c = film().mean((12, 36), (16, 40));
             sheet::near("exposed quad", c, [1.0; 3], 0.05)
         }),

@@ -4,7 +4,7 @@
 //! is "covered" where its green exceeds 0.03 (unbound gprims render grey).
 
 use super::sheet::{self, centroid_x, ensure, spans, Lighting, Shot};
-use super::{row, Approximated, Choice, Honoured, Pending, Row, Warned};
+use super::{row, Approximated, Choice, Honoured, Row, Warned};
 use std::sync::OnceLock;
 
 const COLS: usize = 8;
@@ -196,7 +196,7 @@ pub fn rows() -> Vec<Row> {
         row("Cylinder", "height, axis", Honoured, "an X-axis cylinder 1.6 long, 0.6 wide lies along the image's rows", || elongated(4, true, 6, 4)),
         row("Cone", "radius, height, axis", Honoured, "an X-axis cone 1.6 long lies along the rows", || elongated(6, true, 6, 4)),
         row("Capsule", "radius, height, axis", Honoured, "an X-axis capsule 1.5 long with its caps lies along the rows", || elongated(7, true, 5, 4)),
-        row("Plane", "width, length, axis", Pending("issue 46: UsdGeomPlane renders nothing"), "a 1.2 x 0.4 plane is drawn, along the rows", || elongated(8, true, 4, 3)),
+        row("Plane", "width, length, axis", Honoured, "a 1.2 x 0.4 plane is drawn, along the rows", || elongated(8, true, 4, 3)),
         row("Mesh", "points, faceVertexCounts, faceVertexIndices", Honoured, "a triangle covers the lower-left half of its cell", || {
             let c = covered(9);
             let lower_left = c.iter().filter(|p| p.0 < 4 && p.1 >= 4).count();
@@ -254,7 +254,7 @@ pub fn rows() -> Vec<Row> {
             let c = covered(32);
             ensure(!c.is_empty() && c.iter().all(|p| p.0 >= 4), || format!("{c:?}"))
         }),
-        row("PointInstancer", "prototypes (inactive)", Pending("issue 46: an instance of an inactive prototype still renders"), "an instance of an inactive prototype is not drawn", || empty(33)),
+        row("PointInstancer", "prototypes (inactive)", Honoured, "an instance of an inactive prototype is not drawn", || empty(33)),
         row("PointInstancer", "orientations", Honoured, "an X-axis cylinder prototype turned 90 degrees about Z lies along the columns", || elongated(35, false, 6, 4)),
         row("NurbsCurves", "points, order, knots", Approximated("drawn as the control polygon (a linear curve)"),
             "drawn, with a warning naming the prim", || {

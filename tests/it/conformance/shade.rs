@@ -3,7 +3,7 @@
 //! quads are bound (directly or not) to a blue or a green Lambert look.
 
 use super::sheet::{self, ensure, Lighting, Rgb, Shot};
-use super::{row, Honoured, Pending, Row};
+use super::{row, Honoured, Row};
 use std::sync::OnceLock;
 
 const COLS: usize = 8;
@@ -75,11 +75,11 @@ pub fn rows() -> Vec<Row> {
         row("MaterialBindingAPI", "material:binding (inherited)", Honoured, "a quad under an Xform bound to the blue look renders it", || blue("inherited", cell(1))),
         row("MaterialBindingAPI", "bindMaterialAs strongerThanDescendants", Honoured, "an ancestor's stronger binding wins over the quad's own", || blue("stronger", cell(2))),
         row("MaterialBindingAPI", "bindMaterialAs weakerThanDescendants", Honoured, "the quad's own binding wins over an ancestor's (the default strength)", || green("weaker", cell(3))),
-        row("MaterialBindingAPI", "material:binding:full", Pending("issue 46: the preview binding is rendered, not the full one"),
+        row("MaterialBindingAPI", "material:binding:full", Honoured,
             "a final render takes the full binding over the preview one and over the all-purpose one", || {
                 blue("full over preview", cell(4)).and(blue("full over all-purpose", cell(5)))
             }),
-        row("MaterialBindingAPI", "material:binding:preview", Pending("issue 46: the preview binding is rendered"),
+        row("MaterialBindingAPI", "material:binding:preview", Honoured,
             "a preview-only binding is not used by a final render (the default look instead)", || {
                 let c = cell(6);
                 ensure(c[2] < 0.3, || format!("{c:.3?}: the preview look"))

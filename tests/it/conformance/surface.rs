@@ -6,7 +6,7 @@
 //! above reflects the black sky).
 
 use super::sheet::{self, ensure, near, Lighting, Shot};
-use super::{row, Choice, Honoured, Pending, Row, Warned};
+use super::{row, Choice, Honoured, Row, Warned};
 use std::sync::OnceLock;
 
 const COLS: usize = 8;
@@ -142,7 +142,7 @@ pub fn rows() -> Vec<Row> {
             "below 1, the spec's translucency: a single-sided quad of opacity 0 is a smooth interface into ior 1.5, the ground seen through it at (1 - F0) / ior^2 = 0.427, the dome reflected at F0 = 0.04", || {
                 near("interface", dome().cell(COLS, 14), [0.427 + 0.04, 0.04, 0.04], 0.06)
             }),
-        row("UsdPreviewSurface", "opacityThreshold", Pending("issue 46: opacity below the threshold renders as a partly transmissive dielectric"),
+        row("UsdPreviewSurface", "opacityThreshold", Honoured,
             "opacity 0.3 under threshold 0.5 cuts the quad out (the ground, unreflected); 0.7 over it is fully opaque (white, no ground)", || {
                 near("cut out", dome().cell(COLS, 9), [1.0, 0.0, 0.0], 0.03).and(near("opaque", dome().cell(COLS, 10), [1.0; 3], 0.1))
             }),

@@ -3,7 +3,7 @@
 //! straight down: through densityScale 2 the ground reads exp(-2) (the grid integrates to 1 along an axis through it).
 
 use super::sheet::{self, near, Lighting, Shot};
-use super::{row, Honoured, Pending, Row, Warned};
+use super::{row, Honoured, Row, Warned};
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -54,7 +54,7 @@ pub fn rows() -> Vec<Row> {
         row("OpenVDBAsset", "filePath, fieldName", Honoured, "the grid the asset names, from the file it names, is the density (the row above)", || {
             near("through the box", shot().mean((1, 7), (1, 7)), [(-2f64).exp(), 0.0, 0.0], 0.15)
         }),
-        row("OpenVDBAsset", "fieldClass", Pending("issue 46: a levelSet grid is read as density"), "a levelSet grid is converted as documented or refused with a warning naming the field and fieldClass", || {
+        row("OpenVDBAsset", "fieldClass", Warned, "a levelSet grid is converted as documented or refused with a warning naming the field and fieldClass", || {
             shot().warned(&["/Sheet/C1/V/density", "fieldClass"])
         }),
         row("Volume", "field:NAME (other fields)", Warned, "a field Cirrus does not model is dropped with a warning naming volume and field", || {
