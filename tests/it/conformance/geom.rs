@@ -109,7 +109,35 @@ fn cells() -> Vec<String> {
          point3f[] points = [(-0.5, -0.5, 0), (0.5, -0.5, 0), (-0.5, 0.5, 0), (0.5, 0.5, 0)]\n}"
             .into(),
         "def TetMesh \"T\"\n{\n    point3f[] points = [(0, 0, 0), (0.5, 0, 0), (0, 0.5, 0), (0, 0, 0.5)]\n    int4[] tetVertexIndices = [(0, 1, 2, 3)]\n}".into(),
+        cubic("bspline", "nonperiodic", ARCH, 0.3),
+        cubic("catmullRom", "nonperiodic", ARCH, 0.3),
+        cubic("bspline", "periodic", "(-0.6, -0.6, 0), (0.6, -0.6, 0), (0.6, 0.6, 0), (-0.6, 0.6, 0)", 0.2),
     ]
+}
+
+/// Four control points of an arch: up the left, across the top at y 0.6,
+/// down the right.
+const ARCH: &str = "(-0.8, -0.6, 0), (-0.8, 0.6, 0), (0.8, 0.6, 0), (0.8, -0.6, 0)";
+
+/// A white cubic BasisCurves of basis `basis`, wrap `wrap`, one curve
+/// through the four control points `points`, constant width `width`.
+fn cubic(basis: &str, wrap: &str, points: &str, width: f64) -> String {
+    format!(
+        "def BasisCurves \"B\"\n{{\n    uniform token type = \"cubic\"\n    uniform token basis = \"{basis}\"\n    \
+         uniform token wrap = \"{wrap}\"\n    int[] curveVertexCounts = [4]\n    point3f[] points = [{points}]\n    \
+         float[] widths = [{width}] (interpolation = \"constant\")\n    color3f[] primvars:displayColor = [(1, 1, 1)]\n}}"
+    )
+}
+
+/// Ok when cell `k` (an [`ARCH`] curve) covers nothing below the cell's
+/// middle row (the arch's legs are off the curve) and spans `columns`.
+fn arch_top(k: usize, columns: std::ops::RangeInclusive<usize>) -> Result<(), String> {
+    let c = covered(k);
+    let (x, _) = spans(&c);
+    let legs = c.iter().any(|p| p.1 >= 4);
+    ensure(columns.contains(&x) && !legs, || {
+        format!("cell {k}: {x} columns, legs drawn {legs}: {c:?}")
+    })
 }
 
 fn shot() -> &'static Shot {
@@ -213,6 +241,11 @@ pub fn rows() -> Vec<Row> {
             let (smooth, flat) = (covered(11).len(), covered(12).len());
             ensure(flat >= 30 && (smooth as f64) < 0.85 * flat as f64, || format!("{smooth} vs {flat} pixels"))
         }),
+        row("Mesh", "orientation", Honoured,
+            "a leftHanded mesh light wound clockwise seen from above (the UsdLux rows' fourth stage) faces up: the camera sees its radiance 10 (rightHanded it would face the ground, its back unseen)", || {
+                let c = super::lux::left_handed_panel();
+                ensure(c[1] > 9.0, || format!("{c:.3?}"))
+            }),
         row("Gprim", "doubleSided", Choice("we draw the back faces of single-sided gprims, as path tracers do (a closed mesh never shows them; an open one is not cut away)"),
             "a single-sided quad facing away from the camera is drawn", || coverage(13, 30, 64)),
         row("Gprim", "primvars:displayColor", Honoured, "an unbound quad of displayColor (0.1, 0.1, 0.9) renders blue", || {
@@ -244,6 +277,17 @@ pub fn rows() -> Vec<Row> {
             let control = c.contains(&(1, 1));
             ensure(apex && !control, || format!("apex {apex}, control point {control}: {c:?}"))
         }),
+        row("BasisCurves", "basis bspline", Honoured,
+            "over an arch's four control points, one nonperiodic segment from (P0 + 4 P1 + P2) / 6 to (P1 + 4 P2 + P3) / 6: a short stroke over the top (x -0.53..0.53), no legs", || arch_top(42, 4..=6)),
+        row("BasisCurves", "basis catmullRom", Honoured,
+            "over an arch's four control points, one nonperiodic segment from P1 to P2: across the whole top (x -0.8..0.8), no legs", || arch_top(43, 7..=8)),
+        row("BasisCurves", "wrap periodic", Honoured,
+            "a periodic bspline over a square's corners closes into a loop around the cell's middle (four segments), the middle empty", || {
+                let c = covered(44);
+                let sides = [c.iter().any(|p| p.0 <= 2), c.iter().any(|p| p.0 >= 5), c.iter().any(|p| p.1 <= 2), c.iter().any(|p| p.1 >= 5)];
+                let middle = c.iter().any(|p| (3..=4).contains(&p.0) && (3..=4).contains(&p.1));
+                ensure(sides.iter().all(|&s| s) && !middle, || format!("left, right, top, bottom {sides:?}, middle {middle}: {c:?}"))
+            }),
         row("PointInstancer", "prototypes, protoIndices, positions", Honoured, "two instances at x -0.5 and 0.5, nothing between", || {
             let c = covered(30);
             let (left, right, mid) = (c.iter().any(|p| p.0 <= 2), c.iter().any(|p| p.0 >= 5), c.iter().any(|p| (3..=4).contains(&p.0)));

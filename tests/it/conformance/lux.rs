@@ -233,7 +233,7 @@ fn more() -> &'static Shot {
                 "CylinderLight",
                 "Cylinder",
                 "",
-                "float inputs:radius = 0.05\nfloat inputs:length = 2\nfloat inputs:intensity = 20",
+                "float inputs:radius = 0.05\nfloat inputs:length = 2\nfloat inputs:intensity = 20\nbool treatAsLine = 1",
             ),
             at(
                 1,
@@ -247,7 +247,7 @@ fn more() -> &'static Shot {
                 "DiskLight",
                 "Unshadowed",
                 "\"ShadowAPI\"",
-                &format!("{disk}\nbool inputs:shadow:enable = 0"),
+                &format!("{disk}\nbool inputs:shadow:enable = 0\ncolor3f inputs:shadow:color = (1, 0, 0)"),
             ),
             at(
                 3,
@@ -290,8 +290,9 @@ fn distant() -> &'static Shot {
     })
 }
 
-/// The fourth stage: a mesh light, colour temperature, focus, an
-/// invisible light.
+/// The fourth stage: a mesh light (and a leftHanded one facing up, at
+/// (-5, 0)), colour temperature, focus, an invisible light, cone
+/// softness and an IES profile.
 fn emitters() -> &'static Shot {
     static SHOT: OnceLock<Shot> = OnceLock::new();
     sheet::once(&SHOT, || {
@@ -305,14 +306,110 @@ fn emitters() -> &'static Shot {
             c = y - 0.2,
             d = y + 0.2
         );
+        let upward = format!(
+            "def Mesh \"LeftHanded\" (prepend apiSchemas = [\"MeshLightAPI\"])\n{{\n    uniform token orientation = \"leftHanded\"\n    \
+             point3f[] points = [(-5.3, -0.3, {HEIGHT}), (-5.3, 0.3, {HEIGHT}), (-4.7, 0.3, {HEIGHT}), (-4.7, -0.3, {HEIGHT})]\n    \
+             int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n    float inputs:intensity = 10\n}}\n"
+        );
         let lights = [
             mesh_light,
+            upward,
             at(1, "DiskLight", "Warm", "", "float inputs:radius = 0.3\nfloat inputs:intensity = 5\nbool inputs:enableColorTemperature = 1\nfloat inputs:colorTemperature = 2500"),
             at(2, "DiskLight", "Focused", "\"ShapingAPI\"", "float inputs:radius = 0.3\nfloat inputs:intensity = 5\nfloat inputs:shaping:focus = 10"),
             at(3, "DiskLight", "Hidden", "", "float inputs:radius = 0.3\nfloat inputs:intensity = 5\ntoken visibility = \"invisible\""),
+            at(4, "DiskLight", "Softened", "\"ShapingAPI\"", &format!("{SMALL_DISK}\nfloat inputs:shaping:cone:angle = 70\nfloat inputs:shaping:cone:softness = 0.5")),
+            at(5, "DiskLight", "Profiled", "\"ShapingAPI\"", &format!("{SMALL_DISK}\nasset inputs:shaping:ies:file = @ramp.ies@")),
         ];
-        sheet::render_sheet("lux_emitters", &stage(&lights.concat()), 32)
+        sheet::render(
+            "lux_emitters",
+            &stage(&lights.concat()),
+            (32, &["--res", "64x48"], sheet::RES),
+            |dir| std::fs::write(dir.join("ramp.ies"), RAMP_IES).unwrap(),
+        )
     })
+}
+
+/// A disk small enough (radius 0.05, radiance 180: the power of the 0.3
+/// disks of radiance 5) that the ground sees it from one direction, for
+/// the shaping rows whose factor depends on that direction.
+const SMALL_DISK: &str = "float inputs:radius = 0.05\nfloat inputs:intensity = 180";
+
+/// An LM-63 profile, rotationally symmetric: 1 cd on the axis falling
+/// linearly to 0 cd at 90 degrees off it (none beyond).
+const RAMP_IES: &str =
+    "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 10\n0 90 180\n0\n1 0 0\n";
+
+/// The ground's irradiance from [`SMALL_DISK`] at offset (dx, dy), scaled
+/// by `factor` of the angle (radians) off the light's downward axis.
+fn shaped(factor: impl Fn(f64) -> f64) -> impl Fn(f64, f64) -> f64 {
+    let open = disk(180.0, 0.05);
+    move |dx, dy| open(dx, dy) * factor((dx * dx + dy * dy).sqrt().atan2(HEIGHT))
+}
+
+/// The smoothstep of `x` from `a` to `b` (0 below, 1 above).
+fn smoothstep(a: f64, b: f64, x: f64) -> f64 {
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Height of the occluder of the [`sun`] stage, and its edge's x (it
+/// covers the ground beyond); the sun's angular diameter there (degrees).
+const EDGE: (f64, f64) = (4.0, 2.0);
+const SUN_ANGLE: f64 = 10.0;
+
+/// The fifth stage: the sheet's sun (from +X, 30 degrees off straight
+/// down) of angular diameter 10 degrees, a black half-plane 4 above the
+/// ground casting a shadow whose penumbra the camera sees beside it, and a
+/// dark DomeLight_1 whose pole is authored +Z.
+fn sun() -> &'static Shot {
+    static SHOT: OnceLock<Shot> = OnceLock::new();
+    sheet::once(&SHOT, || {
+        let (h, a) = EDGE;
+        let lights = format!(
+            "{}\ndef Mesh \"Occluder\" (prepend apiSchemas = [\"MaterialBindingAPI\"])\n{{\n    \
+             point3f[] points = [({a}, -40, {h}), (40, -40, {h}), (40, 40, {h}), ({a}, 40, {h})]\n    \
+             int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n    rel material:binding = </Black>\n}}\n{}\n\
+             def DomeLight_1 \"Pole\"\n{{\n    float inputs:intensity = 0\n    uniform token poleAxis = \"Z\"\n}}\n",
+            sheet::lights(sheet::Lighting::Sun).replace("}", &format!("    float inputs:angle = {SUN_ANGLE}\n}}")),
+            sheet::material("Black", &sheet::lambert((0.0, 0.0, 0.0)))
+        );
+        sheet::render_sheet("lux_sun", &stage(&lights), 64)
+    })
+}
+
+/// The part of the sun's irradiance that reaches the ground at x past the
+/// occluder's edge (a cosine-weighted fraction of its disk, uniform in
+/// radiance, integrated on a 64 x 64 grid of its angular offsets).
+fn sun_fraction(x: f64) -> f64 {
+    let (h, a) = EDGE;
+    let radius = (SUN_ANGLE / 2.0).to_radians();
+    // The elevation (from +X, in the XZ plane) of the occluder's edge.
+    let edge = h.atan2(a - x);
+    let (mut seen, mut all) = (0.0, 0.0);
+    for i in 0..64 {
+        for j in 0..64 {
+            let (u, v) = (
+                radius * ((i as f64 + 0.5) / 32.0 - 1.0),
+                radius * ((j as f64 + 0.5) / 32.0 - 1.0),
+            );
+            if u * u + v * v > radius * radius {
+                continue;
+            }
+            let elevation = 60f64.to_radians() + u;
+            let cos = elevation.sin() * v.cos();
+            all += cos;
+            if elevation > edge {
+                seen += cos;
+            }
+        }
+    }
+    seen / all
+}
+
+/// The mean of the middle 2 x 2 pixels of the fourth stage's leftHanded
+/// mesh light, wound clockwise seen from above (the Mesh orientation row).
+pub fn left_handed_panel() -> Rgb {
+    emitters().mean((11, 13), (23, 25))
 }
 
 /// A dome over a Y-up Lambert ground (albedo 0.5) seen from above, lit by
@@ -495,6 +592,39 @@ pub fn rows() -> Vec<Row> {
             "an angular probe (blue inside half its radius, red to the rim) turned to face the ground lights it with one colour", || one_hemisphere(angular())),
         row("DomeLight", "inputs:texture:format mirroredBall", Honoured,
             "a mirrored-ball probe (blue inside radius sin 45 degrees) turned to face the ground lights it with one colour", || one_hemisphere(mirrored_ball())),
+        row("DistantLight", "inputs:angle", Honoured,
+            "a sun of angular diameter 10 degrees casts a penumbra (from a black edge 4 above the ground) whose profile across 10 pixel columns follows the visible part of its disk", || {
+                let shot = sun();
+                let lit = shot.mean((8, 20), (8, 40))[1];
+                let mut worst = (0.0f64, 0, 0.0, 0.0);
+                for px in 26..36 {
+                    let measured = shot.mean((px, px + 1), (8, 40))[1] / lit;
+                    let expected = (0..8).map(|i| sun_fraction((px as f64 + (i as f64 + 0.5) / 8.0) / 4.0 - 8.0)).sum::<f64>() / 8.0;
+                    if (measured - expected).abs() > worst.0 {
+                        worst = ((measured - expected).abs(), px, measured, expected);
+                    }
+                }
+                let (err, px, m, e) = worst;
+                ensure(err < 0.05 && lit > 0.1, || format!("column {px}: {m:.3} of the lit {lit:.3}, expected {e:.3}"))
+            }),
+        row("ShapingAPI", "inputs:shaping:cone:softness", Honoured,
+            "cone 70 degrees, softness 0.5: the ground 45..64 degrees off the axis reads the small disk's irradiance times 1 - smoothstep(35, 70 degrees)", || {
+                let soft = shaped(|t| 1.0 - smoothstep(35f64.to_radians(), 70f64.to_radians(), t));
+                reads(emitters(), 4, expected(4, soft), 0.06)
+            }),
+        row("ShapingAPI", "inputs:shaping:ies:file", Honoured,
+            "an LM-63 profile falling linearly from 1 cd on the axis to 0 at 90 degrees scales the small disk's irradiance by 1 - theta / 90 degrees", || {
+                reads(emitters(), 5, expected(5, shaped(|t| 1.0 - t / (PI / 2.0))), 0.06)
+            }),
+        row("CylinderLight", "treatAsLine", Warned, "rendered as a cylinder of its radius, with a warning naming the light and the attribute", || {
+            more().warned(&["/Cylinder", "treatAsLine"])
+        }),
+        row("ShadowAPI", "inputs:shadow:color", Warned, "shadows stay black, with a warning naming the light and the input", || {
+            more().warned(&["/Unshadowed", "inputs:shadow:color"])
+        }),
+        row("DomeLight_1", "poleAxis", Warned, "a pole authored +Z: the dome keeps its +Y pole, with a warning naming the light and poleAxis", || {
+            sun().warned(&["/Pole", "poleAxis"])
+        }),
         row("PortalLight", "inputs:width, inputs:height", Warned,
             "a portal guides the dome's sampling: the log names it, and the image is the portal-less one", || {
                 latlong().warned(&["/Portal"])

@@ -52,6 +52,61 @@ fn shot() -> &'static Shot {
     })
 }
 
+/// A ball of radius 1 at (4, 3) rendered through settings of 32 x 48
+/// pixels twice as wide as tall (pixelAspectRatio 2: the 4:3 aperture
+/// exactly) whose product keeps the image's top right quarter
+/// (dataWindowNDC (0.5, 0.5, 1, 1), y up): the ball spans columns 22..26
+/// and rows 8..16 of the whole image, columns 6..10 of the data window.
+fn cropped() -> &'static Shot {
+    static SHOT: OnceLock<Shot> = OnceLock::new();
+    sheet::once(&SHOT, || {
+        let extra = "def Sphere \"Ball\"\n{\n    double radius = 1\n    double3 xformOp:translate = (4, 3, 0)\n    \
+                     uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}\n\n\
+                     def RenderSettings \"Shot\"\n{\n    int2 resolution = (32, 48)\n    float pixelAspectRatio = 2\n    \
+                     rel camera = </Camera>\n    rel products = </Out>\n}\n\n\
+                     def RenderProduct \"Out\"\n{\n    token productName = \"out.exr\"\n    float4 dataWindowNDC = (0.5, 0.5, 1, 1)\n}\n";
+        let usda = sheet::sheet(COLS, Lighting::Dome, &[], extra);
+        sheet::render(
+            "settings_cropped",
+            &usda,
+            (4, &["--settings", "/Shot"], (16, 24)),
+            |_| {},
+        )
+    })
+}
+
+/// What the cropped render's EXR header says.
+struct Header {
+    /// The data window's top-left pixel.
+    origin: (i32, i32),
+    /// The display window's size, pixels.
+    display: (usize, usize),
+    /// `pixelAspectRatio`: a pixel's width over its height.
+    aspect: f32,
+}
+
+fn cropped_header() -> Result<Header, String> {
+    let exr = exr::prelude::read_all_flat_layers_from_file(cropped().dir.join("out.exr"))
+        .map_err(|e| e.to_string())?;
+    let origin = exr.layer_data[0].attributes.layer_position;
+    let display = exr.attributes.display_window.size;
+    Ok(Header {
+        origin: (origin.x(), origin.y()),
+        display: (display.x(), display.y()),
+        aspect: exr.attributes.pixel_aspect,
+    })
+}
+
+/// The cropped render's covered pixels (green over 0.03), in the data
+/// window's columns and rows.
+fn cropped_ball() -> Vec<(usize, usize)> {
+    let image = &cropped().image;
+    (0..image.width * image.height)
+        .filter(|&i| image.rgb[1][i] > 0.03)
+        .map(|i| (i % image.width, i / image.width))
+        .collect()
+}
+
 /// Cell `k`'s covered pixels (green over 0.03).
 fn covered(k: usize) -> usize {
     shot().covered(COLS, k, 1, 0.03).len()
@@ -130,6 +185,19 @@ pub fn rows() -> Vec<Row> {
             let (b, d) = (at(&beauty), at(&diffuse));
             ensure(b > 0.8 && (b - d).abs() < 0.01 * b, || format!("beauty {b:.4}, diffuse {d:.4}"))
         }),
+        row("RenderProduct", "dataWindowNDC", Honoured,
+            "(0.5, 0.5, 1, 1) of 32 x 48: the EXR's data window is the top right 16 x 24 pixels at (16, 0) of a 32 x 48 display window, holding the ball where the whole image has it (columns 6..10 of the window)", || {
+                let Header { origin, display, .. } = cropped_header()?;
+                let c = cropped_ball();
+                let x = sheet::centroid_x(&c);
+                ensure(origin == (16, 0) && display == (32, 48) && (x - 8.0).abs() < 1.0, || format!("origin {origin:?}, display {display:?}, ball centred on column {x:.2}"))
+            }),
+        row("RenderSettings", "pixelAspectRatio", Honoured,
+            "2: the EXR says so, and a ball of radius 1 spans half as many columns (4) as rows (8)", || {
+                let aspect = cropped_header()?.aspect;
+                let (x, y) = spans(&cropped_ball());
+                ensure(aspect == 2.0 && (3..=5).contains(&x) && (7..=9).contains(&y), || format!("pixel aspect {aspect}, the ball {x} columns x {y} rows"))
+            }),
         row("RenderProduct", "aspectRatioConformPolicy", Warned, "not modelled: a warning names the product and the policy", || {
             shot().warned(&["/Render/Out", "aspectRatioConformPolicy"])
         }),

@@ -153,7 +153,8 @@ fn reads(k: usize, u: (f64, f64), expected: Rgb) -> Result<(), String> {
 /// The primvar readers' sheet: a quad whose diffuseColor reads a constant
 /// primvar `tint` (0.1, 0.1, 0.8) through UsdPrimvarReader_float3; one
 /// without the primvar (the reader's fallback (0.1, 0.8, 0.1)); one whose
-/// opacity reads a float primvar `cut` = 0 through UsdPrimvarReader_float.
+/// opacity reads a float primvar `cut` = 0 through UsdPrimvarReader_float;
+/// two quads textured by an 8-bit PNG, read as sRGB and as raw.
 fn readers() -> &'static Shot {
     static SHOT: OnceLock<Shot> = OnceLock::new();
     sheet::once(&SHOT, || {
@@ -186,9 +187,39 @@ fn readers() -> &'static Shot {
                     &reader("UsdPrimvarReader_float", "cut", "float", "float inputs:fallback = 1")
                 )
             ),
+            grey("sRGB"),
+            grey("raw"),
         ];
-        sheet::render_sheet("readers", &sheet::sheet(8, Lighting::Dome, &cells, ""), 16)
+        let usda = sheet::sheet(8, Lighting::Dome, &cells, "");
+        sheet::render(
+            "readers",
+            &usda,
+            (16, &["--res", "64x48"], sheet::RES),
+            |dir| {
+                cirrus::image::write_display_png(
+                    &dir.join("grey.png"),
+                    2,
+                    2,
+                    &[GREY as f32; 12],
+                    &[],
+                )
+                .unwrap();
+            },
+        )
     })
+}
+
+/// The linear grey of `grey.png`, an 8-bit sRGB-encoded PNG: byte 128.
+const GREY: f64 = 0.2158;
+
+/// A quad textured by `grey.png` read with sourceColorSpace `space`.
+fn grey(space: &str) -> String {
+    textured(
+        "",
+        &format!("asset inputs:file = @grey.png@\ntoken inputs:sourceColorSpace = \"{space}\""),
+        "st",
+        "",
+    )
 }
 
 pub fn rows() -> Vec<Row> {
@@ -223,6 +254,11 @@ pub fn rows() -> Vec<Row> {
         row("UsdUVTexture", "fallback", Honoured, "a missing file reads the fallback, with a warning naming material and file", || {
             reads(9, L, [0.0, 0.7, 0.0]).and(shot().warned(&["/Sheet/C9/Look", "missing.exr"]))
         }),
+        row("UsdUVTexture", "sourceColorSpace", Honoured,
+            "an 8-bit PNG of byte 128 reads 0.216 as sRGB (decoded) and 128 / 255 = 0.502 as raw (the bytes as they are)", || {
+                let raw = 128.0 / 255.0;
+                near("sRGB", readers().cell(8, 3), [GREY; 3], 0.1).and(near("raw", readers().cell(8, 4), [raw; 3], 0.1))
+            }),
         row("UsdPrimvarReader_float3", "varname", Honoured, "diffuseColor reads the mesh's constant primvar", || {
             near("tint", readers().cell(8, 0), [0.1, 0.1, 0.8], 0.1)
         }),
