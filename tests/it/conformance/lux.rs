@@ -10,14 +10,17 @@ use super::{row, Honoured, Row, Warned};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
-/// Where the six lights of a stage hang: (x, y) of slot 0..6.
-const SLOTS: [(f64, f64); 6] = [
+/// Where the lights of a stage hang: (x, y) of slot 0..6; slots 6 and 7,
+/// between them, only in the fourth stage.
+const SLOTS: [(f64, f64); 8] = [
     (-5.0, 3.0),
     (0.0, 3.0),
     (5.0, 3.0),
     (-5.0, -3.0),
     (0.0, -3.0),
     (5.0, -3.0),
+    (0.0, 0.0),
+    (5.0, 0.0),
 ];
 /// Height of the local lights above the ground.
 const HEIGHT: f64 = 0.5;
@@ -292,7 +295,7 @@ fn distant() -> &'static Shot {
 
 /// The fourth stage: a mesh light (and a leftHanded one facing up, at
 /// (-5, 0)), colour temperature, focus, an invisible light, cone
-/// softness and an IES profile.
+/// softness and IES profiles (plain, angle-scaled, normalized).
 fn emitters() -> &'static Shot {
     static SHOT: OnceLock<Shot> = OnceLock::new();
     sheet::once(&SHOT, || {
@@ -319,12 +322,17 @@ fn emitters() -> &'static Shot {
             at(3, "DiskLight", "Hidden", "", "float inputs:radius = 0.3\nfloat inputs:intensity = 5\ntoken visibility = \"invisible\""),
             at(4, "DiskLight", "Softened", "\"ShapingAPI\"", &format!("{SMALL_DISK}\nfloat inputs:shaping:cone:angle = 70\nfloat inputs:shaping:cone:softness = 0.5")),
             at(5, "DiskLight", "Profiled", "\"ShapingAPI\"", &format!("{SMALL_DISK}\nasset inputs:shaping:ies:file = @ramp.ies@")),
+            at(6, "DiskLight", "Stretched", "\"ShapingAPI\"", &format!("{SMALL_DISK}\nasset inputs:shaping:ies:file = @ramp.ies@\nfloat inputs:shaping:ies:angleScale = 2")),
+            at(7, "DiskLight", "Conserved", "\"ShapingAPI\"", &format!("{SMALL_DISK}\nasset inputs:shaping:ies:file = @fine.ies@\nbool inputs:shaping:ies:normalize = 1")),
         ];
         sheet::render(
             "lux_emitters",
             &stage(&lights.concat()),
             (32, &["--res", "64x48"], sheet::RES),
-            |dir| std::fs::write(dir.join("ramp.ies"), RAMP_IES).unwrap(),
+            |dir| {
+                std::fs::write(dir.join("ramp.ies"), RAMP_IES).unwrap();
+                std::fs::write(dir.join("fine.ies"), fine_ramp()).unwrap();
+            },
         )
     })
 }
@@ -338,6 +346,27 @@ const SMALL_DISK: &str = "float inputs:radius = 0.05\nfloat inputs:intensity = 1
 /// linearly to 0 cd at 90 degrees off it (none beyond).
 const RAMP_IES: &str =
     "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 10\n0 90 180\n0\n1 0 0\n";
+
+/// [`RAMP_IES`] tabulated every 5 degrees from 0 to 180 (so that the
+/// profile's mean intensity over the sphere, (1 - 2 / pi) / 2 cd, is what
+/// any quadrature of it finds).
+fn fine_ramp() -> String {
+    let angles: Vec<String> = (0..=36).map(|i| (5 * i).to_string()).collect();
+    let candela: Vec<String> = (0..=36)
+        .map(|i| (1.0 - i as f64 / 18.0).max(0.0).to_string())
+        .collect();
+    format!(
+        "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 37 1 1 2 0 0 0\n1 1 10\n{}\n0\n{}\n",
+        angles.join(" "),
+        candela.join(" ")
+    )
+}
+
+/// The ramp's factor at `theta` (radians off the axis): 1 - theta / 90
+/// degrees, 0 beyond.
+fn ramp(theta: f64) -> f64 {
+    (1.0 - theta / (PI / 2.0)).max(0.0)
+}
 
 /// The ground's irradiance from [`SMALL_DISK`] at offset (dx, dy), scaled
 /// by `factor` of the angle (radians) off the light's downward axis.
@@ -614,7 +643,16 @@ pub fn rows() -> Vec<Row> {
             }),
         row("ShapingAPI", "inputs:shaping:ies:file", Honoured,
             "an LM-63 profile falling linearly from 1 cd on the axis to 0 at 90 degrees scales the small disk's irradiance by 1 - theta / 90 degrees", || {
-                reads(emitters(), 5, expected(5, shaped(|t| 1.0 - t / (PI / 2.0))), 0.06)
+                reads(emitters(), 5, expected(5, shaped(ramp)), 0.06)
+            }),
+        row("ShapingAPI", "inputs:shaping:ies:angleScale", Honoured,
+            "2 stretches the ramp profile to 1 - theta / 180 degrees (theta / angleScale is the profile's angle, as OpenUSD's hdEmbree applies it)", || {
+                reads(emitters(), 6, expected(6, shaped(|t| ramp(t / 2.0))), 0.06)
+            }),
+        row("ShapingAPI", "inputs:shaping:ies:normalize", Honoured,
+            "the ramp profile divided by its mean intensity over the sphere, (1 - 2 / pi) / 2 cd: the light keeps the power of the unshaped disk", || {
+                let mean = (1.0 - 2.0 / PI) / 2.0;
+                reads(emitters(), 7, expected(7, shaped(|t| ramp(t) / mean)), 0.06)
             }),
         row("CylinderLight", "treatAsLine", Warned, "rendered as a cylinder of its radius, with a warning naming the light and the attribute", || {
             more().warned(&["/Cylinder", "treatAsLine"])
