@@ -41,9 +41,15 @@ pub struct IesProfile {
     horizontal: Vec<f32>,
     /// Candela, horizontal-major: `candela[h * vertical.len() + v]`.
     candela: Vec<f32>,
-    /// Values that were NaN, infinite or negative, read as 0.
+    /// Values that were NaN, infinite, negative or above [`MAX_CANDELA`],
+    /// read as 0.
     bad_values: usize,
 }
+
+/// The largest candela value read (cd): far above any lamp, and low enough
+/// that sums over a profile's grid (its mean intensity, its power in the
+/// light BVH) stay finite in f32. Larger values are read as 0 and counted.
+const MAX_CANDELA: f32 = 1e20;
 
 impl IesProfile {
     /// Reads and parses the file at `path`.
@@ -128,7 +134,7 @@ impl IesProfile {
         let mut candela = Vec::with_capacity(nv * nh);
         for _ in 0..nv * nh {
             let value = next("the candela values")? * multiplier;
-            if value.is_finite() && value >= 0.0 {
+            if (0.0..=MAX_CANDELA).contains(&value) {
                 candela.push(value);
             } else {
                 bad_values += 1;
@@ -368,6 +374,18 @@ mod tests {
         assert_eq!(p.candela(0.0, 0.0), 20.0);
         assert_eq!(p.candela(PI / 4.0, 0.0), 0.0);
         assert_eq!(p.max_theta(), Some(PI / 4.0));
+    }
+
+    /// Values above `MAX_CANDELA` read as 0 and are counted, so the mean
+    /// intensity stays finite: the fuzzer's first find (fuzz/seeds/ies_reader/
+    /// huge_candela.ies), where two values of 5.6e37 cd summed to infinity.
+    #[test]
+    fn huge_candela_values_read_as_zero_and_the_mean_stays_finite() {
+        let text = include_str!("../../fuzz/seeds/ies_reader/huge_candela.ies");
+        let p = IesProfile::parse(text).unwrap();
+        assert_eq!(p.bad_values(), 2);
+        let mean = p.mean_intensity();
+        assert!(mean.is_finite() && mean > 0.0, "mean {mean}");
     }
 
     /// The fuzz target's properties (fuzz/fuzz_targets/ies_reader.rs), bounded

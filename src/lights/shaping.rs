@@ -294,8 +294,8 @@ impl Shaping {
 impl Ies {
     /// The profile in `file` for `record`'s light; `None`, with one warning
     /// naming the file and the light, when it cannot be used (the light is
-    /// then not shaped by it). NaN or negative candela are read as 0 and
-    /// counted in a warning.
+    /// then not shaped by it). NaN, negative or huge candela are read as 0
+    /// and counted in a warning.
     fn load(record: &LightRecord, file: &Path, angle_scale: f32, normalize: bool) -> Option<Self> {
         let profile = match IesProfile::read(file) {
             Ok(p) => p,
@@ -312,7 +312,7 @@ impl Ies {
         if profile.bad_values() > 0 {
             log::warn!(
                 target: LOG_TARGET,
-                "light {}: IES profile {}: {} NaN, infinite or negative candela value(s) read as 0",
+                "light {}: IES profile {}: {} NaN, infinite, negative or huge (over 1e20) candela value(s) read as 0",
                 record.path,
                 file.display(),
                 profile.bad_values()
