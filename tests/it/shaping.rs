@@ -94,7 +94,7 @@ def Xform "World"
     for expected in [
         "light /World/Spot: inputs:shaping:cone:angle = 200 is out of range [0, 180]; using 180",
         "light /World/Spot: inputs:shaping:cone:softness = -0.5 is out of range [0, 1]; using 0",
-        "bad.ies: 2 NaN, infinite or negative candela value(s) read as 0",
+        "bad.ies: 2 NaN, infinite, negative or huge (over 1e20) candela value(s) read as 0",
         "light /World/Missing: IES profile",
     ] {
         assert_eq!(
