@@ -311,6 +311,7 @@ fn emitters() -> &'static Shot {
         );
         let upward = format!(
             "def Mesh \"LeftHanded\" (prepend apiSchemas = [\"MeshLightAPI\"])\n{{\n    uniform token orientation = \"leftHanded\"\n    \
+             uniform bool collection:lightLink:includeRoot = 0\n    \
              point3f[] points = [(-5.3, -0.3, {HEIGHT}), (-5.3, 0.3, {HEIGHT}), (-4.7, 0.3, {HEIGHT}), (-4.7, -0.3, {HEIGHT})]\n    \
              int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n    float inputs:intensity = 10\n}}\n"
         );
@@ -607,6 +608,9 @@ pub fn rows() -> Vec<Row> {
         row("CylinderLight", "inputs:length, inputs:radius", Honoured, "a cylinder 2 long along X lights the ground beside its middle over 3 x more than 0.5..1 beyond its end", || {
             let (side, end) = (beside(more(), 0, 0.0, -0.75)[1], beside(more(), 0, 1.75, 0.0)[1]);
             ensure(side > 3.0 * end && side > 0.01, || format!("beside {side:.4}, beyond the end {end:.4}"))
+        }),
+        row("MeshLightAPI", "collection:lightLink, collection:shadowLink", Warned, "a mesh light's own link collections are not read: a warning names the light and collection (it lights every part)", || {
+            emitters().warned(&["/LeftHanded", "collection:lightLink"])
         }),
         row("MeshLightAPI", "inputs:intensity (on a Mesh)", Honoured, "a 0.4 x 0.4 mesh light of intensity 10 lights the ground under it", || {
             let open = expected(0, rect(10.0, 0.4, 0.4));
